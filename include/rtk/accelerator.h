@@ -1,0 +1,47 @@
+/* Accelerator plugins build a BVH into the kernel's node format; the
+ * kernel validates the result, reorders triangles and traverses it. */
+#ifndef RTK_ACCELERATOR_H
+#define RTK_ACCELERATOR_H
+
+#include <rtk/math.h>
+#include <rtk/plugin.h>
+
+RTK_EXTERN_C_BEGIN
+
+/* One node. count > 0: leaf over prim_order[offset, offset + count).
+ * count == 0: inner node whose children are nodes offset and offset + 1.
+ * The root is node 0; bounds enclose everything below. */
+typedef struct rtk_bvh_node {
+    float lower[3];
+    uint32_t offset;
+    float upper[3];
+    uint32_t count;
+} rtk_bvh_node;
+
+/* Input and output of one build; arrays are kernel-owned. */
+typedef struct rtk_build_args {
+    uint32_t size;                 /* sizeof(rtk_build_args) */
+    uint32_t prim_count;           /* >= 1 */
+    const rtk_bounds *prim_bounds; /* bounds of each primitive */
+    const rtk_vec3 *centroids;     /* centre of each primitive's bounds */
+    uint32_t max_nodes;            /* capacity of nodes: 2 * prim_count - 1 */
+    rtk_bvh_node *nodes;           /* out: the tree, root at 0 */
+    uint32_t node_count;           /* out: nodes used */
+    uint32_t *prim_order;          /* out: permutation of 0 .. prim_count - 1 */
+    uint32_t thread_count;         /* threads the builder may use */
+} rtk_build_args;
+
+/* Function table of an accelerator. */
+typedef struct rtk_accelerator_fns {
+    uint32_t size; /* sizeof(rtk_accelerator_fns) */
+    /* Makes an instance from validated params. [main thread] */
+    rtk_status (*create)(const rtk_params *params, void **state);
+    /* Builds the tree into args. [main thread; may start its own threads] */
+    rtk_status (*build)(void *state, rtk_build_args *args);
+    /* Frees the instance. [main thread] */
+    void (*destroy)(void *state);
+} rtk_accelerator_fns;
+
+RTK_EXTERN_C_END
+
+#endif

@@ -1,0 +1,108 @@
+/* The embedding API of librtk: what the `rtk` command, the tests and any
+ * program that drives renders call. Plugins never need this header.
+ * Functions run on the calling thread unless marked otherwise. */
+#ifndef RTK_HOST_H
+#define RTK_HOST_H
+
+#include <stdio.h>
+#include <rtk/rtk.h>
+
+RTK_EXTERN_C_BEGIN
+
+/* Lines above this level are not printed (default RTK_LOG_INFO). */
+RTK_API void rtk_log_set_level(rtk_log_level level);
+
+/* The set of plugins a run may use: the build tree or the installed plugin
+ * directory (whichever matches the running librtk), then each directory in
+ * RTK_PLUGIN_PATH, then any added with rtk_registry_add_dir. */
+typedef struct rtk_registry rtk_registry;
+
+/* One plugin file found while scanning. */
+typedef struct rtk_plugin_info {
+    const char *path;         /* absolute path of the .so */
+    const rtk_plugin *plugin; /* its descriptor, NULL if it was refused */
+    const char *problem;      /* why it was refused, NULL if it is usable */
+} rtk_plugin_info;
+
+/* New registry with the default directories. [caller frees] */
+RTK_API rtk_status rtk_registry_create(rtk_registry **out);
+RTK_API void rtk_registry_destroy(rtk_registry *registry);
+
+/* Adds a directory to search; origin says where it came from, for messages
+ * ("config plugin_path", "--plugin-path"). */
+RTK_API void rtk_registry_add_dir(rtk_registry *registry, const char *dir, const char *origin);
+
+/* Number of plugin files found, scanning the directories on first use. */
+RTK_API size_t rtk_registry_count(rtk_registry *registry);
+
+/* The i-th plugin file found, sorted by kind then name. */
+RTK_API const rtk_plugin_info *rtk_registry_at(rtk_registry *registry, size_t i);
+
+/* Finds a usable plugin of the given kind by name. On failure the error
+ * lists the directories searched and the plugins of that kind that exist. */
+RTK_API rtk_status rtk_registry_find(rtk_registry *registry, rtk_plugin_kind kind,
+                                     const char *name, const rtk_plugin **out);
+
+/* Loads one plugin file and checks its descriptor (entry point, ABI,
+ * kind when expected != 0, function table, schema). The library stays
+ * loaded for the life of the process. */
+RTK_API rtk_status rtk_plugin_open(const char *path, rtk_plugin_kind expected,
+                                   const rtk_plugin **out);
+
+/* Name of a kind: "integrator", "accelerator", "filter". */
+RTK_API const char *rtk_kind_name(rtk_plugin_kind kind);
+
+/* A loaded, validated config (opaque). */
+typedef struct rtk_config rtk_config;
+
+/* How far to trust a config. */
+typedef struct rtk_config_options {
+    uint32_t size;                /* sizeof(rtk_config_options) */
+    int allow_config_plugins;     /* honour plugin_path and plugins given as paths */
+    const char *const *overrides; /* "integrator.rays=64" ... */
+    size_t override_count;
+} rtk_config_options;
+
+/* Parses path, applies overrides, resolves the plugins through registry
+ * and validates every value against the schemas. Errors name the file and
+ * line. [caller frees with rtk_config_destroy] */
+RTK_API rtk_status rtk_config_load(const char *path, rtk_registry *registry,
+                                   const rtk_config_options *options, rtk_config **out);
+RTK_API void rtk_config_destroy(rtk_config *config);
+
+/* Options of one render. */
+typedef struct rtk_render_options {
+    uint32_t size;  /* sizeof(rtk_render_options) */
+    int quiet;      /* no progress bar */
+    int progress;   /* draw a progress bar on stderr (caller checks isatty) */
+} rtk_render_options;
+
+/* What a render did, for the closing report. */
+typedef struct rtk_render_report {
+    uint32_t size;           /* sizeof(rtk_render_report), set by the caller */
+    double load_seconds, build_seconds, render_seconds, write_seconds;
+    uint64_t rays;           /* rays traced (camera, shadow, secondary) */
+    uint64_t invalid_rays;   /* rays rejected as NaN/zero/empty */
+    uint64_t bad_samples;    /* NaN/Inf radiance samples dropped */
+    uint32_t triangles;
+    uint32_t width, height, spp, threads;
+    uint32_t bvh_nodes, bvh_depth;
+    double mean[3];          /* mean linear RGB of the image */
+    size_t peak_rss_bytes;   /* peak resident memory of the process */
+    char output[1024];       /* the file written */
+} rtk_render_report;
+
+/* Loads the scene, builds the BVH, renders and writes the image(s). */
+RTK_API rtk_status rtk_render(const rtk_config *config, const rtk_render_options *options,
+                              rtk_render_report *report);
+
+/* Prints the closing report to f. */
+RTK_API void rtk_render_report_print(const rtk_render_report *report, FILE *f);
+
+/* Runs the conformance checks for a plugin file, one line per check to out,
+ * then "N passed, N failed". Returns RTK_OK only when every check passed. */
+RTK_API rtk_status rtk_conform(const char *path, FILE *out, int *passed, int *failed);
+
+RTK_EXTERN_C_END
+
+#endif

@@ -1,0 +1,46 @@
+/* Integrator plugins: radiance along one camera ray, using kernel services.
+ * Call order: create (once) -> needs -> [scene loaded and built] ->
+ * prepare (optional) -> li from many threads at once -> destroy. */
+#ifndef RTK_INTEGRATOR_H
+#define RTK_INTEGRATOR_H
+
+#include <rtk/plugin.h>
+#include <rtk/sampler.h>
+#include <rtk/scene.h>
+
+RTK_EXTERN_C_BEGIN
+
+/* Scene data an integrator reads; the kernel loads only what is asked. */
+#define RTK_NEED_NORMALS (1u << 0)   /* per-vertex shading normals */
+#define RTK_NEED_UVS (1u << 1)       /* texture coordinates */
+#define RTK_NEED_MATERIALS (1u << 2) /* material factors (colour, specular, ior ...) */
+#define RTK_NEED_TEXTURES (1u << 3)  /* decoded textures (implies UVS and MATERIALS) */
+#define RTK_NEED_LIGHTS (1u << 4)    /* emissive triangles and scene lights */
+
+/* What one camera ray returns. The kernel pre-fills radiance 0, albedo 0,
+ * normal 0 and depth +inf; set the AOVs you know (used when the film asks). */
+typedef struct rtk_li_result {
+    rtk_rgb radiance; /* linear radiance towards the camera */
+    rtk_rgb albedo;   /* first-hit base colour */
+    rtk_vec3 normal;  /* first-hit shading normal, world space */
+    float depth;      /* first-hit distance along the (unit) camera ray */
+} rtk_li_result;
+
+/* Function table of an integrator. */
+typedef struct rtk_integrator_fns {
+    uint32_t size; /* sizeof(rtk_integrator_fns) */
+    /* Makes an instance from validated params. [main thread] */
+    rtk_status (*create)(const rtk_params *params, void **state);
+    /* RTK_NEED_* flags this instance reads. [main thread] */
+    uint32_t (*needs)(const void *state);
+    /* Optional: per-scene set-up (light tables ...), after the build. [main thread] */
+    rtk_status (*prepare)(void *state, const rtk_scene *scene);
+    /* Radiance for one camera ray. [any thread, concurrently] */
+    void (*li)(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out);
+    /* Frees the instance. [main thread] */
+    void (*destroy)(void *state);
+} rtk_integrator_fns;
+
+RTK_EXTERN_C_END
+
+#endif

@@ -1,0 +1,54 @@
+/* The plugin ABI: one exported entry point per shared object returning a
+ * const descriptor. Every struct crossing the boundary starts with its size
+ * and only ever grows at the end; the kernel refuses a different ABI major
+ * and a minor newer than its own. */
+#ifndef RTK_PLUGIN_H
+#define RTK_PLUGIN_H
+
+#include <rtk/params.h>
+
+RTK_EXTERN_C_BEGIN
+
+#define RTK_ABI_MAJOR 1
+#define RTK_ABI_MINOR 0
+
+/* Name of the one symbol a plugin exports. */
+#define RTK_PLUGIN_ENTRY_NAME "rtk_plugin_entry"
+
+/* The plugin kinds; each has its function table in its own header. */
+typedef enum rtk_plugin_kind {
+    RTK_KIND_INTEGRATOR = 1,  /* rtk_integrator_fns, rtk/integrator.h */
+    RTK_KIND_ACCELERATOR = 2, /* rtk_accelerator_fns, rtk/accelerator.h */
+    RTK_KIND_FILTER = 3       /* rtk_filter_fns, rtk/filter.h */
+} rtk_plugin_kind;
+
+/* What a plugin is; returned by its entry point, never freed. */
+typedef struct rtk_plugin {
+    uint32_t size;                /* sizeof(rtk_plugin) the plugin was built with */
+    uint16_t abi_major, abi_minor;
+    rtk_plugin_kind kind;
+    const char *name;             /* name used in configs; equals the file name */
+    const char *version;          /* the plugin's own version, e.g. "1.0" */
+    const char *summary;          /* one line for `rtk plugins` */
+    const rtk_param_desc *params; /* parameter schema */
+    uint32_t param_count;
+    const void *functions;        /* the kind's function table */
+} rtk_plugin;
+
+/* Signature of the entry point. */
+typedef const rtk_plugin *(*rtk_plugin_entry_fn)(void);
+
+/* Fills the descriptor's ABI fields: `{ RTK_PLUGIN_HEADER, .kind = ... }`. */
+#define RTK_PLUGIN_HEADER .size = sizeof(rtk_plugin), .abi_major = RTK_ABI_MAJOR, .abi_minor = RTK_ABI_MINOR
+
+/* Number of entries of a static schema array. */
+#define RTK_COUNTOF(a) ((uint32_t)(sizeof(a) / sizeof((a)[0])))
+
+/* Defines the plugin's entry point returning &descriptor. */
+#define RTK_PLUGIN_ENTRY(descriptor) \
+    RTK_EXTERN_C_BEGIN RTK_EXPORT const rtk_plugin *rtk_plugin_entry(void); RTK_EXTERN_C_END \
+    const rtk_plugin *rtk_plugin_entry(void) { return &(descriptor); }
+
+RTK_EXTERN_C_END
+
+#endif

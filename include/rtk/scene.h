@@ -1,0 +1,62 @@
+/* Kernel services over the loaded scene: tracing, surface data, bounds.
+ * rtk_ctx is one render thread's context (scene, sample stream, counters):
+ * use it only on the thread that received it. The scene is read-only while
+ * rendering and may be shared by every thread. */
+#ifndef RTK_SCENE_H
+#define RTK_SCENE_H
+
+#include <rtk/ray.h>
+
+RTK_EXTERN_C_BEGIN
+
+/* The loaded, built scene (opaque). */
+typedef struct rtk_scene rtk_scene;
+/* One thread's render context (opaque). */
+typedef struct rtk_ctx rtk_ctx;
+
+/* Everything known at a surface point. Fields the integrator did not ask
+ * for with RTK_NEED_* hold neutral values (white, no emission, ns = ng). */
+typedef struct rtk_surface {
+    rtk_vec3 p;          /* hit point */
+    rtk_vec3 ng;         /* unit geometric normal, facing against the ray */
+    rtk_vec3 ns;         /* unit shading normal, same hemisphere as ng */
+    rtk_vec2 uv;         /* texture coordinates (0,0 without UVs) */
+    rtk_rgb base_color;  /* diffuse albedo x texture, linear */
+    float alpha;         /* coverage from material and texture */
+    rtk_rgb emission;    /* emitted radiance */
+    rtk_rgb specular;    /* specular colour (MTL Ks) */
+    float shininess;     /* Phong exponent (MTL Ns) */
+    float ior;           /* index of refraction (MTL Ni, glTF ior) */
+    float metallic;      /* glTF metallic factor */
+    float roughness;     /* glTF roughness factor */
+    uint32_t material;   /* material index, RTK_INVALID_ID for the default */
+    int front_face;      /* 1 when the ray hit the side ng was authored on */
+} rtk_surface;
+
+/* Closest hit along ray; returns 1 on a hit. Invalid rays (NaN, zero
+ * direction, tmin > tmax) miss and are counted. [ctx's thread] */
+RTK_API int rtk_trace(rtk_ctx *ctx, const rtk_ray *ray, rtk_hit *hit);
+
+/* 1 if anything lies on the ray within [tmin, tmax]. [ctx's thread] */
+RTK_API int rtk_occluded(rtk_ctx *ctx, const rtk_ray *ray);
+
+/* The scene this context renders. [ctx's thread] */
+RTK_API const rtk_scene *rtk_ctx_scene(const rtk_ctx *ctx);
+
+/* Fills out for a hit returned by rtk_trace on this scene. [any thread] */
+RTK_API void rtk_surface_at(const rtk_scene *scene, const rtk_ray *ray, const rtk_hit *hit,
+                            rtk_surface *out);
+
+/* Bounds of all geometry (empty bounds for an empty scene). [any thread] */
+RTK_API rtk_bounds rtk_scene_bounds(const rtk_scene *scene);
+
+/* Number of triangles after loading. [any thread] */
+RTK_API uint32_t rtk_scene_triangle_count(const rtk_scene *scene);
+
+/* Vertices of triangle prim in world space. [any thread] */
+RTK_API void rtk_scene_triangle(const rtk_scene *scene, uint32_t prim, rtk_vec3 *a, rtk_vec3 *b,
+                                rtk_vec3 *c);
+
+RTK_EXTERN_C_END
+
+#endif

@@ -1,0 +1,294 @@
+/* Kernel-internal declarations shared by kernel/*.c and kernel/io/*.cpp.
+ * Nothing here is exported: plugins see only include/rtk/, hosts also
+ * include/rtk/host.h. */
+#ifndef RTK_INTERNAL_H
+#define RTK_INTERNAL_H
+
+#include <rtk/host.h>
+#include <rtk/rtk.h>
+
+RTK_EXTERN_C_BEGIN
+
+/* ---- small utilities (util.c) ---- */
+
+/* malloc/calloc/realloc that record RTK_ERR_NOMEM on failure. */
+void *rtk_alloc(size_t size);
+void *rtk_calloc(size_t count, size_t size);
+void *rtk_realloc_array(void *ptr, size_t count, size_t size);
+/* strdup that returns NULL on NULL. [caller frees] */
+char *rtk_strdup(const char *s);
+/* Joins dir and a relative path; absolute paths are returned as they are. [caller frees] */
+char *rtk_path_join(const char *dir, const char *path);
+/* Directory part of path ("." when none). [caller frees] */
+char *rtk_path_dirname(const char *path);
+/* Monotonic seconds. */
+double rtk_now(void);
+/* Peak resident set size of this process in bytes (0 if unknown). */
+size_t rtk_peak_rss(void);
+/* Number of online cores (>= 1). */
+uint32_t rtk_core_count(void);
+/* Edit distance between a and b, for "did you mean" suggestions. */
+int rtk_edit_distance(const char *a, const char *b);
+
+/* ---- logging (log.c) ---- */
+
+/* Warns once per key for the life of the process (keys compared by text). */
+void rtk_warn_once(const char *key, const char *fmt, ...) RTK_PRINTF(2, 3);
+
+/* ---- params (params.c) ---- */
+
+/* One value, after validation. */
+typedef struct rtk_param_value {
+    const rtk_param_desc *desc;
+    int64_t i;
+    double f;
+    char *s;
+    int set_by_user;
+} rtk_param_value;
+
+/* Validated values for one plugin instance; one entry per schema entry. */
+struct rtk_params {
+    const rtk_plugin *plugin;
+    rtk_param_value *values;
+    uint32_t count;
+};
+
+/* Params holding every default of plugin's schema. [caller frees] */
+rtk_params *rtk_params_defaults(const rtk_plugin *plugin);
+/* Sets a declared parameter from its text form ("16", "0.5", "true",
+ * "name"), checking type, range and choices; errors name the key. */
+rtk_status rtk_params_set_text(rtk_params *params, const char *name, const char *text);
+void rtk_params_destroy(rtk_params *params);
+/* Checks a schema for sanity (names unique and non-empty, valid types,
+ * defaults inside ranges and choices). Errors name the plugin. */
+rtk_status rtk_params_check_schema(const rtk_plugin *plugin);
+/* Closest declared name to name, or NULL when none is close. */
+const char *rtk_params_suggest(const rtk_param_desc *schema, uint32_t count, const char *name);
+
+/* ---- plugins (plugins.c) ---- */
+
+/* Checks a descriptor as the loader does; path is used in messages. */
+rtk_status rtk_plugin_check(const rtk_plugin *plugin, const char *path, rtk_plugin_kind expected);
+
+/* ---- camera (camera.c) ---- */
+
+/* A pinhole camera as configured. */
+typedef struct rtk_camera_desc {
+    rtk_vec3 position, look_at, up;
+    float fov_deg; /* vertical field of view */
+} rtk_camera_desc;
+
+/* Ready-to-use pinhole camera. */
+typedef struct rtk_camera {
+    rtk_vec3 eye, forward, right, up; /* right/up scaled by the image plane half-size */
+    uint32_t width, height;
+} rtk_camera;
+
+/* Camera looking at the bounds' centre from the front-right-above, framing
+ * the bounding sphere at the given vertical fov. */
+rtk_camera_desc rtk_camera_frame(rtk_bounds bounds, float fov_deg, float aspect);
+/* Checks desc (finite, eye != look_at, up not parallel, 0 < fov < 180). */
+rtk_status rtk_camera_init(rtk_camera *cam, const rtk_camera_desc *desc, uint32_t width, uint32_t height);
+/* Ray through film position (fx, fy) in pixels, (0,0) the top-left corner. */
+rtk_ray rtk_camera_ray(const rtk_camera *cam, float fx, float fy);
+
+/* ---- textures (texture.c, io/image.cpp) ---- */
+
+/* An image referenced by a material; decoded only when a plugin needs it. */
+typedef struct rtk_texture {
+    char *name;        /* for messages: the path or "glb image 3" */
+    char *path;        /* file to decode, or NULL when embedded */
+    unsigned char *bytes; /* embedded encoded image (glb, data URI) */
+    size_t byte_count;
+    int srgb;          /* colour data stored sRGB-encoded */
+    int decoded;       /* 1 after a decode attempt */
+    int missing;       /* decode failed: lookups return white */
+    int width, height;
+    float *rgba;       /* linear RGBA, row 0 = top of the image */
+} rtk_texture;
+
+/* Decodes tex if not yet tried; on failure warns once and marks it missing. */
+void rtk_texture_decode(rtk_texture *tex);
+/* Bilinear lookup with repeat wrapping; white when missing. [any thread] */
+void rtk_texture_lookup(const rtk_texture *tex, float u, float v, float rgba[4]);
+void rtk_texture_free(rtk_texture *tex);
+
+/* Decoded image (io/image.cpp). */
+typedef struct rtk_image {
+    int width, height;
+    float *rgba; /* linear RGBA floats, row-major from the top; [caller frees with free()] */
+} rtk_image;
+
+/* Decodes a file (bytes == NULL) or an in-memory encoded image through
+ * OpenImageIO into linear RGBA; srgb: the 8-bit data is sRGB-encoded. */
+rtk_status rtk_image_read(const char *path, const void *bytes, size_t byte_count, int srgb,
+                          rtk_image *out);
+
+/* Writes pixels (nchannels floats per pixel, linear) to path through
+ * OpenImageIO, format from the extension. EXR keeps linear floats (half
+ * when half != 0) with the given channel names; PNG/JPEG get the first 3
+ * channels sRGB-encoded to 8 bits. Writes path's ".tmp" sibling with the
+ * same extension and renames it, so a failure never leaves a partial file. */
+rtk_status rtk_image_write(const char *path, int width, int height, int nchannels,
+                           const char *const *channel_names, const float *pixels, int half);
+
+/* ---- scene (scene_build.c, scene.c, io/obj.cpp, io/gltf.cpp) ---- */
+
+/* Alpha handling of a material. */
+typedef enum rtk_alpha_mode { RTK_ALPHA_OPAQUE = 0, RTK_ALPHA_MASK = 1, RTK_ALPHA_BLEND = 2 } rtk_alpha_mode;
+
+/* A material, merged from MTL and glTF conventions. Texture fields are
+ * indices into scene->textures, or -1. */
+typedef struct rtk_material {
+    char *name;
+    rtk_rgb base_color;   /* Kd / baseColorFactor (linear) */
+    float alpha;          /* d (or 1 - Tr) / baseColorFactor.a */
+    rtk_rgb emission;     /* Ke / emissiveFactor x strength */
+    rtk_rgb specular;     /* Ks */
+    float shininess;      /* Ns */
+    float ior;            /* Ni / KHR_materials_ior, default 1.5 */
+    float metallic, roughness;
+    float transmission;   /* KHR_materials_transmission */
+    int illum;            /* MTL illumination model, -1 if none */
+    rtk_alpha_mode alpha_mode;
+    float alpha_cutoff;   /* for RTK_ALPHA_MASK, default 0.5 */
+    int base_tex, alpha_tex, normal_tex, emission_tex;
+} rtk_material;
+
+/* Material defaults: white diffuse, alpha 1, ior 1.5, no textures. */
+rtk_material rtk_material_default(void);
+
+/* The scene. Positions are indexed; normals and uvs are stored per
+ * triangle corner (3 per triangle) so that OBJ's separate indices and
+ * glTF's shared ones fit the same arrays. */
+struct rtk_scene {
+    char *path;                  /* file it came from, for messages */
+    uint32_t needs;              /* RTK_NEED_* it was loaded for */
+    uint32_t vertex_count, vertex_cap;
+    float *positions;            /* 3 per vertex */
+    uint32_t triangle_count, triangle_cap;
+    uint32_t *indices;           /* 3 per triangle */
+    float *normals;              /* 9 per triangle (3 corners) or NULL */
+    float *uvs;                  /* 6 per triangle or NULL */
+    uint32_t *tri_material;      /* per triangle, RTK_INVALID_ID = default; NULL without materials */
+    rtk_material *materials;
+    uint32_t material_count, material_cap;
+    rtk_texture *textures;
+    uint32_t texture_count, texture_cap;
+    int has_camera;              /* a camera came with the file (glTF) */
+    rtk_camera_desc camera;
+    float camera_aspect;         /* the file camera's aspect, 0 if unknown */
+    uint32_t dropped_degenerate; /* triangles dropped as zero-area */
+    rtk_bounds bounds;
+    /* BVH (bvh.c) */
+    rtk_bvh_node *nodes;
+    uint32_t node_count;
+    uint32_t bvh_depth;
+    uint32_t *prim_ids;          /* leaf slot -> triangle id */
+    float *tri_verts;            /* 9 floats per leaf slot: the triangle's vertices */
+};
+
+/* Empty scene that keeps the data in needs (RTK_NEED_*). [caller frees] */
+rtk_scene *rtk_scene_new(const char *path, uint32_t needs);
+void rtk_scene_free(rtk_scene *scene);
+
+/* Builder calls used by the loaders. Each returns RTK_OK or RTK_ERR_NOMEM. */
+rtk_status rtk_scene_add_vertex(rtk_scene *scene, double x, double y, double z, uint32_t *index);
+/* Adds triangle (a, b, c) (vertex indices already range-checked by the
+ * loader); normals (9 floats) and uvs (6 floats) may be NULL and are
+ * ignored when the scene does not need them. */
+rtk_status rtk_scene_add_triangle(rtk_scene *scene, uint32_t a, uint32_t b, uint32_t c,
+                                  const float *normals, const float *uvs, uint32_t material);
+rtk_status rtk_scene_add_material(rtk_scene *scene, const rtk_material *material, uint32_t *index);
+/* Records a texture by file path or by encoded bytes (copied); returns its
+ * index. The same path is recorded once. */
+rtk_status rtk_scene_add_texture(rtk_scene *scene, const char *name, const char *path,
+                                 const void *bytes, size_t byte_count, int srgb, int *index);
+
+/* Finishes loading: rejects non-finite vertices (naming the vertex), drops
+ * zero-area triangles with one warning, fills missing normals with
+ * geometric ones, computes bounds, decodes textures when needed. */
+rtk_status rtk_scene_finish(rtk_scene *scene);
+
+/* Loads path by extension (.obj, .gltf, .glb) keeping what needs asks for. */
+rtk_status rtk_scene_load(const char *path, uint32_t needs, rtk_scene **out);
+/* Format loaders (C++ adapters); they fill scene and call nothing else. */
+rtk_status rtk_load_obj(const char *path, rtk_scene *scene);
+rtk_status rtk_load_gltf(const char *path, rtk_scene *scene);
+
+/* ---- BVH (bvh.c) ---- */
+
+/* Builds scene's BVH with an accelerator plugin, checks the tree the plugin
+ * returned, and lays triangles out in leaf order. */
+rtk_status rtk_bvh_build(rtk_scene *scene, const rtk_plugin *accelerator, const rtk_params *params,
+                         uint32_t threads);
+/* Structural check of a builder's output against args (every primitive in
+ * exactly one leaf, indices in range, no cycles, bounds enclosing). */
+rtk_status rtk_bvh_validate(const rtk_build_args *args, uint32_t *depth);
+/* Traversal. Return 1 on hit. */
+int rtk_bvh_closest(const rtk_scene *scene, const rtk_ray *ray, rtk_hit *hit);
+int rtk_bvh_any(const rtk_scene *scene, const rtk_ray *ray);
+/* 1 if ray has finite origin/direction, non-zero direction, tmin <= tmax. */
+int rtk_ray_valid(const rtk_ray *ray);
+
+/* ---- sampler (sampler.c) ---- */
+
+/* PCG32 state (O'Neill 2014). */
+typedef struct rtk_pcg32 {
+    uint64_t state, inc;
+} rtk_pcg32;
+
+void rtk_pcg32_seed(rtk_pcg32 *rng, uint64_t initstate, uint64_t initseq);
+uint32_t rtk_pcg32_next(rtk_pcg32 *rng);
+/* Uniform float in [0, 1) from the top 24 bits. */
+float rtk_pcg32_float(rtk_pcg32 *rng);
+
+/* ---- render context (render.c) ---- */
+
+struct rtk_ctx {
+    const rtk_scene *scene;
+    rtk_pcg32 rng;
+    uint64_t seed;
+    uint64_t rays;
+    uint64_t invalid_rays;
+};
+
+/* Starts the sample stream for (pixel index, sample index). */
+void rtk_ctx_start_sample(rtk_ctx *ctx, uint64_t pixel, uint32_t sample);
+
+/* ---- config (config.c) ---- */
+
+/* One plugin slot of a config. */
+typedef struct rtk_plugin_slot {
+    const rtk_plugin *plugin;
+    rtk_params *params;
+} rtk_plugin_slot;
+
+struct rtk_config {
+    char *path;                  /* the config file */
+    char *scene_path;            /* resolved against the config's directory */
+    int has_camera;              /* camera group given */
+    rtk_camera_desc camera;      /* when has_camera */
+    uint32_t width, height, spp;
+    char *output;                /* resolved path of the image */
+    int half;                    /* EXR as half floats */
+    int aov_albedo, aov_normal, aov_depth;
+    char *sampler_type;          /* "independent" */
+    uint64_t seed;
+    uint32_t threads;            /* 0 = all cores */
+    rtk_plugin_slot integrator, accelerator, filter;
+};
+
+/* ---- film (film.c) ---- */
+
+/* Accumulates filtered samples in double precision. */
+typedef struct rtk_film {
+    uint32_t width, height;
+    uint32_t channels;           /* 3 (rgb) + optional AOV channels */
+    double *sum;                 /* channels per pixel, weighted sums */
+    double *weight;              /* per pixel */
+} rtk_film;
+
+RTK_EXTERN_C_END
+
+#endif
