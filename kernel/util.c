@@ -1,0 +1,130 @@
+/* Small helpers: checked allocation, paths, clocks, memory figures. */
+#include "internal.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+#include <unistd.h>
+
+void *rtk_alloc(size_t size)
+{
+    void *p = malloc(size ? size : 1);
+    if (!p)
+        rtk_error(RTK_ERR_NOMEM, "out of memory allocating %zu bytes", size);
+    return p;
+}
+
+void *rtk_calloc(size_t count, size_t size)
+{
+    void *p = calloc(count ? count : 1, size ? size : 1);
+    if (!p)
+        rtk_error(RTK_ERR_NOMEM, "out of memory allocating %zu x %zu bytes", count, size);
+    return p;
+}
+
+void *rtk_realloc_array(void *ptr, size_t count, size_t size)
+{
+    if (size && count > SIZE_MAX / size) {
+        rtk_error(RTK_ERR_NOMEM, "array of %zu x %zu bytes is too large", count, size);
+        return NULL;
+    }
+    void *p = realloc(ptr, count * size ? count * size : 1);
+    if (!p)
+        rtk_error(RTK_ERR_NOMEM, "out of memory allocating %zu x %zu bytes", count, size);
+    return p;
+}
+
+char *rtk_strdup(const char *s)
+{
+    if (!s)
+        return NULL;
+    size_t n = strlen(s) + 1;
+    char *d = rtk_alloc(n);
+    if (d)
+        memcpy(d, s, n);
+    return d;
+}
+
+char *rtk_path_join(const char *dir, const char *path)
+{
+    if (!path)
+        return NULL;
+    if (path[0] == '/' || !dir || !dir[0] || strcmp(dir, ".") == 0)
+        return rtk_strdup(path);
+    size_t a = strlen(dir), b = strlen(path);
+    char *out = rtk_alloc(a + b + 2);
+    if (!out)
+        return NULL;
+    memcpy(out, dir, a);
+    size_t k = a;
+    if (dir[a - 1] != '/')
+        out[k++] = '/';
+    memcpy(out + k, path, b + 1);
+    return out;
+}
+
+char *rtk_path_dirname(const char *path)
+{
+    const char *slash = path ? strrchr(path, '/') : NULL;
+    if (!slash)
+        return rtk_strdup(".");
+    if (slash == path)
+        return rtk_strdup("/");
+    size_t n = (size_t)(slash - path);
+    char *out = rtk_alloc(n + 1);
+    if (out) {
+        memcpy(out, path, n);
+        out[n] = '\0';
+    }
+    return out;
+}
+
+double rtk_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+size_t rtk_peak_rss(void)
+{
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru) != 0)
+        return 0;
+    return (size_t)ru.ru_maxrss * 1024u; /* Linux reports kilobytes */
+}
+
+uint32_t rtk_core_count(void)
+{
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 0 ? (uint32_t)n : 1u;
+}
+
+int rtk_edit_distance(const char *a, const char *b)
+{
+    size_t la = strlen(a), lb = strlen(b);
+    if (la > 64 || lb > 64)
+        return INT_MAX;
+    int row[65];
+    for (size_t j = 0; j <= lb; j++)
+        row[j] = (int)j;
+    for (size_t i = 1; i <= la; i++) {
+        int diag = row[0];
+        row[0] = (int)i;
+        for (size_t j = 1; j <= lb; j++) {
+            int up = row[j];
+            int cost = a[i - 1] == b[j - 1] ? 0 : 1;
+            int best = diag + cost;
+            if (row[j] + 1 < best)
+                best = row[j] + 1;
+            if (row[j - 1] + 1 < best)
+                best = row[j - 1] + 1;
+            row[j] = best;
+            diag = up;
+        }
+    }
+    return row[lb];
+}
