@@ -1,4 +1,4 @@
-/* Kernel-internal declarations shared by kernel/*.c and kernel/io/*.cpp.
+/* Kernel-internal declarations shared by the kernel C files and io adapters.
  * Nothing here is exported: plugins see only include/rtk/, hosts also
  * include/rtk/host.h. */
 #ifndef RTK_INTERNAL_H

@@ -31,7 +31,8 @@ void *rtk_realloc_array(void *ptr, size_t count, size_t size)
         rtk_error(RTK_ERR_NOMEM, "array of %zu x %zu bytes is too large", count, size);
         return NULL;
     }
-    void *p = realloc(ptr, count * size ? count * size : 1);
+    size_t bytes = count * size;
+    void *p = realloc(ptr, bytes ? bytes : 1);
     if (!p)
         rtk_error(RTK_ERR_NOMEM, "out of memory allocating %zu x %zu bytes", count, size);
     return p;
