@@ -1,0 +1,404 @@
+/* The kernel's BVH: ray/triangle and ray/box tests, robust ray offsets,
+ * closest-hit and any-hit traversal, and the checked hand-off to builder
+ * plugins. Builders only emit nodes; everything here is shared by all. */
+#include "internal.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Deepest tree traversal accepts; a builder going deeper is refused. */
+#define RTK_BVH_MAX_DEPTH 256
+
+static float axis(rtk_vec3 v, int k)
+{
+    return k == 0 ? v.x : k == 1 ? v.y : v.z;
+}
+
+RTK_API int rtk_intersect_triangle(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, float *t_out,
+                                   float *u_out, float *v_out)
+{
+    /* Woop, Benthin, Wald 2013: shear into ray space with z the dominant axis. */
+    float adx = fabsf(ray->dir.x), ady = fabsf(ray->dir.y), adz = fabsf(ray->dir.z);
+    int kz = adx > ady ? (adx > adz ? 0 : 2) : (ady > adz ? 1 : 2);
+    int kx = kz == 2 ? 0 : kz + 1;
+    int ky = kx == 2 ? 0 : kx + 1;
+    float dz = axis(ray->dir, kz);
+    if (dz < 0.0f) {
+        int tmp = kx;
+        kx = ky;
+        ky = tmp;
+    }
+    float sx = axis(ray->dir, kx) / dz, sy = axis(ray->dir, ky) / dz, sz = 1.0f / dz;
+    rtk_vec3 A = rtk_vec3_sub(a, ray->org), B = rtk_vec3_sub(b, ray->org), C = rtk_vec3_sub(c, ray->org);
+    float ax = axis(A, kx) - sx * axis(A, kz), ay = axis(A, ky) - sy * axis(A, kz);
+    float bx = axis(B, kx) - sx * axis(B, kz), by = axis(B, ky) - sy * axis(B, kz);
+    float cx = axis(C, kx) - sx * axis(C, kz), cy = axis(C, ky) - sy * axis(C, kz);
+    float U = cx * by - cy * bx, V = ax * cy - ay * cx, W = bx * ay - by * ax;
+    if (U == 0.0f || V == 0.0f || W == 0.0f) {
+        /* On an edge in float: decide in double so neighbours agree. */
+        U = (float)((double)cx * by - (double)cy * bx);
+        V = (float)((double)ax * cy - (double)ay * cx);
+        W = (float)((double)bx * ay - (double)by * ax);
+    }
+    if ((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f))
+        return 0;
+    float det = U + V + W;
+    if (det == 0.0f)
+        return 0;
+    float az = sz * axis(A, kz), bz = sz * axis(B, kz), cz = sz * axis(C, kz);
+    float T = U * az + V * bz + W * cz;
+    float rcp = 1.0f / det;
+    float t = T * rcp;
+    if (!(t >= ray->tmin && t <= ray->tmax))
+        return 0;
+    *t_out = t;
+    *u_out = V * rcp;
+    *v_out = W * rcp;
+    return 1;
+}
+
+static float offset_component(float p, float n)
+{
+    /* Waechter and Binder 2019 (Ray Tracing Gems ch. 6). */
+    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
+    if (fabsf(p) < origin)
+        return p + float_scale * n;
+    int32_t of = (int32_t)(int_scale * n);
+    int32_t bits;
+    memcpy(&bits, &p, sizeof bits);
+    bits += p < 0.0f ? -of : of;
+    float out;
+    memcpy(&out, &bits, sizeof out);
+    return out;
+}
+
+RTK_API rtk_vec3 rtk_offset_ray_origin(rtk_vec3 p, rtk_vec3 n)
+{
+    return rtk_vec3_make(offset_component(p.x, n.x), offset_component(p.y, n.y), offset_component(p.z, n.z));
+}
+
+int rtk_ray_valid(const rtk_ray *r)
+{
+    if (!isfinite(r->org.x) || !isfinite(r->org.y) || !isfinite(r->org.z))
+        return 0;
+    if (!isfinite(r->dir.x) || !isfinite(r->dir.y) || !isfinite(r->dir.z))
+        return 0;
+    if (r->dir.x == 0.0f && r->dir.y == 0.0f && r->dir.z == 0.0f)
+        return 0;
+    if (isnan(r->tmin) || isnan(r->tmax) || !(r->tmin <= r->tmax))
+        return 0;
+    return 1;
+}
+
+/* Per-ray constants of the slab test. */
+typedef struct ray_prep {
+    float org[3], inv[3];
+    int neg[3];
+} ray_prep;
+
+static void prepare(const rtk_ray *r, ray_prep *p)
+{
+    const float d[3] = {r->dir.x, r->dir.y, r->dir.z};
+    p->org[0] = r->org.x, p->org[1] = r->org.y, p->org[2] = r->org.z;
+    for (int k = 0; k < 3; k++) {
+        p->inv[k] = 1.0f / d[k]; /* +-0 gives +-inf, which the slab test handles */
+        p->neg[k] = signbit(d[k]) != 0;
+    }
+}
+
+/* Entry distance into the node's box, or +inf when the ray misses it. The
+ * exit distance is scaled up by 1 + 2 gamma(3) (Ize 2013) so that rounding
+ * never culls a box the ray touches. NaN from 0 * inf is dropped by
+ * fmaxf/fminf, which only widens the interval. */
+static float box_entry(const rtk_bvh_node *n, const ray_prep *p, float tmin, float tmax)
+{
+    float t0 = tmin, t1 = tmax;
+    for (int k = 0; k < 3; k++) {
+        float lo = p->neg[k] ? n->upper[k] : n->lower[k];
+        float hi = p->neg[k] ? n->lower[k] : n->upper[k];
+        float a = (lo - p->org[k]) * p->inv[k];
+        float b = (hi - p->org[k]) * p->inv[k];
+        t0 = fmaxf(t0, a);
+        t1 = fminf(t1, b * (1.0f + 2.0f * 3.0f * FLT_EPSILON * 0.5f / (1.0f - 3.0f * FLT_EPSILON * 0.5f)));
+    }
+    return t0 <= t1 ? t0 : INFINITY;
+}
+
+static int leaf_hit(const rtk_scene *s, uint32_t slot, const rtk_ray *ray, float *t, float *u, float *v)
+{
+    const float *tv = s->tri_verts + 9 * (size_t)slot;
+    return rtk_intersect_triangle(ray, rtk_vec3_make(tv[0], tv[1], tv[2]), rtk_vec3_make(tv[3], tv[4], tv[5]),
+                                  rtk_vec3_make(tv[6], tv[7], tv[8]), t, u, v);
+}
+
+int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray_in, rtk_hit *hit)
+{
+    hit->prim = RTK_INVALID_ID;
+    hit->t = ray_in->tmax;
+    hit->u = hit->v = 0.0f;
+    if (s->node_count == 0)
+        return 0;
+    rtk_ray ray = *ray_in;
+    ray_prep p;
+    prepare(&ray, &p);
+    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
+    int top = 0;
+    uint32_t node = 0;
+    if (box_entry(&s->nodes[0], &p, ray.tmin, ray.tmax) == INFINITY)
+        return 0;
+    for (;;) {
+        const rtk_bvh_node *n = &s->nodes[node];
+        if (n->count > 0) {
+            for (uint32_t i = 0; i < n->count; i++) {
+                uint32_t slot = n->offset + i;
+                float t, u, v;
+                if (!leaf_hit(s, slot, &ray, &t, &u, &v))
+                    continue;
+                uint32_t prim = s->prim_ids[slot];
+                /* Equal distances go to the lowest id, whatever the tree. */
+                if (t < ray.tmax || (t == ray.tmax && prim < hit->prim)) {
+                    ray.tmax = t;
+                    hit->t = t, hit->u = u, hit->v = v, hit->prim = prim;
+                }
+            }
+        } else {
+            uint32_t c0 = n->offset, c1 = n->offset + 1;
+            float t0 = box_entry(&s->nodes[c0], &p, ray.tmin, ray.tmax);
+            float t1 = box_entry(&s->nodes[c1], &p, ray.tmin, ray.tmax);
+            if (t0 != INFINITY && t1 != INFINITY) {
+                if (t1 < t0) {
+                    uint32_t tmp = c0;
+                    c0 = c1;
+                    c1 = tmp;
+                }
+                stack[top++] = c1;
+                node = c0;
+                continue;
+            }
+            if (t0 != INFINITY) {
+                node = c0;
+                continue;
+            }
+            if (t1 != INFINITY) {
+                node = c1;
+                continue;
+            }
+        }
+        if (top == 0)
+            break;
+        node = stack[--top];
+    }
+    return hit->prim != RTK_INVALID_ID;
+}
+
+int rtk_bvh_any(const rtk_scene *s, const rtk_ray *ray)
+{
+    if (s->node_count == 0)
+        return 0;
+    ray_prep p;
+    prepare(ray, &p);
+    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        const rtk_bvh_node *n = &s->nodes[stack[--top]];
+        if (box_entry(n, &p, ray->tmin, ray->tmax) == INFINITY)
+            continue;
+        if (n->count > 0) {
+            for (uint32_t i = 0; i < n->count; i++) {
+                float t, u, v;
+                if (leaf_hit(s, n->offset + i, ray, &t, &u, &v))
+                    return 1;
+            }
+        } else {
+            stack[top++] = n->offset + 1;
+            stack[top++] = n->offset;
+        }
+    }
+    return 0;
+}
+
+static int box_contains(const float lo[3], const float hi[3], const float clo[3], const float chi[3])
+{
+    for (int k = 0; k < 3; k++)
+        if (!(lo[k] <= clo[k] && chi[k] <= hi[k]))
+            return 0;
+    return 1;
+}
+
+rtk_status rtk_bvh_validate(const rtk_build_args *a, uint32_t *depth_out)
+{
+    if (a->node_count == 0 || a->node_count > a->max_nodes)
+        return rtk_error(RTK_ERR_PLUGIN, "builder returned %u nodes (expected 1 .. %u)", a->node_count,
+                         a->max_nodes);
+    uint8_t *seen_node = rtk_calloc(a->node_count, 1);
+    uint8_t *seen_slot = rtk_calloc(a->prim_count, 1);
+    uint8_t *seen_prim = rtk_calloc(a->prim_count, 1);
+    uint32_t *stack = rtk_alloc(sizeof(uint32_t) * 2 * (RTK_BVH_MAX_DEPTH + 2));
+    rtk_status st = RTK_OK;
+    if (!seen_node || !seen_slot || !seen_prim || !stack) {
+        st = RTK_ERR_NOMEM;
+        goto done;
+    }
+    uint32_t max_depth = 0, covered = 0;
+    int top = 0;
+    stack[top++] = 0, stack[top++] = 1; /* pairs (node, depth) */
+    while (top > 0) {
+        uint32_t depth = stack[--top], id = stack[--top];
+        const rtk_bvh_node *n = &a->nodes[id];
+        if (seen_node[id]) {
+            st = rtk_error(RTK_ERR_PLUGIN, "builder output: node %u is reached twice (the tree has a cycle or shared node)", id);
+            goto done;
+        }
+        seen_node[id] = 1;
+        if (depth > max_depth)
+            max_depth = depth;
+        if (depth > RTK_BVH_MAX_DEPTH) {
+            st = rtk_error(RTK_ERR_PLUGIN, "builder output: tree deeper than %d levels", RTK_BVH_MAX_DEPTH);
+            goto done;
+        }
+        for (int k = 0; k < 3; k++) {
+            if (isnan(n->lower[k]) || isnan(n->upper[k])) {
+                st = rtk_error(RTK_ERR_PLUGIN, "builder output: node %u has NaN bounds", id);
+                goto done;
+            }
+        }
+        if (n->count > 0) {
+            if (n->offset > a->prim_count || n->count > a->prim_count - n->offset) {
+                st = rtk_error(RTK_ERR_PLUGIN, "builder output: leaf %u covers slots %u..%u beyond %u primitives", id,
+                               n->offset, n->offset + n->count - 1, a->prim_count);
+                goto done;
+            }
+            for (uint32_t i = n->offset; i < n->offset + n->count; i++) {
+                uint32_t prim = a->prim_order[i];
+                if (seen_slot[i] || prim >= a->prim_count || seen_prim[prim]) {
+                    st = rtk_error(RTK_ERR_PLUGIN, "builder output: slot %u (primitive %u) is referenced twice or out of range",
+                                   i, prim);
+                    goto done;
+                }
+                seen_slot[i] = seen_prim[prim] = 1;
+                covered++;
+                const rtk_bounds *b = &a->prim_bounds[prim];
+                const float plo[3] = {b->lower.x, b->lower.y, b->lower.z}, phi[3] = {b->upper.x, b->upper.y, b->upper.z};
+                if (!box_contains(n->lower, n->upper, plo, phi)) {
+                    st = rtk_error(RTK_ERR_PLUGIN, "builder output: leaf %u does not enclose primitive %u", id, prim);
+                    goto done;
+                }
+            }
+        } else {
+            if (n->offset == 0 || n->offset >= a->node_count - 1) {
+                st = rtk_error(RTK_ERR_PLUGIN, "builder output: inner node %u points to children %u, %u outside 1 .. %u",
+                               id, n->offset, n->offset + 1, a->node_count - 1);
+                goto done;
+            }
+            for (uint32_t c = n->offset; c <= n->offset + 1; c++) {
+                if (!box_contains(n->lower, n->upper, a->nodes[c].lower, a->nodes[c].upper)) {
+                    st = rtk_error(RTK_ERR_PLUGIN, "builder output: node %u does not enclose its child %u", id, c);
+                    goto done;
+                }
+                stack[top++] = c, stack[top++] = depth + 1;
+            }
+        }
+    }
+    if (covered != a->prim_count) {
+        st = rtk_error(RTK_ERR_PLUGIN, "builder output: leaves hold %u of %u primitives", covered, a->prim_count);
+        goto done;
+    }
+    *depth_out = max_depth;
+done:
+    free(seen_node);
+    free(seen_slot);
+    free(seen_prim);
+    free(stack);
+    return st;
+}
+
+rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads)
+{
+    free(s->nodes);
+    free(s->prim_ids);
+    free(s->tri_verts);
+    s->nodes = NULL, s->prim_ids = NULL, s->tri_verts = NULL;
+    s->node_count = 0, s->bvh_depth = 0;
+    uint32_t n = s->triangle_count;
+    if (n == 0)
+        return RTK_OK;
+    if (n > (UINT32_MAX - 1) / 2)
+        return rtk_error(RTK_ERR_NOMEM, "%u triangles are more than one BVH can index", n);
+    rtk_build_args a;
+    memset(&a, 0, sizeof a);
+    a.size = sizeof a;
+    a.prim_count = n;
+    a.max_nodes = 2 * n - 1;
+    a.thread_count = threads ? threads : 1;
+    rtk_bounds *bounds = rtk_alloc(sizeof *bounds * n);
+    rtk_vec3 *centroids = rtk_alloc(sizeof *centroids * n);
+    a.nodes = rtk_calloc(a.max_nodes, sizeof *a.nodes);
+    a.prim_order = rtk_calloc(n, sizeof *a.prim_order);
+    s->tri_verts = rtk_alloc(sizeof(float) * 9 * (size_t)n);
+    rtk_status st = RTK_OK;
+    void *state = NULL;
+    const rtk_accelerator_fns *fns = plugin->functions;
+    if (!bounds || !centroids || !a.nodes || !a.prim_order || !s->tri_verts) {
+        st = RTK_ERR_NOMEM;
+        goto fail;
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        rtk_vec3 v[3];
+        rtk_scene_triangle(s, i, &v[0], &v[1], &v[2]);
+        rtk_bounds b = {v[0], v[0]};
+        for (int k = 1; k < 3; k++) {
+            b.lower = rtk_vec3_make(fminf(b.lower.x, v[k].x), fminf(b.lower.y, v[k].y), fminf(b.lower.z, v[k].z));
+            b.upper = rtk_vec3_make(fmaxf(b.upper.x, v[k].x), fmaxf(b.upper.y, v[k].y), fmaxf(b.upper.z, v[k].z));
+        }
+        bounds[i] = b;
+        centroids[i] = rtk_vec3_scale(rtk_vec3_add(b.lower, b.upper), 0.5f);
+    }
+    a.prim_bounds = bounds;
+    a.centroids = centroids;
+    st = fns->create(params, &state);
+    if (st != RTK_OK) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", rtk_error_message());
+        st = rtk_error(st, "accelerator '%s' failed to start: %s", plugin->name, msg);
+        goto fail;
+    }
+    st = fns->build(state, &a);
+    fns->destroy(state);
+    if (st != RTK_OK) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", rtk_error_message());
+        st = rtk_error(st, "accelerator '%s' failed: %s", plugin->name, msg);
+        goto fail;
+    }
+    st = rtk_bvh_validate(&a, &s->bvh_depth);
+    if (st != RTK_OK) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", rtk_error_message());
+        st = rtk_error(st, "accelerator '%s' produced an invalid tree: %s", plugin->name, msg);
+        goto fail;
+    }
+    for (uint32_t slot = 0; slot < n; slot++) {
+        rtk_vec3 v[3];
+        rtk_scene_triangle(s, a.prim_order[slot], &v[0], &v[1], &v[2]);
+        float *dst = s->tri_verts + 9 * (size_t)slot;
+        for (int k = 0; k < 3; k++)
+            dst[3 * k] = v[k].x, dst[3 * k + 1] = v[k].y, dst[3 * k + 2] = v[k].z;
+    }
+    s->nodes = a.nodes;
+    s->node_count = a.node_count;
+    s->prim_ids = a.prim_order;
+    free(bounds);
+    free(centroids);
+    return RTK_OK;
+fail:
+    free(bounds);
+    free(centroids);
+    free(a.nodes);
+    free(a.prim_order);
+    free(s->tri_verts);
+    s->tri_verts = NULL;
+    return st;
+}
