@@ -1,0 +1,375 @@
+/* One render, start to finish: load what the plugins need, build the BVH,
+ * render tiles on a thread pool, write the image atomically, report. */
+#include "film.h"
+#include "internal.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#define TILE_SIZE 16
+
+/* Shared state of the render workers. */
+typedef struct render_job {
+    const rtk_scene *scene;
+    rtk_camera camera;
+    const rtk_integrator_fns *integrator;
+    const void *istate;
+    const rtk_filter_fns *filter;
+    const void *fstate;
+    float radius;
+    uint32_t spp;
+    uint64_t seed;
+    rtk_film film;
+    uint32_t tiles_x, tiles_y, tile_count;
+    atomic_uint next_tile;
+    atomic_uint tiles_done;
+    /* Deterministic merge: finished tiles wait here for their turn. */
+    pthread_mutex_t merge_lock;
+    rtk_film_tile *pending;
+    uint8_t *ready;
+    uint32_t merge_cursor;
+    rtk_status status;
+    char error[1024];
+    /* Totals over all workers, added under merge_lock. */
+    uint64_t rays, invalid_rays, bad_samples;
+} render_job;
+
+static void merge_ready(render_job *job)
+{
+    while (job->merge_cursor < job->tile_count && job->ready[job->merge_cursor]) {
+        rtk_film_tile *t = &job->pending[job->merge_cursor];
+        rtk_film_merge(&job->film, t);
+        rtk_film_tile_free(t);
+        job->merge_cursor++;
+    }
+}
+
+static void fail(render_job *job, rtk_status st)
+{
+    pthread_mutex_lock(&job->merge_lock);
+    if (job->status == RTK_OK) {
+        job->status = st;
+        snprintf(job->error, sizeof job->error, "%s", rtk_error_message());
+    }
+    pthread_mutex_unlock(&job->merge_lock);
+}
+
+static void render_tile(render_job *job, uint32_t index, rtk_ctx *ctx, uint64_t *bad)
+{
+    uint32_t tx = index % job->tiles_x, ty = index / job->tiles_x;
+    uint32_t x0 = tx * TILE_SIZE, y0 = ty * TILE_SIZE;
+    uint32_t x1 = x0 + TILE_SIZE < job->film.width ? x0 + TILE_SIZE : job->film.width;
+    uint32_t y1 = y0 + TILE_SIZE < job->film.height ? y0 + TILE_SIZE : job->film.height;
+    rtk_film_tile tile;
+    rtk_status st = rtk_film_tile_init(&tile, &job->film, x0, y0, x1, y1, job->radius);
+    if (st != RTK_OK) {
+        fail(job, st);
+        return;
+    }
+    float values[10];
+    for (uint32_t y = y0; y < y1; y++) {
+        for (uint32_t x = x0; x < x1; x++) {
+            uint64_t pixel = (uint64_t)y * job->film.width + x;
+            for (uint32_t s = 0; s < job->spp; s++) {
+                rtk_ctx_start_sample(ctx, pixel, s);
+                rtk_vec2 jitter = rtk_sample_2d(ctx);
+                float fx = (float)x + jitter.x, fy = (float)y + jitter.y;
+                rtk_ray ray = rtk_camera_ray(&job->camera, fx, fy);
+                rtk_li_result r;
+                memset(&r, 0, sizeof r);
+                r.depth = INFINITY;
+                job->integrator->li(job->istate, ctx, &ray, &r);
+                if (!isfinite(r.radiance.r) || !isfinite(r.radiance.g) || !isfinite(r.radiance.b)) {
+                    (*bad)++;
+                    continue;
+                }
+                values[0] = r.radiance.r, values[1] = r.radiance.g, values[2] = r.radiance.b;
+                values[3] = r.albedo.r, values[4] = r.albedo.g, values[5] = r.albedo.b;
+                values[6] = r.normal.x, values[7] = r.normal.y, values[8] = r.normal.z;
+                values[9] = isfinite(r.depth) ? r.depth : 0.0f;
+                rtk_film_tile_splat(&tile, &job->film, fx, fy, values, job->filter, job->fstate, job->radius);
+            }
+        }
+    }
+    pthread_mutex_lock(&job->merge_lock);
+    job->pending[index] = tile;
+    job->ready[index] = 1;
+    merge_ready(job);
+    pthread_mutex_unlock(&job->merge_lock);
+    atomic_fetch_add(&job->tiles_done, 1);
+}
+
+static void *worker(void *arg)
+{
+    render_job *job = arg;
+    rtk_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.scene = job->scene;
+    ctx.seed = job->seed;
+    uint64_t bad = 0;
+    for (;;) {
+        uint32_t i = atomic_fetch_add(&job->next_tile, 1);
+        if (i >= job->tile_count || job->status != RTK_OK)
+            break;
+        render_tile(job, i, &ctx, &bad);
+    }
+    pthread_mutex_lock(&job->merge_lock);
+    job->rays += ctx.rays;
+    job->invalid_rays += ctx.invalid_rays;
+    job->bad_samples += bad;
+    pthread_mutex_unlock(&job->merge_lock);
+    return NULL;
+}
+
+static void draw_progress(uint32_t done, uint32_t total, double elapsed)
+{
+    int width = 40;
+    int filled = total ? (int)((uint64_t)done * (uint64_t)width / total) : width;
+    char bar[64];
+    for (int i = 0; i < width; i++)
+        bar[i] = i < filled ? '#' : '.';
+    bar[width] = '\0';
+    double eta = done ? elapsed * (double)(total - done) / (double)done : 0.0;
+    fprintf(stderr, "\rrender [%s] %3u%%  %.1f s, %.1f s left ", bar, total ? 100u * done / total : 100u, elapsed, eta);
+    fflush(stderr);
+}
+
+/* Renders job->film on threads; main thread draws the progress bar. */
+static rtk_status run_workers(render_job *job, uint32_t threads, int progress)
+{
+    pthread_t *ids = rtk_calloc(threads, sizeof *ids);
+    job->pending = rtk_calloc(job->tile_count, sizeof *job->pending);
+    job->ready = rtk_calloc(job->tile_count, 1);
+    if (!ids || !job->pending || !job->ready) {
+        free(ids);
+        return RTK_ERR_NOMEM;
+    }
+    uint32_t started = 0;
+    for (; started < threads; started++)
+        if (pthread_create(&ids[started], NULL, worker, job) != 0)
+            break;
+    if (started == 0) {
+        free(ids);
+        return rtk_error(RTK_ERR_NOMEM, "cannot start render threads");
+    }
+    double t0 = rtk_now();
+    if (progress) {
+        while (atomic_load(&job->tiles_done) < job->tile_count && job->status == RTK_OK) {
+            draw_progress(atomic_load(&job->tiles_done), job->tile_count, rtk_now() - t0);
+            struct timespec ts = {0, 100 * 1000 * 1000};
+            nanosleep(&ts, NULL);
+        }
+    }
+    for (uint32_t i = 0; i < started; i++)
+        pthread_join(ids[i], NULL);
+    if (progress) {
+        draw_progress(atomic_load(&job->tiles_done), job->tile_count, rtk_now() - t0);
+        fputc('\n', stderr);
+    }
+    free(ids);
+    for (uint32_t i = job->merge_cursor; i < job->tile_count; i++)
+        if (job->ready[i])
+            rtk_film_tile_free(&job->pending[i]);
+    free(job->pending);
+    free(job->ready);
+    job->pending = NULL;
+    job->ready = NULL;
+    if (job->status != RTK_OK)
+        return rtk_error(job->status, "%s", job->error);
+    return RTK_OK;
+}
+
+static int has_extension(const char *path, const char *ext)
+{
+    const char *dot = strrchr(path, '.');
+    return dot && strcasecmp(dot, ext) == 0;
+}
+
+/* Prefixes the current error with context. */
+static rtk_status with_context(rtk_status st, const char *what)
+{
+    char msg[2048];
+    snprintf(msg, sizeof msg, "%s", rtk_error_message());
+    return rtk_error(st, "%s: %s", what, msg);
+}
+
+RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *options, rtk_render_report *report)
+{
+    rtk_render_options defaults;
+    memset(&defaults, 0, sizeof defaults);
+    if (!options)
+        options = &defaults;
+    uint32_t report_size = report->size;
+    memset(report, 0, sizeof *report);
+    report->size = report_size;
+    int want_aovs = cfg->aov_albedo || cfg->aov_normal || cfg->aov_depth;
+    if (want_aovs && !has_extension(cfg->output, ".exr"))
+        return rtk_error(RTK_ERR_INVALID, "%s: film.aovs needs an EXR output (film.output = \"%s\"): use a .exr name",
+                         cfg->path, cfg->output);
+
+    const rtk_integrator_fns *ifn = cfg->integrator.plugin->functions;
+    const rtk_filter_fns *ffn = cfg->filter.plugin->functions;
+    void *istate = NULL, *fstate = NULL;
+    rtk_scene *scene = NULL;
+    float *pixels = NULL;
+    render_job job;
+    memset(&job, 0, sizeof job);
+    pthread_mutex_init(&job.merge_lock, NULL);
+    rtk_status st = ifn->create(cfg->integrator.params, &istate);
+    if (st != RTK_OK) {
+        st = with_context(st, cfg->integrator.plugin->name);
+        istate = NULL;
+        goto done;
+    }
+    st = ffn->create(cfg->filter.params, &fstate);
+    if (st != RTK_OK) {
+        st = with_context(st, cfg->filter.plugin->name);
+        fstate = NULL;
+        goto done;
+    }
+    uint32_t threads = cfg->threads ? cfg->threads : rtk_core_count();
+
+    double t = rtk_now();
+    uint32_t needs = ifn->needs(istate);
+    st = rtk_scene_load(cfg->scene_path, needs, &scene);
+    if (st != RTK_OK)
+        goto done;
+    report->load_seconds = rtk_now() - t;
+    report->triangles = scene->triangle_count;
+
+    t = rtk_now();
+    st = rtk_bvh_build(scene, cfg->accelerator.plugin, cfg->accelerator.params, threads);
+    if (st != RTK_OK)
+        goto done;
+    report->build_seconds = rtk_now() - t;
+    report->bvh_nodes = scene->node_count;
+    report->bvh_depth = scene->bvh_depth;
+
+    rtk_camera_desc cam;
+    if (cfg->has_camera)
+        cam = cfg->camera;
+    else if (scene->has_camera)
+        cam = scene->camera;
+    else
+        cam = rtk_camera_frame(scene->bounds, 39.3f, (float)cfg->width / (float)cfg->height);
+    st = rtk_camera_init(&job.camera, &cam, cfg->width, cfg->height);
+    if (st != RTK_OK) {
+        st = with_context(st, cfg->path);
+        goto done;
+    }
+    if (ifn->prepare) {
+        st = ifn->prepare(istate, scene);
+        if (st != RTK_OK) {
+            st = with_context(st, cfg->integrator.plugin->name);
+            goto done;
+        }
+    }
+    job.radius = ffn->radius(fstate);
+    if (!(job.radius > 0.0f && job.radius <= 64.0f)) {
+        st = rtk_error(RTK_ERR_PLUGIN, "filter '%s' reports radius %g, expected (0, 64]", cfg->filter.plugin->name,
+                       job.radius);
+        goto done;
+    }
+    st = rtk_film_init(&job.film, cfg->width, cfg->height, 10);
+    if (st != RTK_OK)
+        goto done;
+    job.scene = scene;
+    job.integrator = ifn;
+    job.istate = istate;
+    job.filter = ffn;
+    job.fstate = fstate;
+    job.spp = cfg->spp;
+    job.seed = cfg->seed;
+    job.tiles_x = (cfg->width + TILE_SIZE - 1) / TILE_SIZE;
+    job.tiles_y = (cfg->height + TILE_SIZE - 1) / TILE_SIZE;
+    job.tile_count = job.tiles_x * job.tiles_y;
+    t = rtk_now();
+    st = run_workers(&job, threads, options->progress && !options->quiet);
+    if (st != RTK_OK)
+        goto done;
+    report->render_seconds = rtk_now() - t;
+    report->rays = job.rays;
+    report->invalid_rays = job.invalid_rays;
+    report->bad_samples = job.bad_samples;
+    report->width = cfg->width;
+    report->height = cfg->height;
+    report->spp = cfg->spp;
+    report->threads = threads;
+
+    size_t npix = (size_t)cfg->width * cfg->height;
+    pixels = rtk_alloc(npix * 10 * sizeof(float));
+    if (!pixels) {
+        st = RTK_ERR_NOMEM;
+        goto done;
+    }
+    rtk_film_resolve(&job.film, pixels);
+    double mean[3] = {0, 0, 0};
+    for (size_t i = 0; i < npix; i++)
+        for (int c = 0; c < 3; c++)
+            mean[c] += pixels[i * 10 + c];
+    for (int c = 0; c < 3; c++)
+        report->mean[c] = npix ? mean[c] / (double)npix : 0.0;
+
+    /* Keep only the channels asked for, in place. */
+    const char *names[10] = {"R", "G", "B"};
+    int keep[10] = {0, 1, 2};
+    int nch = 3;
+    if (cfg->aov_albedo) {
+        names[nch] = "albedo.R", keep[nch++] = 3;
+        names[nch] = "albedo.G", keep[nch++] = 4;
+        names[nch] = "albedo.B", keep[nch++] = 5;
+    }
+    if (cfg->aov_normal) {
+        names[nch] = "normal.X", keep[nch++] = 6;
+        names[nch] = "normal.Y", keep[nch++] = 7;
+        names[nch] = "normal.Z", keep[nch++] = 8;
+    }
+    if (cfg->aov_depth)
+        names[nch] = "Z", keep[nch++] = 9;
+    for (size_t i = 0; i < npix; i++)
+        for (int c = 0; c < nch; c++)
+            pixels[i * (size_t)nch + (size_t)c] = pixels[i * 10 + (size_t)keep[c]];
+    t = rtk_now();
+    st = rtk_image_write(cfg->output, (int)cfg->width, (int)cfg->height, nch, names, pixels, cfg->half);
+    if (st != RTK_OK)
+        goto done;
+    report->write_seconds = rtk_now() - t;
+    snprintf(report->output, sizeof report->output, "%s", cfg->output);
+    if (job.bad_samples)
+        rtk_log(RTK_LOG_WARN, "%llu NaN/Inf samples from integrator '%s' were dropped",
+                (unsigned long long)job.bad_samples, cfg->integrator.plugin->name);
+    if (job.invalid_rays)
+        rtk_log(RTK_LOG_WARN, "%llu invalid rays (NaN, zero direction or empty interval) were rejected",
+                (unsigned long long)job.invalid_rays);
+done:
+    report->peak_rss_bytes = rtk_peak_rss();
+    free(pixels);
+    rtk_film_free(&job.film);
+    pthread_mutex_destroy(&job.merge_lock);
+    if (istate)
+        ifn->destroy(istate);
+    if (fstate)
+        ffn->destroy(fstate);
+    rtk_scene_free(scene);
+    return st;
+}
+
+RTK_API void rtk_render_report_print(const rtk_render_report *r, FILE *f)
+{
+    double total = r->render_seconds > 0.0 ? r->render_seconds : 1e-9;
+    fprintf(f, "load    %8.3f s   %u triangles\n", r->load_seconds, r->triangles);
+    fprintf(f, "build   %8.3f s   %u nodes, depth %u\n", r->build_seconds, r->bvh_nodes, r->bvh_depth);
+    fprintf(f, "render  %8.3f s   %ux%u, %u spp, %u threads\n", r->render_seconds, r->width, r->height, r->spp,
+            r->threads);
+    fprintf(f, "write   %8.3f s   %s\n", r->write_seconds, r->output);
+    fprintf(f, "rays    %llu (%.2f Mrays/s), %llu invalid, %llu NaN/Inf samples dropped\n",
+            (unsigned long long)r->rays, (double)r->rays / total * 1e-6, (unsigned long long)r->invalid_rays,
+            (unsigned long long)r->bad_samples);
+    fprintf(f, "mean    %.6f %.6f %.6f (linear RGB)\n", r->mean[0], r->mean[1], r->mean[2]);
+    fprintf(f, "memory  %.1f MiB peak\n", (double)r->peak_rss_bytes / (1024.0 * 1024.0));
+}
