@@ -1,0 +1,80 @@
+/* headlight: base colour x |cos| between the shading normal and the view
+ * ray, as if a light sat on the camera. The quick look at any scene.
+ *
+ * Parameters:
+ *   ambient  float [0, 1]  0.0   light added regardless of angle
+ *
+ * Example: integrator = { plugin = "headlight"; ambient = 0.05; };
+ */
+#include <rtk/rtk.h>
+
+#include <math.h>
+#include <stdlib.h>
+
+typedef struct headlight {
+    float ambient;
+} headlight;
+
+static rtk_status headlight_create(const rtk_params *params, void **state)
+{
+    headlight *h = malloc(sizeof *h);
+    if (!h)
+        return rtk_error(RTK_ERR_NOMEM, "headlight: out of memory");
+    h->ambient = (float)rtk_params_float(params, "ambient");
+    *state = h;
+    return RTK_OK;
+}
+
+static uint32_t headlight_needs(const void *state)
+{
+    (void)state;
+    return RTK_NEED_NORMALS | RTK_NEED_MATERIALS | RTK_NEED_TEXTURES;
+}
+
+static void headlight_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
+{
+    const headlight *h = state;
+    rtk_hit hit;
+    if (!rtk_trace(ctx, ray, &hit))
+        return;
+    rtk_surface s;
+    rtk_surface_at(rtk_ctx_scene(ctx), ray, &hit, &s);
+    rtk_vec3 d = rtk_vec3_normalize(ray->dir);
+    float c = fabsf(rtk_vec3_dot(s.ns, d));
+    float k = h->ambient + (1.0f - h->ambient) * c;
+    out->radiance = rtk_rgb_scale(s.base_color, k);
+    out->albedo = s.base_color;
+    out->normal = s.ns;
+    out->depth = hit.t * rtk_vec3_length(ray->dir);
+}
+
+static void headlight_destroy(void *state)
+{
+    free(state);
+}
+
+static const rtk_param_desc headlight_params[] = {
+    {.name = "ambient", .type = RTK_PARAM_FLOAT, .def = 0.0, .min = 0.0, .max = 1.0,
+     .doc = "fraction of the base colour shown regardless of the angle"},
+};
+
+static const rtk_integrator_fns headlight_fns = {
+    .size = sizeof(rtk_integrator_fns),
+    .create = headlight_create,
+    .needs = headlight_needs,
+    .li = headlight_li,
+    .destroy = headlight_destroy,
+};
+
+static const rtk_plugin headlight_plugin = {
+    RTK_PLUGIN_HEADER,
+    .kind = RTK_KIND_INTEGRATOR,
+    .name = "headlight",
+    .version = "1.0",
+    .summary = "base colour x |cos(shading normal, view ray)|: a light on the camera",
+    .params = headlight_params,
+    .param_count = RTK_COUNTOF(headlight_params),
+    .functions = &headlight_fns,
+};
+
+RTK_PLUGIN_ENTRY(headlight_plugin)
