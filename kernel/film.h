@@ -5,6 +5,20 @@
 
 #include "internal.h"
 
+/* Channels the renderer accumulates: RGB, albedo RGB, normal XYZ, depth. */
+#define RTK_FILM_CHANNELS 10
+
+/* Counters of one render. */
+typedef struct rtk_render_stats {
+    uint64_t rays, invalid_rays, bad_samples;
+} rtk_render_stats;
+
+/* Renders scene through camera into pixels (RTK_FILM_CHANNELS floats per
+ * pixel, resolved) on threads; the integrator must be prepared. */
+rtk_status rtk_render_film(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
+                           const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
+                           uint64_t seed, uint32_t threads, int progress, float *pixels, rtk_render_stats *stats);
+
 /* One tile's padded accumulation buffer. */
 typedef struct rtk_film_tile {
     int x0, y0, w, h; /* film position of the buffer's first pixel, size */

@@ -33,7 +33,8 @@ typedef struct render_job {
     rtk_film_tile *pending;
     uint8_t *ready;
     uint32_t merge_cursor;
-    rtk_status status;
+    rtk_status status; /* first failure, under merge_lock */
+    atomic_int failed;  /* set with status, read by workers without the lock */
     char error[1024];
     /* Totals over all workers, added under merge_lock. */
     uint64_t rays, invalid_rays, bad_samples;
@@ -54,6 +55,7 @@ static void fail(render_job *job, rtk_status st)
     pthread_mutex_lock(&job->merge_lock);
     if (job->status == RTK_OK) {
         job->status = st;
+        atomic_store(&job->failed, 1);
         snprintf(job->error, sizeof job->error, "%s", rtk_error_message());
     }
     pthread_mutex_unlock(&job->merge_lock);
@@ -71,7 +73,7 @@ static void render_tile(render_job *job, uint32_t index, rtk_ctx *ctx, uint64_t 
         fail(job, st);
         return;
     }
-    float values[10];
+    float values[RTK_FILM_CHANNELS];
     for (uint32_t y = y0; y < y1; y++) {
         for (uint32_t x = x0; x < x1; x++) {
             uint64_t pixel = (uint64_t)y * job->film.width + x;
@@ -114,7 +116,7 @@ static void *worker(void *arg)
     uint64_t bad = 0;
     for (;;) {
         uint32_t i = atomic_fetch_add(&job->next_tile, 1);
-        if (i >= job->tile_count || job->status != RTK_OK)
+        if (i >= job->tile_count || atomic_load(&job->failed))
             break;
         render_tile(job, i, &ctx, &bad);
     }
@@ -159,7 +161,7 @@ static rtk_status run_workers(render_job *job, uint32_t threads, int progress)
     }
     double t0 = rtk_now();
     if (progress) {
-        while (atomic_load(&job->tiles_done) < job->tile_count && job->status == RTK_OK) {
+        while (atomic_load(&job->tiles_done) < job->tile_count && !atomic_load(&job->failed)) {
             draw_progress(atomic_load(&job->tiles_done), job->tile_count, rtk_now() - t0);
             struct timespec ts = {0, 100 * 1000 * 1000};
             nanosleep(&ts, NULL);
@@ -182,6 +184,48 @@ static rtk_status run_workers(render_job *job, uint32_t threads, int progress)
     if (job->status != RTK_OK)
         return rtk_error(job->status, "%s", job->error);
     return RTK_OK;
+}
+
+rtk_status rtk_render_film(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
+                           const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
+                           uint64_t seed, uint32_t threads, int progress, float *pixels, rtk_render_stats *stats)
+{
+    render_job job;
+    memset(&job, 0, sizeof job);
+    pthread_mutex_init(&job.merge_lock, NULL);
+    job.radius = ffn->radius(fstate);
+    rtk_status st = RTK_OK;
+    if (!(job.radius > 0.0f && job.radius <= 64.0f)) {
+        st = rtk_error(RTK_ERR_PLUGIN, "filter reports radius %g, expected (0, 64]", job.radius);
+        goto done;
+    }
+    st = rtk_film_init(&job.film, camera->width, camera->height, RTK_FILM_CHANNELS);
+    if (st != RTK_OK)
+        goto done;
+    job.scene = scene;
+    job.camera = *camera;
+    job.integrator = ifn;
+    job.istate = istate;
+    job.filter = ffn;
+    job.fstate = fstate;
+    job.spp = spp;
+    job.seed = seed;
+    job.tiles_x = (camera->width + TILE_SIZE - 1) / TILE_SIZE;
+    job.tiles_y = (camera->height + TILE_SIZE - 1) / TILE_SIZE;
+    job.tile_count = job.tiles_x * job.tiles_y;
+    st = run_workers(&job, threads ? threads : 1, progress);
+    if (st != RTK_OK)
+        goto done;
+    rtk_film_resolve(&job.film, pixels);
+    if (stats) {
+        stats->rays = job.rays;
+        stats->invalid_rays = job.invalid_rays;
+        stats->bad_samples = job.bad_samples;
+    }
+done:
+    rtk_film_free(&job.film);
+    pthread_mutex_destroy(&job.merge_lock);
+    return st;
 }
 
 static int has_extension(const char *path, const char *ext)
@@ -217,9 +261,7 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     void *istate = NULL, *fstate = NULL;
     rtk_scene *scene = NULL;
     float *pixels = NULL;
-    render_job job;
-    memset(&job, 0, sizeof job);
-    pthread_mutex_init(&job.merge_lock, NULL);
+    rtk_camera camera;
     rtk_status st = ifn->create(cfg->integrator.params, &istate);
     if (st != RTK_OK) {
         st = with_context(st, cfg->integrator.plugin->name);
@@ -257,7 +299,7 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
         cam = scene->camera;
     else
         cam = rtk_camera_frame(scene->bounds, 39.3f, (float)cfg->width / (float)cfg->height);
-    st = rtk_camera_init(&job.camera, &cam, cfg->width, cfg->height);
+    st = rtk_camera_init(&camera, &cam, cfg->width, cfg->height);
     if (st != RTK_OK) {
         st = with_context(st, cfg->path);
         goto done;
@@ -269,49 +311,33 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
             goto done;
         }
     }
-    job.radius = ffn->radius(fstate);
-    if (!(job.radius > 0.0f && job.radius <= 64.0f)) {
-        st = rtk_error(RTK_ERR_PLUGIN, "filter '%s' reports radius %g, expected (0, 64]", cfg->filter.plugin->name,
-                       job.radius);
+    size_t npix = (size_t)cfg->width * cfg->height;
+    pixels = rtk_alloc(npix * RTK_FILM_CHANNELS * sizeof(float));
+    if (!pixels) {
+        st = RTK_ERR_NOMEM;
         goto done;
     }
-    st = rtk_film_init(&job.film, cfg->width, cfg->height, 10);
-    if (st != RTK_OK)
-        goto done;
-    job.scene = scene;
-    job.integrator = ifn;
-    job.istate = istate;
-    job.filter = ffn;
-    job.fstate = fstate;
-    job.spp = cfg->spp;
-    job.seed = cfg->seed;
-    job.tiles_x = (cfg->width + TILE_SIZE - 1) / TILE_SIZE;
-    job.tiles_y = (cfg->height + TILE_SIZE - 1) / TILE_SIZE;
-    job.tile_count = job.tiles_x * job.tiles_y;
+    rtk_render_stats stats;
     t = rtk_now();
-    st = run_workers(&job, threads, options->progress && !options->quiet);
-    if (st != RTK_OK)
+    st = rtk_render_film(scene, &camera, ifn, istate, ffn, fstate, cfg->spp, cfg->seed, threads,
+                         options->progress && !options->quiet, pixels, &stats);
+    if (st != RTK_OK) {
+        st = with_context(st, cfg->path);
         goto done;
+    }
     report->render_seconds = rtk_now() - t;
-    report->rays = job.rays;
-    report->invalid_rays = job.invalid_rays;
-    report->bad_samples = job.bad_samples;
+    report->rays = stats.rays;
+    report->invalid_rays = stats.invalid_rays;
+    report->bad_samples = stats.bad_samples;
     report->width = cfg->width;
     report->height = cfg->height;
     report->spp = cfg->spp;
     report->threads = threads;
 
-    size_t npix = (size_t)cfg->width * cfg->height;
-    pixels = rtk_alloc(npix * 10 * sizeof(float));
-    if (!pixels) {
-        st = RTK_ERR_NOMEM;
-        goto done;
-    }
-    rtk_film_resolve(&job.film, pixels);
     double mean[3] = {0, 0, 0};
     for (size_t i = 0; i < npix; i++)
         for (int c = 0; c < 3; c++)
-            mean[c] += pixels[i * 10 + c];
+            mean[c] += pixels[i * RTK_FILM_CHANNELS + c];
     for (int c = 0; c < 3; c++)
         report->mean[c] = npix ? mean[c] / (double)npix : 0.0;
 
@@ -333,24 +359,22 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
         names[nch] = "Z", keep[nch++] = 9;
     for (size_t i = 0; i < npix; i++)
         for (int c = 0; c < nch; c++)
-            pixels[i * (size_t)nch + (size_t)c] = pixels[i * 10 + (size_t)keep[c]];
+            pixels[i * (size_t)nch + (size_t)c] = pixels[i * RTK_FILM_CHANNELS + (size_t)keep[c]];
     t = rtk_now();
     st = rtk_image_write(cfg->output, (int)cfg->width, (int)cfg->height, nch, names, pixels, cfg->half);
     if (st != RTK_OK)
         goto done;
     report->write_seconds = rtk_now() - t;
     snprintf(report->output, sizeof report->output, "%s", cfg->output);
-    if (job.bad_samples)
+    if (stats.bad_samples)
         rtk_log(RTK_LOG_WARN, "%llu NaN/Inf samples from integrator '%s' were dropped",
-                (unsigned long long)job.bad_samples, cfg->integrator.plugin->name);
-    if (job.invalid_rays)
+                (unsigned long long)stats.bad_samples, cfg->integrator.plugin->name);
+    if (stats.invalid_rays)
         rtk_log(RTK_LOG_WARN, "%llu invalid rays (NaN, zero direction or empty interval) were rejected",
-                (unsigned long long)job.invalid_rays);
+                (unsigned long long)stats.invalid_rays);
 done:
     report->peak_rss_bytes = rtk_peak_rss();
     free(pixels);
-    rtk_film_free(&job.film);
-    pthread_mutex_destroy(&job.merge_lock);
     if (istate)
         ifn->destroy(istate);
     if (fstate)
