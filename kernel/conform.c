@@ -71,7 +71,7 @@ static rtk_params *param_variant(const rtk_plugin *p, int index, char *label, si
         for (int v = 0; v < n; v++, k++) {
             if (k != index)
                 continue;
-            snprintf(label, cap, "%s=%s", d->name, values[v]);
+            snprintf(label, cap, "%.60s=%.60s", d->name, values[v]);
             if (rtk_params_set_text(params, d->name, values[v]) != RTK_OK) {
                 rtk_params_destroy(params);
                 return NULL;
