@@ -1,0 +1,100 @@
+#!/usr/bin/env bash
+# End-to-end checks of the rtk command: plugin listing, rendering, config
+# errors with file and line, refusing untrusted code, atomic output.
+# usage: test_cli.sh RTK SOURCE_ROOT BUILD_ROOT
+set -u
+rtk=$1
+src=$2
+build=$3
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+passed=0
+failed=0
+
+ok() { passed=$((passed + 1)); echo "ok    $1"; }
+bad() { failed=$((failed + 1)); echo "FAIL  $1"; }
+# expect NAME STATUS(0|fail) PATTERN... -- CMD...: runs CMD, checks exit and that output has every pattern
+expect() {
+    local name=$1 want=$2
+    shift 2
+    local patterns=()
+    while [ "$1" != "--" ]; do patterns+=("$1"); shift; done
+    shift
+    local out status
+    out=$("$@" 2>&1)
+    status=$?
+    if [ "$want" = 0 ] && [ $status -ne 0 ]; then
+        bad "$name (exit $status)"; echo "$out" | sed 's/^/    /'; return
+    fi
+    if [ "$want" = fail ] && [ $status -eq 0 ]; then
+        bad "$name (succeeded, expected failure)"; echo "$out" | sed 's/^/    /'; return
+    fi
+    for p in "${patterns[@]}"; do
+        if ! grep -qF -- "$p" <<<"$out"; then
+            bad "$name (no '$p' in output)"; echo "$out" | sed 's/^/    /'; return
+        fi
+    done
+    ok "$name"
+}
+
+expect "rtk plugins lists the shipped plugins" 0 "headlight" "median" "box" "integrator" "accelerator" "filter" -- "$rtk" plugins
+expect "rtk plugins NAME prints parameters" 0 "ambient" "float" "[0, 1]" -- "$rtk" plugins headlight
+expect "rtk plugins median prints choices" 0 "object|spatial" "max_leaf" -- "$rtk" plugins median
+expect "unknown command is a usage error" fail "unknown command" -- "$rtk" frobnicate
+
+cat >"$tmp/quad.obj" <<'OBJ'
+v -1 -1 0
+v 1 -1 0
+v 1 1 0
+v -1 1 0
+f 1 2 3 4
+OBJ
+printf 'scene = "quad.obj";\nfilm = { width = 32; height = 24; spp = 2; output = "quad.png"; };\n' >"$tmp/min.cfg"
+expect "minimal config renders" 0 "rays" "Mrays/s" "mean" -- "$rtk" render "$tmp/min.cfg"
+[ -f "$tmp/quad.png" ] && ok "output written next to the config" || bad "output written next to the config"
+ls "$tmp" | grep -q tmp && bad "no temporary file left behind" || ok "no temporary file left behind"
+
+printf 'scene = "quad.obj";\nfilm = {\n  widht = 32;\n};\n' >"$tmp/typo.cfg"
+expect "typo'd key names file, line and suggestion" fail "typo.cfg:3" "did you mean 'width'" -- "$rtk" render "$tmp/typo.cfg"
+printf 'scene = "quad.obj";\nfilm = { width = "wide"; };\n' >"$tmp/type.cfg"
+expect "wrong type names file and line" fail "type.cfg:2" "width" -- "$rtk" render "$tmp/type.cfg"
+printf 'scene = "quad.obj";\n\nintegrator = { plugin = "headlite"; };\n' >"$tmp/missing.cfg"
+expect "missing plugin names file, line and what exists" fail "missing.cfg:3" "headlite" "headlight" -- "$rtk" render "$tmp/missing.cfg"
+printf 'scene = "quad.obj";\nfilm = { spp = 0; };\n' >"$tmp/range.cfg"
+expect "out of range value names file and line" fail "range.cfg:2" "spp" -- "$rtk" render "$tmp/range.cfg"
+expect "--set override with a typo is refused" fail "--set" "bogus" -- "$rtk" render "$tmp/min.cfg" --set integrator.bogus=1
+expect "--set override applies" 0 "8x8" -- "$rtk" render "$tmp/min.cfg" --set film.width=8 --set film.height=8
+
+printf 'scene = "quad.obj";\nplugin_path = "plugins";\n' >"$tmp/untrusted.cfg"
+mkdir -p "$tmp/plugins"
+expect "config plugin_path refused without the flag" fail "untrusted.cfg:2" "--allow-config-plugins" -- "$rtk" render "$tmp/untrusted.cfg"
+
+if [ -f "$build/tests/plugins/broken/abi_major.so" ]; then
+    cp "$build/tests/plugins/broken/abi_major.so" "$tmp/plugins/abi_major.so"
+    printf 'scene = "quad.obj";\nplugin_path = "plugins";\nintegrator = { plugin = "abi_major"; };\n' >"$tmp/abi.cfg"
+    expect "plugin built for another ABI fails before rendering" fail "abi_major.so" "ABI" -- "$rtk" render "$tmp/abi.cfg" --allow-config-plugins
+fi
+
+printf 'scene = "quad.obj";\nfilm = { output = "no/such/dir/x.png"; width = 8; height = 8; };\n' >"$tmp/nodir.cfg"
+expect "unwritable output is an error naming the file" fail "x.png" -- "$rtk" render "$tmp/nodir.cfg"
+echo "old" >"$tmp/keep.png"
+printf 'scene = "quad.obj";\nfilm = { output = "keep.png"; width = 8; height = 8; };\nintegrator = { plugin = "headlight"; };\n' >"$tmp/keep.cfg"
+printf 'v 0 0 0\nf 1 2 3\n' >"$tmp/broken.obj"
+expect "broken scene fails" fail "broken.obj" -- "$rtk" render "$tmp/keep.cfg" --set scene=broken.obj
+[ "$(cat "$tmp/keep.png")" = old ] && ok "failed render leaves the old image untouched" || bad "failed render leaves the old image untouched"
+
+# The SDK builds a plugin outside the tree with pkg-config alone.
+pcdir="$build/meson-uninstalled"
+if [ -f "$pcdir/rtk-uninstalled.pc" ] && command -v cc >/dev/null; then
+    cflags=$(PKG_CONFIG_PATH="$pcdir" pkg-config --cflags rtk-uninstalled)
+    if cc -shared -fPIC $cflags "$src/tests/plugins/broken/outside_tree.c" -o "$tmp/plugins/outside_tree.so" 2>"$tmp/cc.log"; then
+        ok "out-of-tree plugin compiles with pkg-config --cflags"
+        expect "out-of-tree plugin passes rtk conform" 0 "passed, 0 failed" -- "$rtk" conform "$tmp/plugins/outside_tree.so"
+        expect "out-of-tree plugin found through RTK_PLUGIN_PATH" 0 "outside_tree" -- env RTK_PLUGIN_PATH="$tmp/plugins" "$rtk" plugins
+    else
+        bad "out-of-tree plugin compiles with pkg-config --cflags"; cat "$tmp/cc.log"
+    fi
+fi
+
+echo "$passed passed, $failed failed"
+[ $failed -eq 0 ]
