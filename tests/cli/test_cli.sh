@@ -83,17 +83,21 @@ printf 'v 0 0 0\nf 1 2 3\n' >"$tmp/broken.obj"
 expect "broken scene fails" fail "broken.obj" -- "$rtk" render "$tmp/keep.cfg" --set scene=broken.obj
 [ "$(cat "$tmp/keep.png")" = old ] && ok "failed render leaves the old image untouched" || bad "failed render leaves the old image untouched"
 
-# The SDK builds a plugin outside the tree with pkg-config alone.
-pcdir="$build/meson-uninstalled"
-if [ -f "$pcdir/rtk-uninstalled.pc" ] && command -v cc >/dev/null; then
-    cflags=$(PKG_CONFIG_PATH="$pcdir" pkg-config --cflags rtk-uninstalled)
+# The installed SDK builds a plugin outside the tree with pkg-config alone.
+if command -v meson >/dev/null && command -v cc >/dev/null &&
+    meson install -C "$build" --destdir "$tmp/stage" --no-rebuild --quiet >"$tmp/install.log" 2>&1; then
+    pc=$(find "$tmp/stage" -name rtk.pc | head -n 1)
+    prefix=$(sed -n 's/^prefix=//p' "$pc")
+    cflags=$(PKG_CONFIG_PATH=$(dirname "$pc") pkg-config --define-variable=prefix="$tmp/stage$prefix" --cflags rtk)
     if cc -shared -fPIC $cflags "$src/tests/plugins/broken/outside_tree.c" -o "$tmp/plugins/outside_tree.so" 2>"$tmp/cc.log"; then
-        ok "out-of-tree plugin compiles with pkg-config --cflags"
+        ok "out-of-tree plugin compiles with pkg-config --cflags rtk"
         expect "out-of-tree plugin passes rtk conform" 0 "passed, 0 failed" -- "$rtk" conform "$tmp/plugins/outside_tree.so"
         expect "out-of-tree plugin found through RTK_PLUGIN_PATH" 0 "outside_tree" -- env RTK_PLUGIN_PATH="$tmp/plugins" "$rtk" plugins
     else
-        bad "out-of-tree plugin compiles with pkg-config --cflags"; cat "$tmp/cc.log"
+        bad "out-of-tree plugin compiles with pkg-config --cflags rtk"; cat "$tmp/cc.log"
     fi
+else
+    bad "meson install of the SDK"; cat "$tmp/install.log"
 fi
 
 echo "$passed passed, $failed failed"
