@@ -1,0 +1,56 @@
+/* abi_major: a filter built for the next ABI major. The kernel must refuse
+ * it before touching anything else in the descriptor ("... this rtk has ABI
+ * 1.0: rebuild the plugin against this SDK"). Test-only, never installed. */
+#include <rtk/rtk.h>
+
+static rtk_status stub_create(const rtk_params *params, void **state)
+{
+    (void)params;
+    *state = NULL;
+    return RTK_OK;
+}
+
+static float stub_radius(const void *state)
+{
+    (void)state;
+    return 0.5f;
+}
+
+static float stub_eval(const void *state, float dx, float dy)
+{
+    (void)state;
+    return dx >= -0.5f && dx <= 0.5f && dy >= -0.5f && dy <= 0.5f ? 1.0f : 0.0f;
+}
+
+static double stub_integral(const void *state)
+{
+    (void)state;
+    return 1.0;
+}
+
+static void stub_destroy(void *state)
+{
+    (void)state;
+}
+
+static const rtk_filter_fns stub_fns = {
+    .size = sizeof(rtk_filter_fns),
+    .create = stub_create,
+    .radius = stub_radius,
+    .eval = stub_eval,
+    .integral = stub_integral,
+    .destroy = stub_destroy,
+};
+
+static const rtk_plugin abi_major_plugin = {
+    .size = sizeof(rtk_plugin),
+    .abi_major = RTK_ABI_MAJOR + 1,
+    .abi_minor = RTK_ABI_MINOR,
+    .kind = RTK_KIND_FILTER,
+    .name = "abi_major",
+    .version = "1.0",
+    .summary = "broken on purpose: ABI major one above the kernel's",
+    .functions = &stub_fns,
+};
+
+RTK_PLUGIN_ENTRY(abi_major_plugin)
