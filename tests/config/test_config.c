@@ -1,0 +1,389 @@
+/* Tests of kernel/config.c through the real plugin registry: each bad
+ * config is written to a temporary directory (so line numbers are known)
+ * and the error must name the file, the line and the key at fault. The
+ * broken configs in scenes/bad/ are checked the same way. */
+#include "internal.h"
+
+#include <dirent.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#ifndef TEST_DIR
+#define TEST_DIR "."
+#endif
+
+static int failures;
+static int checks;
+static char tmpdir[256];
+static rtk_registry *registry;
+
+#define CHECK(cond)                                                                  \
+    do {                                                                             \
+        checks++;                                                                    \
+        if (!(cond)) {                                                               \
+            failures++;                                                              \
+            fprintf(stderr, "%s:%d: check failed: %s\n", __FILE__, __LINE__, #cond); \
+        }                                                                            \
+    } while (0)
+
+/* Writes text to name inside the temporary directory; returns the path. */
+static const char *write_file(const char *name, const char *text)
+{
+    static char path[16][512];
+    static int next;
+    char *p = path[next++ % 16];
+    snprintf(p, 512, "%s/%s", tmpdir, name);
+    FILE *f = fopen(p, "w");
+    if (!f) {
+        fprintf(stderr, "cannot write %s\n", p);
+        failures++;
+        return p;
+    }
+    fputs(text, f);
+    fclose(f);
+    return p;
+}
+
+/* Loads path and expects it to fail with every string after opts in the
+ * message (NULL-terminated). */
+static void expect_error(int line, const char *path, const rtk_config_options *opts, ...)
+{
+    rtk_config *cfg = (rtk_config *)1;
+    rtk_status status = rtk_config_load(path, registry, opts, &cfg);
+    checks++;
+    if (status == RTK_OK || cfg != NULL) {
+        failures++;
+        fprintf(stderr, "%s:%d: %s loaded, expected an error\n", __FILE__, line, path);
+        rtk_config_destroy(cfg);
+        return;
+    }
+    const char *msg = rtk_error_message();
+    va_list ap;
+    va_start(ap, opts);
+    for (const char *needle = va_arg(ap, const char *); needle; needle = va_arg(ap, const char *)) {
+        checks++;
+        if (!strstr(msg, needle)) {
+            failures++;
+            fprintf(stderr, "%s:%d: error lacks \"%s\":\n  %s\n", __FILE__, line, needle, msg);
+        }
+    }
+    va_end(ap);
+}
+
+/* Loads path and expects success. [caller frees] */
+static rtk_config *expect_ok(int line, const char *path, const rtk_config_options *opts)
+{
+    rtk_config *cfg = NULL;
+    checks++;
+    if (rtk_config_load(path, registry, opts, &cfg) != RTK_OK || !cfg) {
+        failures++;
+        fprintf(stderr, "%s:%d: %s failed: %s\n", __FILE__, line, path, rtk_error_message());
+        return NULL;
+    }
+    return cfg;
+}
+
+static int ends_with(const char *s, const char *tail)
+{
+    size_t a = strlen(s), b = strlen(tail);
+    return a >= b && strcmp(s + a - b, tail) == 0;
+}
+
+static void test_minimal(void)
+{
+    const char *path = write_file("minimal.cfg", "scene = \"model.obj\";\n");
+    rtk_config *cfg = expect_ok(__LINE__, path, NULL);
+    if (!cfg)
+        return;
+    char want[600];
+    snprintf(want, sizeof want, "%s/model.obj", tmpdir);
+    CHECK(strcmp(cfg->scene_path, want) == 0);
+    snprintf(want, sizeof want, "%s/minimal.png", tmpdir);
+    CHECK(strcmp(cfg->output, want) == 0);
+    CHECK(cfg->width == 512 && cfg->height == 512 && cfg->spp == 16);
+    CHECK(cfg->threads == 0 && cfg->seed == 0 && cfg->half == 0);
+    CHECK(!cfg->aov_albedo && !cfg->aov_normal && !cfg->aov_depth);
+    CHECK(strcmp(cfg->sampler_type, "independent") == 0);
+    CHECK(cfg->has_camera == 0);
+    CHECK(strcmp(cfg->integrator.plugin->name, "headlight") == 0);
+    CHECK(strcmp(cfg->accelerator.plugin->name, "median") == 0);
+    CHECK(strcmp(cfg->filter.plugin->name, "box") == 0);
+    CHECK(cfg->integrator.params && cfg->accelerator.params && cfg->filter.params);
+    CHECK(rtk_params_float(cfg->filter.params, "radius") == 0.5);
+    rtk_config_destroy(cfg);
+}
+
+static void test_full(void)
+{
+    const char *path = write_file("full.cfg",
+                                  "scene = \"cornell/cornell.obj\";\n"
+                                  "camera = { position = [0.0, 1.0, 3.9]; look_at = [0, 1, 0]; fov = 50; };\n"
+                                  "film = { width = 320; height = 240; spp = 4; output = \"out/img.exr\";\n"
+                                  "         half = true; aovs = [\"albedo\", \"depth\"]; };\n"
+                                  "sampler = { type = \"independent\"; seed = 7; };\n"
+                                  "threads = 3;\n"
+                                  "accelerator = { plugin = \"median\"; };\n"
+                                  "integrator = \"headlight\";\n"
+                                  "filter = { plugin = \"box\"; radius = 2; };\n");
+    rtk_config *cfg = expect_ok(__LINE__, path, NULL);
+    if (!cfg)
+        return;
+    CHECK(cfg->has_camera);
+    CHECK(cfg->camera.position.x == 0.0f && cfg->camera.position.y == 1.0f && cfg->camera.position.z == 3.9f);
+    CHECK(cfg->camera.look_at.y == 1.0f && cfg->camera.up.y == 1.0f && cfg->camera.up.x == 0.0f);
+    CHECK(cfg->camera.fov_deg == 50.0f);
+    CHECK(cfg->width == 320 && cfg->height == 240 && cfg->spp == 4 && cfg->half == 1);
+    CHECK(ends_with(cfg->output, "/out/img.exr"));
+    CHECK(cfg->aov_albedo && !cfg->aov_normal && cfg->aov_depth);
+    CHECK(cfg->seed == 7 && cfg->threads == 3);
+    CHECK(strcmp(cfg->integrator.plugin->name, "headlight") == 0);
+    CHECK(rtk_params_float(cfg->filter.params, "radius") == 2.0); /* integer accepted for a float */
+    rtk_config_destroy(cfg);
+}
+
+static void test_errors(void)
+{
+    const char *p;
+    p = write_file("typo_slot.cfg", "scene = \"m.obj\";\n\nintgrator = { plugin = \"headlight\"; };\n");
+    expect_error(__LINE__, p, NULL, "typo_slot.cfg:3", "'intgrator'", "did you mean 'integrator'", NULL);
+
+    p = write_file("film_key.cfg", "scene = \"m.obj\";\nfilm = {\n  widht = 64;\n};\n");
+    expect_error(__LINE__, p, NULL, "film_key.cfg:3", "film", "'widht'", "did you mean 'width'", "height", NULL);
+
+    p = write_file("wrong_type.cfg", "scene = \"m.obj\";\nfilm = { width = \"big\"; };\n");
+    expect_error(__LINE__, p, NULL, "wrong_type.cfg:2", "width", "expected an integer, found a string", NULL);
+
+    p = write_file("float_int.cfg", "scene = \"m.obj\";\nfilm = { spp = 4.0; };\n");
+    expect_error(__LINE__, p, NULL, "float_int.cfg:2", "spp", "expected an integer, found a float", NULL);
+
+    p = write_file("range.cfg", "scene = \"m.obj\";\nfilm = {\n spp = 0; };\n");
+    expect_error(__LINE__, p, NULL, "range.cfg:3", "spp = 0 is out of range [1, 1048576]", NULL);
+
+    p = write_file("fov.cfg", "scene = \"m.obj\";\ncamera = { position = [0, 0, 1]; look_at = [0, 0, 0];\n fov = 180; };\n");
+    expect_error(__LINE__, p, NULL, "fov.cfg:3", "fov = 180 is out of range (0, 180)", NULL);
+
+    p = write_file("camera_req.cfg", "scene = \"m.obj\";\ncamera = { look_at = [0, 0, 0]; };\n");
+    expect_error(__LINE__, p, NULL, "camera_req.cfg:2", "camera", "'position'", NULL);
+
+    p = write_file("vec.cfg", "scene = \"m.obj\";\ncamera = { position = [0, 1]; look_at = [0, 0, 0]; };\n");
+    expect_error(__LINE__, p, NULL, "vec.cfg:2", "position", "expected 3 numbers", NULL);
+
+    p = write_file("aovs.cfg", "scene = \"m.obj\";\nfilm = { aovs = [\"albdo\"]; };\n");
+    expect_error(__LINE__, p, NULL, "aovs.cfg:2", "'albdo'", "did you mean 'albedo'", NULL);
+
+    p = write_file("choice.cfg", "scene = \"m.obj\";\nsampler = { type = \"sobel\"; };\n");
+    expect_error(__LINE__, p, NULL, "choice.cfg:2", "type = 'sobel' is not one of: independent", NULL);
+
+    p = write_file("threads.cfg", "scene = \"m.obj\";\nthreads = -1;\n");
+    expect_error(__LINE__, p, NULL, "threads.cfg:2", "threads = -1 is out of range [0, 1024]", NULL);
+
+    p = write_file("no_scene.cfg", "film = { width = 64; };\n");
+    expect_error(__LINE__, p, NULL, "no_scene.cfg: no 'scene' setting", "scene = \"path/to/model.obj\";", NULL);
+
+    p = write_file("scnee.cfg", "scnee = \"m.obj\";\n");
+    expect_error(__LINE__, p, NULL, "scnee.cfg:1", "did you mean 'scene'", NULL);
+
+    p = write_file("syntax.cfg", "scene = \"m.obj\";\n\nfilm = { width = ; };\n");
+    expect_error(__LINE__, p, NULL, "syntax.cfg:3", "syntax error", NULL);
+
+    char missing[512];
+    snprintf(missing, sizeof missing, "%s/nope.cfg", tmpdir);
+    expect_error(__LINE__, missing, NULL, "nope.cfg", "cannot read config", NULL);
+}
+
+static void test_plugins(void)
+{
+    const char *p;
+    p = write_file("headlite.cfg", "scene = \"m.obj\";\nintegrator = { plugin = \"headlite\"; };\n");
+    expect_error(__LINE__, p, NULL, "headlite.cfg:2", "integrator", "headlite", "headlight", NULL);
+
+    p = write_file("kind.cfg", "scene = \"m.obj\";\n\nintegrator = { plugin = \"box\"; };\n");
+    expect_error(__LINE__, p, NULL, "kind.cfg:3", "integrator", "box", "filter", NULL);
+
+    p = write_file("raduis.cfg", "scene = \"m.obj\";\nfilter = { plugin = \"box\";\n  raduis = 1.0; };\n");
+    expect_error(__LINE__, p, NULL, "raduis.cfg:3", "filter", "'raduis'", "did you mean 'radius'", "keys of box",
+                 NULL);
+
+    p = write_file("radius_range.cfg", "scene = \"m.obj\";\nfilter = { plugin = \"box\"; radius = 100.0; };\n");
+    expect_error(__LINE__, p, NULL, "radius_range.cfg:2", "radius = 100 is out of range [0.001, 16]", NULL);
+
+    p = write_file("plugin_type.cfg", "scene = \"m.obj\";\nfilter = { plugin = 3; };\n");
+    expect_error(__LINE__, p, NULL, "plugin_type.cfg:2", "filter: plugin: expected a plugin name", NULL);
+
+    p = write_file("default_key.cfg", "scene = \"m.obj\";\nintegrator = { rays = 4; };\n");
+    expect_error(__LINE__, p, NULL, "default_key.cfg:2", "'rays'", "keys of headlight", NULL);
+
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s/myplugins", tmpdir);
+    mkdir(dir, 0755);
+    p = write_file("plugin_path.cfg", "scene = \"m.obj\";\nplugin_path = \"myplugins\";\n");
+    expect_error(__LINE__, p, NULL, "plugin_path.cfg:2", "plugin_path would load code from", "myplugins",
+                 "--allow-config-plugins", NULL);
+    rtk_config_options trust = {.size = sizeof trust, .allow_config_plugins = 1};
+    rtk_config_destroy(expect_ok(__LINE__, p, &trust));
+
+    p = write_file("plugin_list.cfg", "scene = \"m.obj\";\nplugin_path = [\"myplugins\", \"missing\"];\n");
+    expect_error(__LINE__, p, &trust, "plugin_list.cfg:2", "missing", "not a directory", NULL);
+
+    p = write_file("plugin_file.cfg", "scene = \"m.obj\";\nfilter = { plugin = \"./myplugins/box.so\"; };\n");
+    expect_error(__LINE__, p, NULL, "plugin_file.cfg:2", "would load code from", "box.so", "--allow-config-plugins",
+                 NULL);
+}
+
+static void test_overrides(void)
+{
+    const char *p = write_file("over.cfg", "scene = \"m.obj\";\nfilm = { width = 32; };\n");
+    const char *set[] = {"film.width=64", "film.height=48", "scene=other.obj", "camera.position=[1, 2, 3]",
+                         "camera.look_at=[0,0,0]", "film.output=2024.exr", "filter.radius=1", "film.aovs=[normal]",
+                         "sampler.seed=5000000000"};
+    rtk_config_options opts = {.size = sizeof opts, .overrides = set, .override_count = RTK_COUNTOF(set)};
+    rtk_config *cfg = expect_ok(__LINE__, p, &opts);
+    if (cfg) {
+        CHECK(cfg->width == 64 && cfg->height == 48);
+        CHECK(ends_with(cfg->scene_path, "/other.obj"));
+        CHECK(cfg->has_camera && cfg->camera.position.x == 1.0f && cfg->camera.position.z == 3.0f);
+        CHECK(ends_with(cfg->output, "/2024.exr"));
+        CHECK(rtk_params_float(cfg->filter.params, "radius") == 1.0);
+        CHECK(cfg->aov_normal && !cfg->aov_albedo);
+        CHECK(cfg->seed == 5000000000ull);
+        rtk_config_destroy(cfg);
+    }
+
+    const char *bogus[] = {"integrator.bogus=1"};
+    rtk_config_options bad = {.size = sizeof bad, .overrides = bogus, .override_count = 1};
+    expect_error(__LINE__, p, &bad, "--set integrator.bogus=1", "'bogus'", NULL);
+
+    const char *range[] = {"film.width=0"};
+    bad.overrides = range;
+    expect_error(__LINE__, p, &bad, "--set film.width=0", "width = 0 is out of range", NULL);
+
+    const char *noeq[] = {"film.width"};
+    bad.overrides = noeq;
+    expect_error(__LINE__, p, &bad, "--set film.width", "path=value", NULL);
+
+    const char *nopath[] = {"=3"};
+    bad.overrides = nopath;
+    expect_error(__LINE__, p, &bad, "--set =3", "empty", NULL);
+
+    const char *dots[] = {"film..width=3"};
+    bad.overrides = dots;
+    expect_error(__LINE__, p, &bad, "--set film..width=3", "malformed", NULL);
+
+    const char *notgroup[] = {"scene.x=3"};
+    bad.overrides = notgroup;
+    expect_error(__LINE__, p, &bad, "--set scene.x=3", "not a group", "over.cfg:1", NULL);
+
+    const char *mixed[] = {"camera.position=[1, a, 3]"};
+    bad.overrides = mixed;
+    expect_error(__LINE__, p, &bad, "--set camera.position=[1, a, 3]", "numbers or strings", NULL);
+}
+
+static void test_paths(void)
+{
+    char sub[512];
+    snprintf(sub, sizeof sub, "%s/sub", tmpdir);
+    mkdir(sub, 0755);
+    const char *p = write_file("sub/rel.cfg", "scene = \"../models/a.obj\";\nfilm = { output = \"img.png\"; };\n");
+    rtk_config *cfg = expect_ok(__LINE__, p, NULL);
+    if (cfg) {
+        char want[600];
+        snprintf(want, sizeof want, "%s/sub/../models/a.obj", tmpdir);
+        CHECK(strcmp(cfg->scene_path, want) == 0);
+        snprintf(want, sizeof want, "%s/sub/img.png", tmpdir);
+        CHECK(strcmp(cfg->output, want) == 0);
+        rtk_config_destroy(cfg);
+    }
+
+    write_file("sub/part.cfg", "film = {\n  spp = 0;\n};\n");
+    p = write_file("sub/main.cfg", "scene = \"m.obj\";\n@include \"part.cfg\"\n");
+    expect_error(__LINE__, p, NULL, "sub/part.cfg:2", "spp = 0", NULL);
+}
+
+/* Every config in scenes/bad/ must fail; its first line reads
+ * "// expect: <text>" and the error must contain the file name and text. */
+static void test_bad_scenes(void)
+{
+    const char *dir = TEST_DIR "/../../scenes/bad";
+    DIR *d = opendir(dir);
+    CHECK(d != NULL);
+    if (!d)
+        return;
+    int seen = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        size_t n = strlen(e->d_name);
+        if (n < 5 || strcmp(e->d_name + n - 4, ".cfg") != 0)
+            continue;
+        char path[1024], line[512] = "";
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        FILE *f = fopen(path, "r");
+        if (!f || !fgets(line, sizeof line, f)) {
+            if (f)
+                fclose(f);
+            CHECK(!"unreadable scenes/bad file");
+            continue;
+        }
+        fclose(f);
+        line[strcspn(line, "\r\n")] = '\0';
+        const char *tag = "// expect: ";
+        CHECK(strncmp(line, tag, strlen(tag)) == 0);
+        char where[300];
+        snprintf(where, sizeof where, "%s:", e->d_name);
+        expect_error(__LINE__, path, NULL, where, line + strlen(tag), NULL);
+        seen++;
+    }
+    closedir(d);
+    CHECK(seen > 0);
+}
+
+/* Removes the temporary tree (files and one level of directories). */
+static void remove_tree(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0)
+            continue;
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        struct stat st;
+        if (lstat(path, &st) == 0 && S_ISDIR(st.st_mode))
+            remove_tree(path);
+        else
+            unlink(path);
+    }
+    closedir(d);
+    rmdir(dir);
+}
+
+int main(void)
+{
+    snprintf(tmpdir, sizeof tmpdir, "%s", "/tmp/rtk-test-config-XXXXXX");
+    if (!mkdtemp(tmpdir)) {
+        perror("mkdtemp");
+        return 1;
+    }
+    if (rtk_registry_create(&registry) != RTK_OK) {
+        fprintf(stderr, "registry: %s\n", rtk_error_message());
+        remove_tree(tmpdir);
+        return 1;
+    }
+    test_minimal();
+    test_full();
+    test_errors();
+    test_plugins();
+    test_overrides();
+    test_paths();
+    test_bad_scenes();
+    rtk_registry_destroy(registry);
+    remove_tree(tmpdir);
+    printf("%d checks, %d failed\n", checks, failures);
+    return failures ? 1 : 0;
+}
