@@ -1,0 +1,1022 @@
+/* Config loading: libconfig text, then the --set overrides, then every
+ * value checked against a schema, then the plugins resolved. The kernel's
+ * own settings (scene, camera, film, sampler, threads) are described with
+ * the same rtk_param_desc tables as plugin parameters, so every slot gets
+ * the same checks and "did you mean" suggestions. Every error names the
+ * config file and line, or the --set entry it came from, and happens
+ * before any scene data is read. */
+#include "internal.h"
+
+#include <errno.h>
+#include <libconfig.h>
+#include <limits.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static const rtk_param_desc top_params[] = {
+    {.name = "scene", .type = RTK_PARAM_STRING, .required = 1,
+     .doc = "model to render (.obj, .gltf, .glb), relative to the config file"},
+    {.name = "camera", .type = RTK_PARAM_STRING, .doc = "group: position, look_at, up, fov"},
+    {.name = "film", .type = RTK_PARAM_STRING, .doc = "group: width, height, spp, output, half, aovs"},
+    {.name = "sampler", .type = RTK_PARAM_STRING, .doc = "group: type, seed"},
+    {.name = "threads", .type = RTK_PARAM_INT, .def = 0, .min = 0, .max = 1024,
+     .doc = "render threads, 0 = one per core"},
+    {.name = "plugin_path", .type = RTK_PARAM_STRING,
+     .doc = "directory or list of directories with more plugins (trusted configs only)"},
+    {.name = "accelerator", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"median\"; and its parameters"},
+    {.name = "integrator", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"headlight\"; and its parameters"},
+    {.name = "filter", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"box\"; and its parameters"},
+};
+static const char *const top_special[] = {"camera", "film", "sampler", "plugin_path",
+                                          "accelerator", "integrator", "filter", NULL};
+
+static const rtk_param_desc camera_params[] = {
+    {.name = "position", .type = RTK_PARAM_STRING, .required = 1, .doc = "eye point [x, y, z]"},
+    {.name = "look_at", .type = RTK_PARAM_STRING, .required = 1, .doc = "point looked at [x, y, z]"},
+    {.name = "up", .type = RTK_PARAM_STRING, .doc = "up direction [x, y, z], default [0, 1, 0]"},
+    {.name = "fov", .type = RTK_PARAM_FLOAT, .def = 39.3, .min = 0.0, .max = 180.0,
+     .doc = "vertical field of view in degrees, in (0, 180)"},
+};
+static const char *const camera_special[] = {"position", "look_at", "up", NULL};
+
+static const rtk_param_desc film_params[] = {
+    {.name = "width", .type = RTK_PARAM_INT, .def = 512, .min = 1, .max = 16384, .doc = "image width in pixels"},
+    {.name = "height", .type = RTK_PARAM_INT, .def = 512, .min = 1, .max = 16384, .doc = "image height in pixels"},
+    {.name = "spp", .type = RTK_PARAM_INT, .def = 16, .min = 1, .max = 1 << 20, .doc = "samples per pixel"},
+    {.name = "output", .type = RTK_PARAM_STRING, .def_string = "",
+     .doc = "image file (.exr or .png), default <config name>.png next to the config"},
+    {.name = "half", .type = RTK_PARAM_BOOL, .def = 0, .doc = "store EXR channels as half floats"},
+    {.name = "aovs", .type = RTK_PARAM_STRING,
+     .doc = "extra EXR layers: a list of \"albedo\", \"normal\", \"depth\""},
+};
+static const char *const film_special[] = {"aovs", NULL};
+
+static const rtk_param_desc sampler_params[] = {
+    {.name = "type", .type = RTK_PARAM_STRING, .def_string = "independent", .choices = "independent",
+     .doc = "sample generator"},
+    {.name = "seed", .type = RTK_PARAM_INT, .def = 0, .min = 0, .max = 9223372036854775807.0,
+     .doc = "seed of the sample streams"},
+};
+
+static const rtk_plugin top_schema = {RTK_PLUGIN_HEADER, .name = "the config", .params = top_params,
+                                      .param_count = RTK_COUNTOF(top_params)};
+static const rtk_plugin camera_schema = {RTK_PLUGIN_HEADER, .name = "camera", .params = camera_params,
+                                         .param_count = RTK_COUNTOF(camera_params)};
+static const rtk_plugin film_schema = {RTK_PLUGIN_HEADER, .name = "film", .params = film_params,
+                                       .param_count = RTK_COUNTOF(film_params)};
+static const rtk_plugin sampler_schema = {RTK_PLUGIN_HEADER, .name = "sampler", .params = sampler_params,
+                                          .param_count = RTK_COUNTOF(sampler_params)};
+
+static const char aov_choices[] = "albedo|normal|depth";
+
+/* State of one rtk_config_load call. */
+typedef struct loader {
+    const char *path;      /* the config file as the caller named it */
+    char *dir;             /* its directory: relative paths start here */
+    config_t cfg;
+    rtk_registry *registry;
+    int trusted;           /* options->allow_config_plugins */
+    char **overrides;      /* copies of the --set entries; settings they made point here */
+    size_t override_count;
+    rtk_config *out;
+} loader;
+
+/* The name to show for file, a setting's source as libconfig reports it:
+ * @include names are relative to the config's directory. [caller frees] */
+static char *included_file(const loader *ld, const char *file)
+{
+    if (!file || strcmp(file, ld->path) == 0)
+        return rtk_strdup(ld->path);
+    return rtk_path_join(ld->dir, file);
+}
+
+/* Where s came from: "scene.cfg:7", "--set film.width=64", or the file
+ * alone when s is NULL or has no line. */
+static void where(const loader *ld, const config_setting_t *s, char *buf, size_t size)
+{
+    const char *entry = s ? config_setting_get_hook(s) : NULL;
+    if (entry) {
+        snprintf(buf, size, "--set %s", entry);
+        return;
+    }
+    const char *file = s ? config_setting_source_file(s) : NULL;
+    unsigned line = s ? config_setting_source_line(s) : 0;
+    char *shown = included_file(ld, file);
+    if (line)
+        snprintf(buf, size, "%s:%u", shown ? shown : ld->path, line);
+    else
+        snprintf(buf, size, "%s", shown ? shown : ld->path);
+    free(shown);
+}
+
+/* Records an error located at s and returns code. */
+static rtk_status fail(const loader *ld, const config_setting_t *s, rtk_status code, const char *fmt, ...)
+    RTK_PRINTF(4, 5);
+static rtk_status fail(const loader *ld, const config_setting_t *s, rtk_status code, const char *fmt, ...)
+{
+    char loc[1100], text[3000];
+    where(ld, s, loc, sizeof loc);
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    return rtk_error(code, "%s: %s", loc, text);
+}
+
+/* The text after '=' of the --set entry that made s, or NULL. */
+static const char *override_text(const config_setting_t *s)
+{
+    const char *entry = config_setting_get_hook(s);
+    const char *eq = entry ? strchr(entry, '=') : NULL;
+    return eq ? eq + 1 : NULL;
+}
+
+/* What s holds, for "expected X, found Y" messages. */
+static void describe_setting(const config_setting_t *s, char *buf, size_t size)
+{
+    switch (config_setting_type(s)) {
+    case CONFIG_TYPE_INT:
+    case CONFIG_TYPE_INT64:
+        snprintf(buf, size, "an integer (%lld)", config_setting_get_int64(s));
+        break;
+    case CONFIG_TYPE_FLOAT:
+        snprintf(buf, size, "a float (%g)", config_setting_get_float(s));
+        break;
+    case CONFIG_TYPE_BOOL:
+        snprintf(buf, size, "a boolean (%s)", config_setting_get_bool(s) ? "true" : "false");
+        break;
+    case CONFIG_TYPE_STRING:
+        snprintf(buf, size, "a string (\"%s\")", config_setting_get_string(s));
+        break;
+    case CONFIG_TYPE_GROUP:
+        snprintf(buf, size, "a group { ... }");
+        break;
+    case CONFIG_TYPE_ARRAY:
+        snprintf(buf, size, "an array [ ... ]");
+        break;
+    case CONFIG_TYPE_LIST:
+        snprintf(buf, size, "a list ( ... )");
+        break;
+    default:
+        snprintf(buf, size, "nothing");
+        break;
+    }
+}
+
+static int is_int_setting(const config_setting_t *s)
+{
+    return config_setting_type(s) == CONFIG_TYPE_INT || config_setting_type(s) == CONFIG_TYPE_INT64;
+}
+
+static int is_sequence(const config_setting_t *s)
+{
+    return config_setting_type(s) == CONFIG_TYPE_ARRAY || config_setting_type(s) == CONFIG_TYPE_LIST;
+}
+
+/* 1 for the spellings of infinity libconfig itself cannot parse. */
+static int is_inf_text(const char *s)
+{
+    if (*s == '+' || *s == '-')
+        s++;
+    return strcasecmp(s, "inf") == 0 || strcasecmp(s, "infinity") == 0;
+}
+
+static int in_list(const char *const *list, const char *name)
+{
+    for (; list && *list; list++) {
+        if (strcmp(*list, name) == 0)
+            return 1;
+    }
+    return 0;
+}
+
+static const rtk_param_desc *find_desc(const rtk_plugin *schema, const char *name)
+{
+    for (uint32_t i = 0; i < schema->param_count; i++) {
+        if (strcmp(schema->params[i].name, name) == 0)
+            return &schema->params[i];
+    }
+    return NULL;
+}
+
+static rtk_param_value *find_value(rtk_params *params, const char *name)
+{
+    for (uint32_t i = 0; i < params->count; i++) {
+        if (strcmp(params->values[i].desc->name, name) == 0)
+            return &params->values[i];
+    }
+    return NULL;
+}
+
+/* Sets one declared value from a libconfig setting: integers are accepted
+ * where numbers are expected, floats never where integers are; strings
+ * "inf"/"infinity" stand for the infinity libconfig cannot write. */
+static rtk_status set_from_setting(const loader *ld, rtk_params *params, const rtk_param_desc *desc,
+                                   const config_setting_t *s, const char *prefix)
+{
+    char text[64];
+    const char *use = NULL;
+    int type = config_setting_type(s);
+    switch (desc->type) {
+    case RTK_PARAM_INT:
+        if (is_int_setting(s)) {
+            snprintf(text, sizeof text, "%lld", config_setting_get_int64(s));
+            use = text;
+        }
+        break;
+    case RTK_PARAM_FLOAT:
+        if (is_int_setting(s)) {
+            snprintf(text, sizeof text, "%lld", config_setting_get_int64(s));
+            use = text;
+        } else if (type == CONFIG_TYPE_FLOAT) {
+            snprintf(text, sizeof text, "%.17g", config_setting_get_float(s));
+            use = text;
+        } else if (type == CONFIG_TYPE_STRING && is_inf_text(config_setting_get_string(s))) {
+            use = config_setting_get_string(s);
+        }
+        break;
+    case RTK_PARAM_BOOL:
+        if (type == CONFIG_TYPE_BOOL) {
+            use = config_setting_get_bool(s) ? "true" : "false";
+        } else if (is_int_setting(s)) {
+            snprintf(text, sizeof text, "%lld", config_setting_get_int64(s));
+            use = text;
+        }
+        break;
+    case RTK_PARAM_STRING:
+        if (type == CONFIG_TYPE_STRING)
+            use = config_setting_get_string(s);
+        break;
+    }
+    /* A --set value was typed by guessing; let the schema read its text
+     * (--set film.output=2024, --set film.half=yes). */
+    if (!use && config_setting_is_scalar(s))
+        use = override_text(s);
+    if (!use) {
+        char found[256];
+        describe_setting(s, found, sizeof found);
+        const char *expected = desc->type == RTK_PARAM_INT     ? "an integer"
+                               : desc->type == RTK_PARAM_FLOAT ? "a number"
+                               : desc->type == RTK_PARAM_BOOL  ? "a boolean (true or false)"
+                                                               : "a string";
+        return fail(ld, s, RTK_ERR_INVALID, "%s%s: expected %s, found %s", prefix, desc->name, expected, found);
+    }
+    if (rtk_params_set_text(params, desc->name, use) != RTK_OK)
+        return fail(ld, s, RTK_ERR_INVALID, "%s%s", prefix, rtk_error_message());
+    return RTK_OK;
+}
+
+/* Appends "a, b, c" (the schema's names, after "plugin" for plugin slots). */
+static void list_keys(const rtk_plugin *schema, int plugin_slot, char *buf, size_t size)
+{
+    size_t used = 0;
+    buf[0] = '\0';
+    if (plugin_slot)
+        used += (size_t)snprintf(buf, size, "plugin");
+    for (uint32_t i = 0; i < schema->param_count && used < size; i++)
+        used += (size_t)snprintf(buf + used, size - used, "%s%s", used ? ", " : "", schema->params[i].name);
+}
+
+/* How one group is checked against a schema. */
+typedef struct slot_spec {
+    const char *label;           /* "film", "integrator"; NULL at the top level */
+    const rtk_plugin *schema;    /* kernel table or the chosen plugin */
+    const char *const *special;  /* declared keys the caller reads itself (arrays, groups) */
+    int plugin_slot;             /* the group also holds plugin = "..." */
+    int plugin_chosen;           /* the plugin was named, not taken by default */
+    const config_setting_t *at;  /* where to point when the group is not given */
+} slot_spec;
+
+/* Error for a key the schema does not declare. */
+static rtk_status unknown_key(const loader *ld, const config_setting_t *s, const slot_spec *spec)
+{
+    const char *name = config_setting_name(s);
+    char keys[1024], hint[256] = "";
+    list_keys(spec->schema, spec->plugin_slot, keys, sizeof keys);
+    const char *near = rtk_params_suggest(spec->schema->params, spec->schema->param_count, name);
+    if (spec->plugin_slot) {
+        static const rtk_param_desc plugin_key[] = {{.name = "plugin", .type = RTK_PARAM_STRING}};
+        const char *p = rtk_params_suggest(plugin_key, 1, name);
+        if (p && (!near || rtk_edit_distance(name, p) < rtk_edit_distance(name, near)))
+            near = p;
+    }
+    char mean[200] = "";
+    if (near)
+        snprintf(mean, sizeof mean, " (did you mean '%s'?)", near);
+    if (spec->plugin_slot && !spec->plugin_chosen)
+        snprintf(hint, sizeof hint, "; %s is the default %s: choose another with plugin = \"name\";",
+                 spec->schema->name, spec->label);
+    if (!spec->label)
+        return fail(ld, s, RTK_ERR_INVALID, "unknown setting '%s'%s; top-level settings: %s", name, mean, keys);
+    return fail(ld, s, RTK_ERR_INVALID, "%s: unknown key '%s'%s; keys of %s: %s%s", spec->label, name, mean,
+                spec->schema->name, keys, hint);
+}
+
+/* Checks every member of group (NULL = not given) against spec and returns
+ * the params with defaults for the rest. Keys in spec->special are left to
+ * the caller and only marked as given. */
+static rtk_status fill_params(const loader *ld, const config_setting_t *group, const slot_spec *spec,
+                              rtk_params **out)
+{
+    *out = NULL;
+    rtk_params *params = rtk_params_defaults(spec->schema);
+    if (!params)
+        return RTK_ERR_NOMEM;
+    char prefix[128] = "";
+    if (spec->label)
+        snprintf(prefix, sizeof prefix, "%s: ", spec->label);
+    int count = group ? config_setting_length(group) : 0;
+    for (int i = 0; i < count; i++) {
+        const config_setting_t *s = config_setting_get_elem(group, (unsigned)i);
+        const char *name = config_setting_name(s);
+        if (spec->plugin_slot && strcmp(name, "plugin") == 0)
+            continue;
+        rtk_param_value *value = find_value(params, name);
+        rtk_status status = RTK_OK;
+        if (!value)
+            status = unknown_key(ld, s, spec);
+        else if (in_list(spec->special, name))
+            value->set_by_user = 1;
+        else
+            status = set_from_setting(ld, params, value->desc, s, prefix);
+        if (status != RTK_OK) {
+            rtk_params_destroy(params);
+            return status;
+        }
+    }
+    const config_setting_t *at = group ? group : spec->at;
+    for (uint32_t i = 0; i < params->count; i++) {
+        const rtk_param_desc *desc = params->values[i].desc; /* points into the schema */
+        if (desc->required && !params->values[i].set_by_user) {
+            rtk_params_destroy(params);
+            const char *doc = desc->doc ? desc->doc : "required";
+            if (spec->plugin_slot)
+                return fail(ld, at, RTK_ERR_INVALID, "%s: plugin %s needs '%s' (%s)", spec->label, spec->schema->name,
+                            desc->name, doc);
+            return fail(ld, at, RTK_ERR_INVALID, "%smissing required key '%s' (%s)", prefix, desc->name, doc);
+        }
+    }
+    *out = params;
+    return RTK_OK;
+}
+
+/* The member key of group, or NULL when group is NULL or lacks it. */
+static config_setting_t *member(const config_setting_t *group, const char *key)
+{
+    return group ? config_setting_get_member(group, key) : NULL;
+}
+
+/* Reads key of group as [x, y, z] when given. */
+static rtk_status read_vec3(const loader *ld, const config_setting_t *group, const char *label, const char *key,
+                            rtk_vec3 *out)
+{
+    const config_setting_t *s = member(group, key);
+    if (!s)
+        return RTK_OK;
+    char found[256];
+    if (!is_sequence(s) || config_setting_length(s) != 3) {
+        if (is_sequence(s))
+            snprintf(found, sizeof found, "%d elements", config_setting_length(s));
+        else
+            describe_setting(s, found, sizeof found);
+        return fail(ld, s, RTK_ERR_INVALID, "%s: %s: expected 3 numbers [x, y, z], found %s", label, key, found);
+    }
+    double v[3];
+    for (unsigned i = 0; i < 3; i++) {
+        const config_setting_t *e = config_setting_get_elem(s, i);
+        if (is_int_setting(e)) {
+            v[i] = (double)config_setting_get_int64(e);
+        } else if (config_setting_type(e) == CONFIG_TYPE_FLOAT) {
+            v[i] = config_setting_get_float(e);
+        } else {
+            describe_setting(e, found, sizeof found);
+            return fail(ld, s, RTK_ERR_INVALID, "%s: %s: element %u: expected a number, found %s", label, key,
+                        i + 1, found);
+        }
+        if (!isfinite(v[i]) || fabs(v[i]) > 3.0e38)
+            return fail(ld, s, RTK_ERR_INVALID, "%s: %s: element %u (%g) is not a finite float", label, key,
+                        i + 1, v[i]);
+    }
+    *out = rtk_vec3_make((float)v[0], (float)v[1], (float)v[2]);
+    return RTK_OK;
+}
+
+/* Reads film.aovs: one string or a list of strings among aov_choices. */
+static rtk_status read_aovs(const loader *ld, const config_setting_t *film, rtk_config *cfg)
+{
+    const config_setting_t *s = member(film, "aovs");
+    if (!s)
+        return RTK_OK;
+    if (!is_sequence(s) && config_setting_type(s) != CONFIG_TYPE_STRING) {
+        char found[256];
+        describe_setting(s, found, sizeof found);
+        return fail(ld, s, RTK_ERR_INVALID, "film: aovs: expected a list of strings like [\"albedo\", \"depth\"], found %s",
+                    found);
+    }
+    int count = is_sequence(s) ? config_setting_length(s) : 1;
+    for (int i = 0; i < count; i++) {
+        const config_setting_t *e = is_sequence(s) ? config_setting_get_elem(s, (unsigned)i) : s;
+        if (config_setting_type(e) != CONFIG_TYPE_STRING) {
+            char found[256];
+            describe_setting(e, found, sizeof found);
+            return fail(ld, s, RTK_ERR_INVALID, "film: aovs: expected one of \"albedo\", \"normal\", \"depth\", found %s",
+                        found);
+        }
+        const char *name = config_setting_get_string(e);
+        if (strcmp(name, "albedo") == 0) {
+            cfg->aov_albedo = 1;
+        } else if (strcmp(name, "normal") == 0) {
+            cfg->aov_normal = 1;
+        } else if (strcmp(name, "depth") == 0) {
+            cfg->aov_depth = 1;
+        } else {
+            static const rtk_param_desc aovs[] = {{.name = "albedo"}, {.name = "normal"}, {.name = "depth"}};
+            const char *near = rtk_params_suggest(aovs, RTK_COUNTOF(aovs), name);
+            char mean[128] = "";
+            if (near)
+                snprintf(mean, sizeof mean, " (did you mean '%s'?)", near);
+            return fail(ld, s, RTK_ERR_INVALID, "film: aovs: '%s' is not one of: %s%s", name, aov_choices, mean);
+        }
+    }
+    return RTK_OK;
+}
+
+/* Resolves a path against the config's directory: canonical when it
+ * exists, else made absolute, so trust messages show the real place. */
+static char *resolve(const loader *ld, const char *path)
+{
+    char *joined = rtk_path_join(ld->dir, path);
+    if (!joined)
+        return NULL;
+    char *real = realpath(joined, NULL);
+    if (real) {
+        free(joined);
+        return real;
+    }
+    char cwd[4096];
+    if (joined[0] == '/' || !getcwd(cwd, sizeof cwd))
+        return joined;
+    char *absolute = rtk_path_join(cwd, joined);
+    free(joined);
+    return absolute;
+}
+
+/* Honours plugin_path (a string or a list of strings) for trusted configs. */
+static rtk_status read_plugin_path(const loader *ld, const config_setting_t *root)
+{
+    const config_setting_t *s = member(root, "plugin_path");
+    if (!s)
+        return RTK_OK;
+    int count = is_sequence(s) ? config_setting_length(s) : 1;
+    if (!is_sequence(s) && config_setting_type(s) != CONFIG_TYPE_STRING)
+        count = -1;
+    for (int i = 0; i < count; i++) {
+        const config_setting_t *e = is_sequence(s) ? config_setting_get_elem(s, (unsigned)i) : s;
+        if (config_setting_type(e) != CONFIG_TYPE_STRING) {
+            count = -1;
+            break;
+        }
+    }
+    if (count < 0) {
+        char found[256];
+        describe_setting(s, found, sizeof found);
+        return fail(ld, s, RTK_ERR_INVALID,
+                    "plugin_path: expected a directory or a list of directories [\"a\", \"b\"], found %s", found);
+    }
+    for (int i = 0; i < count; i++) {
+        const config_setting_t *e = is_sequence(s) ? config_setting_get_elem(s, (unsigned)i) : s;
+        const char *text = config_setting_get_string(e);
+        if (!text[0])
+            return fail(ld, s, RTK_ERR_INVALID, "plugin_path: empty directory name");
+        char *dir = resolve(ld, text);
+        if (!dir)
+            return RTK_ERR_NOMEM;
+        rtk_status status = RTK_OK;
+        struct stat st;
+        if (!ld->trusted)
+            status = fail(ld, s, RTK_ERR_PLUGIN,
+                          "plugin_path would load code from '%s' named by the config; rerun with "
+                          "--allow-config-plugins if you trust this config",
+                          dir);
+        else if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
+            status = fail(ld, s, RTK_ERR_IO, "plugin_path: '%s' is not a directory", dir);
+        else
+            rtk_registry_add_dir(ld->registry, dir, "config plugin_path");
+        free(dir);
+        if (status != RTK_OK)
+            return status;
+    }
+    return RTK_OK;
+}
+
+/* Resolves one plugin slot (a group with plugin = "name", or just the
+ * name) and checks its parameters against the plugin's schema. */
+static rtk_status load_slot(const loader *ld, const config_setting_t *root, const char *slot,
+                            rtk_plugin_kind kind, const char *default_name, rtk_plugin_slot *out)
+{
+    const config_setting_t *s = member(root, slot);
+    const config_setting_t *group = NULL, *named_at = s;
+    const char *name = default_name;
+    char found[256];
+    if (s && config_setting_type(s) == CONFIG_TYPE_STRING) {
+        name = config_setting_get_string(s);
+    } else if (s && config_setting_is_group(s)) {
+        group = s;
+        const config_setting_t *p = member(s, "plugin");
+        if (p) {
+            named_at = p;
+            if (config_setting_type(p) != CONFIG_TYPE_STRING) {
+                describe_setting(p, found, sizeof found);
+                return fail(ld, p, RTK_ERR_INVALID, "%s: plugin: expected a plugin name like \"%s\", found %s", slot,
+                            default_name, found);
+            }
+            name = config_setting_get_string(p);
+        }
+    } else if (s) {
+        describe_setting(s, found, sizeof found);
+        return fail(ld, s, RTK_ERR_INVALID, "%s: expected a group { plugin = \"%s\"; ... }, found %s", slot,
+                    default_name, found);
+    }
+    if (!name[0])
+        return fail(ld, named_at, RTK_ERR_INVALID, "%s: plugin name is empty", slot);
+    const rtk_plugin *plugin = NULL;
+    rtk_status status;
+    if (strchr(name, '/')) {
+        char *file = resolve(ld, name);
+        if (!file)
+            return RTK_ERR_NOMEM;
+        if (!ld->trusted)
+            status = fail(ld, named_at, RTK_ERR_PLUGIN,
+                          "%s: plugin = \"%s\" would load code from '%s' named by the config; rerun with "
+                          "--allow-config-plugins if you trust this config",
+                          slot, name, file);
+        else if ((status = rtk_plugin_open(file, kind, &plugin)) != RTK_OK)
+            status = fail(ld, named_at, status, "%s: %s", slot, rtk_error_message());
+        free(file);
+        if (status != RTK_OK)
+            return status;
+    } else if ((status = rtk_registry_find(ld->registry, kind, name, &plugin)) != RTK_OK) {
+        return fail(ld, named_at, status, "%s: %s", slot, rtk_error_message());
+    }
+    if (!plugin || plugin->kind != kind)
+        return fail(ld, named_at, RTK_ERR_PLUGIN, "%s: plugin '%s' is of kind %s, not %s", slot, name,
+                    plugin ? rtk_kind_name(plugin->kind) : "(none)", rtk_kind_name(kind));
+    slot_spec spec = {.label = slot, .schema = plugin, .plugin_slot = 1, .plugin_chosen = s != NULL,
+                      .at = named_at};
+    status = fill_params(ld, group, &spec, &out->params);
+    if (status == RTK_OK)
+        out->plugin = plugin;
+    return status;
+}
+
+/* Checks that a top-level kernel slot is a group. */
+static rtk_status expect_group(const loader *ld, const config_setting_t *s, const char *example)
+{
+    if (!s || config_setting_is_group(s))
+        return RTK_OK;
+    char found[256];
+    describe_setting(s, found, sizeof found);
+    return fail(ld, s, RTK_ERR_INVALID, "%s: expected a group like %s = { %s }, found %s", config_setting_name(s),
+                config_setting_name(s), example, found);
+}
+
+static rtk_status read_camera(const loader *ld, const config_setting_t *root, rtk_config *cfg)
+{
+    const config_setting_t *group = member(root, "camera");
+    rtk_status status = expect_group(ld, group, "position = [0.0, 1.0, 4.0]; look_at = [0.0, 1.0, 0.0];");
+    if (status != RTK_OK)
+        return status;
+    rtk_params *params = NULL;
+    slot_spec spec = {.label = "camera", .schema = &camera_schema, .special = camera_special};
+    if (group && (status = fill_params(ld, group, &spec, &params)) != RTK_OK)
+        return status;
+    cfg->has_camera = group != NULL;
+    cfg->camera.position = rtk_vec3_make(0.0f, 0.0f, 0.0f);
+    cfg->camera.look_at = rtk_vec3_make(0.0f, 0.0f, -1.0f);
+    cfg->camera.up = rtk_vec3_make(0.0f, 1.0f, 0.0f);
+    cfg->camera.fov_deg = 39.3f;
+    if (!params)
+        return RTK_OK;
+    double fov = rtk_params_float(params, "fov");
+    rtk_params_destroy(params);
+    if (fov <= 0.0 || fov >= 180.0)
+        return fail(ld, member(group, "fov"), RTK_ERR_INVALID, "camera: fov = %g is out of range (0, 180)", fov);
+    cfg->camera.fov_deg = (float)fov;
+    if ((status = read_vec3(ld, group, "camera", "position", &cfg->camera.position)) != RTK_OK ||
+        (status = read_vec3(ld, group, "camera", "look_at", &cfg->camera.look_at)) != RTK_OK ||
+        (status = read_vec3(ld, group, "camera", "up", &cfg->camera.up)) != RTK_OK)
+        return status;
+    return RTK_OK;
+}
+
+/* "<config name without .cfg>.png" next to the config. */
+static char *default_output(const loader *ld)
+{
+    const char *slash = strrchr(ld->path, '/');
+    const char *base = slash ? slash + 1 : ld->path;
+    size_t n = strlen(base);
+    if (n > 4 && strcmp(base + n - 4, ".cfg") == 0)
+        n -= 4;
+    char name[1024];
+    snprintf(name, sizeof name, "%.*s.png", (int)(n < 1000 ? n : 1000), base);
+    return rtk_path_join(ld->dir, name);
+}
+
+static rtk_status read_film(const loader *ld, const config_setting_t *root, rtk_config *cfg)
+{
+    const config_setting_t *group = member(root, "film");
+    rtk_status status = expect_group(ld, group, "width = 512; height = 512; spp = 16;");
+    if (status != RTK_OK)
+        return status;
+    rtk_params *params = NULL;
+    slot_spec spec = {.label = "film", .schema = &film_schema, .special = film_special};
+    if ((status = fill_params(ld, group, &spec, &params)) != RTK_OK)
+        return status;
+    cfg->width = (uint32_t)rtk_params_int(params, "width");
+    cfg->height = (uint32_t)rtk_params_int(params, "height");
+    cfg->spp = (uint32_t)rtk_params_int(params, "spp");
+    cfg->half = rtk_params_bool(params, "half");
+    const char *output = rtk_params_string(params, "output");
+    const config_setting_t *at = member(group, "output");
+    if (at && !output[0]) {
+        status = fail(ld, at, RTK_ERR_INVALID, "film: output is empty");
+    } else if (at) {
+        const char *slash = strrchr(output, '/');
+        const char *dot = strrchr(slash ? slash + 1 : output, '.');
+        if (!dot || dot == (slash ? slash + 1 : output) || !dot[1])
+            status = fail(ld, at, RTK_ERR_INVALID,
+                          "film: output = \"%s\" has no file extension; the format comes from it (.exr, .png)", output);
+        else if (!(cfg->output = rtk_path_join(ld->dir, output)))
+            status = RTK_ERR_NOMEM;
+    } else if (!(cfg->output = default_output(ld))) {
+        status = RTK_ERR_NOMEM;
+    }
+    rtk_params_destroy(params);
+    if (status != RTK_OK)
+        return status;
+    return read_aovs(ld, group, cfg);
+}
+
+static rtk_status read_sampler(const loader *ld, const config_setting_t *root, rtk_config *cfg)
+{
+    const config_setting_t *group = member(root, "sampler");
+    rtk_status status = expect_group(ld, group, "type = \"independent\"; seed = 7;");
+    if (status != RTK_OK)
+        return status;
+    rtk_params *params = NULL;
+    slot_spec spec = {.label = "sampler", .schema = &sampler_schema};
+    if ((status = fill_params(ld, group, &spec, &params)) != RTK_OK)
+        return status;
+    cfg->seed = (uint64_t)rtk_params_int(params, "seed");
+    cfg->sampler_type = rtk_strdup(rtk_params_string(params, "type"));
+    rtk_params_destroy(params);
+    return cfg->sampler_type ? RTK_OK : RTK_ERR_NOMEM;
+}
+
+/* Top level: known settings only, scene required, threads in range. */
+static rtk_status read_top(const loader *ld, const config_setting_t *root, rtk_config *cfg)
+{
+    rtk_params *params = NULL;
+    slot_spec spec = {.schema = &top_schema, .special = top_special};
+    if (!member(root, "scene")) {
+        /* Unknown settings first: "scnee" deserves a suggestion, not this. */
+        for (int i = 0; i < config_setting_length(root); i++) {
+            const config_setting_t *s = config_setting_get_elem(root, (unsigned)i);
+            if (!find_desc(&top_schema, config_setting_name(s)))
+                return unknown_key(ld, s, &spec);
+        }
+        return rtk_error(RTK_ERR_INVALID, "%s: no 'scene' setting: add scene = \"path/to/model.obj\";", ld->path);
+    }
+    rtk_status status = fill_params(ld, root, &spec, &params);
+    if (status != RTK_OK)
+        return status;
+    const char *scene = rtk_params_string(params, "scene");
+    cfg->threads = (uint32_t)rtk_params_int(params, "threads");
+    if (!scene[0])
+        status = fail(ld, member(root, "scene"), RTK_ERR_INVALID, "scene is empty: give the model to render");
+    else if (!(cfg->scene_path = rtk_path_join(ld->dir, scene)))
+        status = RTK_ERR_NOMEM;
+    rtk_params_destroy(params);
+    return status;
+}
+
+/* Splits "a.b.c" into the components of an override; 0 when malformed. */
+static int split_path(char *path, char **parts, int max, int *count)
+{
+    *count = 0;
+    char *p = path;
+    for (;;) {
+        char *dot = strchr(p, '.');
+        if (dot)
+            *dot = '\0';
+        if (!*p || *count == max)
+            return 0;
+        parts[(*count)++] = p;
+        if (!dot)
+            return 1;
+        p = dot + 1;
+    }
+}
+
+/* What an override value looks like. */
+typedef enum value_kind { VALUE_INT, VALUE_FLOAT, VALUE_BOOL, VALUE_STRING } value_kind;
+
+/* Classifies text (trimmed, quotes removed for strings, into buf). */
+static value_kind classify(const char *text, size_t len, long long *i, double *f, char *buf, size_t size)
+{
+    while (len && (*text == ' ' || *text == '\t')) {
+        text++;
+        len--;
+    }
+    while (len && (text[len - 1] == ' ' || text[len - 1] == '\t'))
+        len--;
+    snprintf(buf, size, "%.*s", (int)len, text);
+    if (len >= 2 && (buf[0] == '"' || buf[0] == '\'') && buf[len - 1] == buf[0]) {
+        memmove(buf, buf + 1, len - 2);
+        buf[len - 2] = '\0';
+        return VALUE_STRING;
+    }
+    if (!buf[0])
+        return VALUE_STRING;
+    char *end;
+    errno = 0;
+    *i = strtoll(buf, &end, 10);
+    if (!*end && errno == 0)
+        return VALUE_INT;
+    *f = strtod(buf, &end);
+    if (!*end)
+        return VALUE_FLOAT;
+    if (strcmp(buf, "true") == 0 || strcmp(buf, "false") == 0) {
+        *i = buf[0] == 't';
+        return VALUE_BOOL;
+    }
+    return VALUE_STRING;
+}
+
+/* Fills an array setting from "[1, 2, 3]" or "[albedo, depth]". */
+static int fill_array(config_setting_t *array, const char *inner, char *err, size_t err_size)
+{
+    size_t n = strlen(inner);
+    int numbers = 0, strings = 0, floats = 0, wide = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        const char *p = inner;
+        while (n && *p) {
+            const char *comma = strchr(p, ',');
+            size_t len = comma ? (size_t)(comma - p) : strlen(p);
+            long long i = 0;
+            double f = 0.0;
+            char buf[1024];
+            if (len >= sizeof buf) {
+                snprintf(err, err_size, "an array element is longer than %zu characters", sizeof buf - 1);
+                return 0;
+            }
+            value_kind kind = classify(p, len, &i, &f, buf, sizeof buf);
+            if (pass == 0) {
+                if (kind == VALUE_STRING && !buf[0]) {
+                    snprintf(err, err_size, "empty element in the array");
+                    return 0;
+                }
+                numbers += kind == VALUE_INT || kind == VALUE_FLOAT;
+                strings += kind == VALUE_STRING || kind == VALUE_BOOL;
+                floats += kind == VALUE_FLOAT;
+                wide += kind == VALUE_INT && (i < INT_MIN || i > INT_MAX);
+            } else {
+                config_setting_t *e;
+                if (strings)
+                    e = config_setting_set_string_elem(array, -1, buf);
+                else if (floats)
+                    e = config_setting_set_float_elem(array, -1, kind == VALUE_INT ? (double)i : f);
+                else if (wide)
+                    e = config_setting_set_int64_elem(array, -1, i);
+                else
+                    e = config_setting_set_int_elem(array, -1, (int)i);
+                if (!e) {
+                    snprintf(err, err_size, "cannot store element '%.200s'", buf);
+                    return 0;
+                }
+            }
+            if (!comma)
+                break;
+            p = comma + 1;
+        }
+        if (numbers && strings) {
+            snprintf(err, err_size, "an array holds either numbers or strings, not both");
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* Adds name = text under parent, the type inferred from text. */
+static config_setting_t *add_value(config_setting_t *parent, const char *name, const char *text, char *err,
+                                   size_t err_size)
+{
+    size_t len = strlen(text);
+    config_setting_t *s;
+    if (text[0] == '[') {
+        if (len < 2 || text[len - 1] != ']') {
+            snprintf(err, err_size, "an array must end with ']'");
+            return NULL;
+        }
+        char *inner = rtk_alloc(len - 1);
+        if (!inner)
+            return NULL;
+        snprintf(inner, len - 1, "%s", text + 1);
+        s = config_setting_add(parent, name, CONFIG_TYPE_ARRAY);
+        if (s && !fill_array(s, inner, err, err_size)) {
+            config_setting_remove(parent, name);
+            s = NULL;
+        }
+        free(inner);
+        if (!s && !err[0])
+            snprintf(err, err_size, "'%s' cannot be a setting name", name);
+        return s;
+    }
+    long long i = 0;
+    double f = 0.0;
+    char *buf = rtk_alloc(len + 1);
+    if (!buf)
+        return NULL;
+    value_kind kind = classify(text, len, &i, &f, buf, len + 1);
+    int type = kind == VALUE_FLOAT                     ? CONFIG_TYPE_FLOAT
+               : kind == VALUE_BOOL                    ? CONFIG_TYPE_BOOL
+               : kind == VALUE_STRING                  ? CONFIG_TYPE_STRING
+               : (i < INT_MIN || i > INT_MAX) ? CONFIG_TYPE_INT64
+                                                       : CONFIG_TYPE_INT;
+    s = config_setting_add(parent, name, type);
+    if (!s)
+        snprintf(err, err_size, "'%s' cannot be a setting name (use letters, digits, '_' or '-')", name);
+    else if (type == CONFIG_TYPE_FLOAT)
+        config_setting_set_float(s, f);
+    else if (type == CONFIG_TYPE_BOOL)
+        config_setting_set_bool(s, (int)i);
+    else if (type == CONFIG_TYPE_STRING)
+        config_setting_set_string(s, buf);
+    else if (type == CONFIG_TYPE_INT64)
+        config_setting_set_int64(s, i);
+    else
+        config_setting_set_int(s, (int)i);
+    free(buf);
+    return s;
+}
+
+/* Applies one "path.to.key=value" entry to the parsed tree; every setting
+ * it creates remembers the entry for error messages. */
+static rtk_status apply_override(loader *ld, char *entry)
+{
+    char *eq = strchr(entry, '=');
+    if (!eq)
+        return rtk_error(RTK_ERR_INVALID, "--set %s: expected path=value, e.g. --set integrator.rays=64", entry);
+    size_t path_len = (size_t)(eq - entry);
+    if (path_len == 0)
+        return rtk_error(RTK_ERR_INVALID, "--set %s: the setting path before '=' is empty", entry);
+    char path[512];
+    if (path_len >= sizeof path)
+        return rtk_error(RTK_ERR_INVALID, "--set %.64s...: setting path is too long", entry);
+    memcpy(path, entry, path_len);
+    path[path_len] = '\0';
+    char *parts[16];
+    int count;
+    if (!split_path(path, parts, 16, &count))
+        return rtk_error(RTK_ERR_INVALID, "--set %s: malformed setting path (empty part or too deep)", entry);
+    config_setting_t *cur = config_root_setting(&ld->cfg);
+    for (int k = 0; k + 1 < count; k++) {
+        config_setting_t *next = config_setting_get_member(cur, parts[k]);
+        if (!next) {
+            next = config_setting_add(cur, parts[k], CONFIG_TYPE_GROUP);
+            if (!next)
+                return rtk_error(RTK_ERR_INVALID, "--set %s: '%s' cannot be a setting name", entry, parts[k]);
+            config_setting_set_hook(next, entry);
+        } else if (!config_setting_is_group(next)) {
+            char at[1100];
+            where(ld, next, at, sizeof at);
+            return rtk_error(RTK_ERR_INVALID, "--set %s: '%s' is not a group (it is set at %s)", entry, parts[k], at);
+        }
+        cur = next;
+    }
+    const char *key = parts[count - 1];
+    if (config_setting_get_member(cur, key))
+        config_setting_remove(cur, key);
+    char err[256] = "";
+    config_setting_t *s = add_value(cur, key, eq + 1, err, sizeof err);
+    if (!s)
+        return err[0] ? rtk_error(RTK_ERR_INVALID, "--set %s: %s", entry, err) : RTK_ERR_NOMEM;
+    config_setting_set_hook(s, entry);
+    return RTK_OK;
+}
+
+/* Parses the file into ld->cfg with an error naming the file and line. */
+static rtk_status parse_file(loader *ld)
+{
+    struct stat st;
+    if (stat(ld->path, &st) != 0)
+        return rtk_error(RTK_ERR_IO, "%s: cannot read config: %s", ld->path, strerror(errno));
+    if (S_ISDIR(st.st_mode))
+        return rtk_error(RTK_ERR_IO, "%s: is a directory, not a config file", ld->path);
+    config_set_include_dir(&ld->cfg, ld->dir);
+    if (config_read_file(&ld->cfg, ld->path))
+        return RTK_OK;
+    char *file = included_file(ld, config_error_file(&ld->cfg));
+    const char *shown = file ? file : ld->path;
+    const char *text = config_error_text(&ld->cfg) ? config_error_text(&ld->cfg) : "unreadable";
+    rtk_status status;
+    if (config_error_type(&ld->cfg) == CONFIG_ERR_FILE_IO)
+        status = rtk_error(RTK_ERR_IO, "%s: cannot read config: %s", shown, text);
+    else if (strstr(text, "mismatched element type"))
+        status = rtk_error(RTK_ERR_PARSE,
+                           "%s:%d: %s: an array [ ... ] holds one type, so write 1.0 rather than 1 "
+                           "among floats (or use a list ( ... ))",
+                           shown, config_error_line(&ld->cfg), text);
+    else
+        status = rtk_error(RTK_ERR_PARSE, "%s:%d: %s", shown, config_error_line(&ld->cfg), text);
+    free(file);
+    return status;
+}
+
+static rtk_status load(loader *ld, rtk_config *cfg)
+{
+    rtk_status status = parse_file(ld);
+    if (status != RTK_OK)
+        return status;
+    for (size_t i = 0; i < ld->override_count; i++) {
+        if ((status = apply_override(ld, ld->overrides[i])) != RTK_OK)
+            return status;
+    }
+    const config_setting_t *root = config_root_setting(&ld->cfg);
+    if ((status = read_top(ld, root, cfg)) != RTK_OK || (status = read_plugin_path(ld, root)) != RTK_OK ||
+        (status = read_camera(ld, root, cfg)) != RTK_OK || (status = read_film(ld, root, cfg)) != RTK_OK ||
+        (status = read_sampler(ld, root, cfg)) != RTK_OK ||
+        (status = load_slot(ld, root, "accelerator", RTK_KIND_ACCELERATOR, "median", &cfg->accelerator)) != RTK_OK ||
+        (status = load_slot(ld, root, "integrator", RTK_KIND_INTEGRATOR, "headlight", &cfg->integrator)) != RTK_OK ||
+        (status = load_slot(ld, root, "filter", RTK_KIND_FILTER, "box", &cfg->filter)) != RTK_OK)
+        return status;
+    return RTK_OK;
+}
+
+RTK_API rtk_status rtk_config_load(const char *path, rtk_registry *registry, const rtk_config_options *options,
+                                   rtk_config **out)
+{
+    if (!out)
+        return rtk_error(RTK_ERR_INVALID, "rtk_config_load: out is NULL");
+    *out = NULL;
+    if (!path || !path[0])
+        return rtk_error(RTK_ERR_INVALID, "no config file given");
+    if (!registry)
+        return rtk_error(RTK_ERR_INVALID, "%s: no plugin registry to resolve plugins with", path);
+    /* Fields past the caller's size keep their defaults; size 0 means a
+     * caller built against this header that left it unset. */
+    size_t size = options ? (options->size ? options->size : sizeof *options) : 0;
+    loader ld = {.path = path, .registry = registry};
+    if (size >= offsetof(rtk_config_options, allow_config_plugins) + sizeof options->allow_config_plugins)
+        ld.trusted = options->allow_config_plugins != 0;
+    size_t override_count = 0;
+    if (size >= offsetof(rtk_config_options, override_count) + sizeof options->override_count && options->overrides)
+        override_count = options->override_count;
+    rtk_config *cfg = rtk_calloc(1, sizeof *cfg);
+    ld.dir = rtk_path_dirname(path);
+    ld.overrides = rtk_calloc(override_count, sizeof *ld.overrides);
+    config_init(&ld.cfg);
+    rtk_status status = cfg && ld.dir && ld.overrides ? RTK_OK : RTK_ERR_NOMEM;
+    for (size_t i = 0; status == RTK_OK && i < override_count; i++) {
+        const char *entry = options->overrides[i] ? options->overrides[i] : "";
+        if (!(ld.overrides[i] = rtk_strdup(entry)))
+            status = RTK_ERR_NOMEM;
+        ld.override_count = i + 1;
+    }
+    if (status == RTK_OK && !(cfg->path = rtk_strdup(path)))
+        status = RTK_ERR_NOMEM;
+    if (status == RTK_OK)
+        status = load(&ld, cfg);
+    config_destroy(&ld.cfg);
+    for (size_t i = 0; i < ld.override_count; i++)
+        free(ld.overrides[i]);
+    free(ld.overrides);
+    free(ld.dir);
+    if (status != RTK_OK) {
+        rtk_config_destroy(cfg);
+        return status;
+    }
+    *out = cfg;
+    return RTK_OK;
+}
+
+RTK_API void rtk_config_destroy(rtk_config *config)
+{
+    if (!config)
+        return;
+    free(config->path);
+    free(config->scene_path);
+    free(config->output);
+    free(config->sampler_type);
+    rtk_params_destroy(config->integrator.params);
+    rtk_params_destroy(config->accelerator.params);
+    rtk_params_destroy(config->filter.params);
+    free(config);
+}

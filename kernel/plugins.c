@@ -352,7 +352,7 @@ static void scan(rtk_registry *r)
                     char msg[1024];
                     snprintf(msg, sizeof msg, "%s: file name '%s' differs from the plugin name '%s'; rename it to %s.so",
                              full, e->d_name, p->name, p->name);
-                    record(r, full, NULL, msg);
+                    record(r, full, p, msg);
                 } else {
                     record(r, full, p, NULL);
                 }

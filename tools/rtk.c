@@ -90,14 +90,14 @@ static int cmd_plugins(rtk_registry *reg, const char *name)
             continue;
         }
         printf("%-12s %-12s %-6s %s%s\n", rtk_kind_name(p->kind), p->name, p->version, p->summary,
-               info->problem ? "  [refused: duplicate]" : "");
+               info->problem ? "  [refused, see below]" : "");
         shown++;
     }
     if (!name) {
         for (size_t i = 0; i < n; i++) {
             const rtk_plugin_info *info = rtk_registry_at(reg, i);
-            if (!info->plugin)
-                fprintf(stderr, "rtk: warning: skipped %s\n", info->problem);
+            if (info->problem)
+                fprintf(stderr, "rtk: warning: refused %s\n", info->problem);
         }
         if (shown == 0)
             fprintf(stderr, "rtk: no plugins found (set RTK_PLUGIN_PATH or use --plugin-path)\n");

@@ -1,0 +1,899 @@
+/* glTF 2.0 (.gltf, .glb) through tinygltf, converted to the scene builder
+ * calls. Images are never decoded here: the image-loader callback keeps
+ * only the bytes of data-URI images, and textures are recorded by path or
+ * by buffer view for the kernel's texture service. Every accessor is
+ * validated before it is read. Functions called from C catch all
+ * exceptions. */
+#include "../internal.h"
+
+#include <tiny_gltf.h>
+
+#include <array>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <strings.h>
+#include <map>
+#include <new>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace {
+
+/* Deepest node nesting accepted; real files stay far below. */
+const int max_depth = 256;
+/* Node instances accepted: shared subtrees could otherwise expand
+ * exponentially. */
+const size_t max_node_visits = size_t(1) << 20;
+/* At most this many tinygltf warnings are printed per file. */
+const size_t max_messages = 20;
+
+const double pi = 3.14159265358979323846;
+
+/* Column-major 4x4 matrix, as glTF stores them. */
+typedef std::array<double, 16> Mat4;
+
+Mat4 identity()
+{
+    Mat4 m{};
+    m[0] = m[5] = m[10] = m[15] = 1.0;
+    return m;
+}
+
+Mat4 mul(const Mat4 &a, const Mat4 &b)
+{
+    Mat4 r{};
+    for (int c = 0; c < 4; c++)
+        for (int row = 0; row < 4; row++) {
+            double s = 0.0;
+            for (int k = 0; k < 4; k++)
+                s += a[k * 4 + row] * b[c * 4 + k];
+            r[c * 4 + row] = s;
+        }
+    return r;
+}
+
+/* m applied to (x, y, z, w). */
+void transform(const Mat4 &m, double x, double y, double z, double w, double out[3])
+{
+    for (int row = 0; row < 3; row++)
+        out[row] = m[row] * x + m[4 + row] * y + m[8 + row] * z + m[12 + row] * w;
+}
+
+/* Matrix taking normals through m: the cofactor matrix of m's upper 3x3
+ * (its inverse transpose times the determinant), with the determinant's
+ * sign so that it also keeps orientation. Row-major 3x3. */
+std::array<double, 9> normal_matrix(const Mat4 &m, double *det)
+{
+    double a = m[0], b = m[4], c = m[8];
+    double d = m[1], e = m[5], f = m[9];
+    double g = m[2], h = m[6], i = m[10];
+    std::array<double, 9> cof = {e * i - f * h, f * g - d * i, d * h - e * g,
+                                 c * h - b * i, a * i - c * g, b * g - a * h,
+                                 b * f - c * e, c * d - a * f, a * e - b * d};
+    *det = a * cof[0] + b * cof[1] + c * cof[2];
+    double s = *det < 0.0 ? -1.0 : 1.0;
+    for (double &v : cof)
+        v *= s;
+    return cof;
+}
+
+std::string trimmed(const std::string &s)
+{
+    size_t b = s.find_first_not_of(" \t\r\n");
+    if (b == std::string::npos)
+        return std::string();
+    return s.substr(b, s.find_last_not_of(" \t\r\n") - b + 1);
+}
+
+std::vector<std::string> lines_of(const std::string &text)
+{
+    std::vector<std::string> out;
+    std::istringstream in(text);
+    std::string line;
+    while (std::getline(in, line)) {
+        line = trimmed(line);
+        if (!line.empty())
+            out.push_back(line);
+    }
+    return out;
+}
+
+bool starts_with(const std::string &s, const char *prefix) { return s.compare(0, std::strlen(prefix), prefix) == 0; }
+
+/* Passes tinygltf's warnings on, prefixed with the file name. A missing
+ * external image is left out: it becomes a texture that the texture
+ * service reports, once, when a plugin actually needs it. */
+void log_warnings(const char *path, const std::string &text)
+{
+    std::vector<std::string> lines = lines_of(text);
+    std::vector<bool> drop(lines.size(), false);
+    for (size_t i = 0; i < lines.size(); i++) {
+        if (starts_with(lines[i], "Failed to load external 'uri' for image[")) {
+            drop[i] = true;
+            if (i > 0 && starts_with(lines[i - 1], "File "))
+                drop[i - 1] = true;
+        }
+    }
+    size_t shown = 0, more = 0;
+    for (size_t i = 0; i < lines.size(); i++) {
+        if (drop[i])
+            continue;
+        if (shown++ < max_messages)
+            rtk_log(RTK_LOG_WARN, "%s: %s", path, lines[i].c_str());
+        else
+            more++;
+    }
+    if (more)
+        rtk_log(RTK_LOG_WARN, "%s: %zu more warnings", path, more);
+}
+
+std::string one_line(const std::string &text)
+{
+    std::string out;
+    for (const std::string &line : lines_of(text))
+        out += out.empty() ? line : "; " + line;
+    return out.empty() ? std::string("tinygltf could not parse the file") : out;
+}
+
+std::string take(char *s)
+{
+    if (!s)
+        throw std::bad_alloc();
+    std::string out(s);
+    std::free(s);
+    return out;
+}
+
+int hex_digit(char c)
+{
+    if (c >= '0' && c <= '9')
+        return c - '0';
+    if (c >= 'a' && c <= 'f')
+        return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F')
+        return c - 'A' + 10;
+    return -1;
+}
+
+/* URIs are percent-encoded ("my%20texture.png"). */
+std::string uri_decode(const std::string &uri)
+{
+    std::string out;
+    for (size_t i = 0; i < uri.size(); i++) {
+        int hi, lo;
+        if (uri[i] == '%' && i + 2 < uri.size() && (hi = hex_digit(uri[i + 1])) >= 0 &&
+            (lo = hex_digit(uri[i + 2])) >= 0) {
+            out += char(hi * 16 + lo);
+            i += 2;
+        } else {
+            out += uri[i];
+        }
+    }
+    return out;
+}
+
+/* Image-loader callback: records instead of decoding. Only data URIs need
+ * their bytes kept, since tinygltf drops the decoded base64 afterwards;
+ * external files are referenced by uri and glb images by buffer view. */
+bool keep_image(tinygltf::Image *image, const int, std::string *, std::string *, int, int,
+                const unsigned char *bytes, int size, void *)
+{
+    if (image->uri.empty() && image->bufferView < 0 && bytes && size > 0)
+        image->image.assign(bytes, bytes + size);
+    image->as_is = true;
+    return true;
+}
+
+/* A validated accessor: count elements of elem_size bytes, stride apart. */
+struct View {
+    const unsigned char *data = nullptr;
+    size_t count = 0, stride = 0;
+    int component = 0;
+    bool normalized = false;
+};
+
+/* Where an accessor is read from, for messages. */
+struct Where {
+    int mesh, primitive;
+    const char *what; /* "POSITION", "indices" ... */
+};
+
+const char *type_name(int type)
+{
+    switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return "SCALAR";
+    case TINYGLTF_TYPE_VEC2: return "VEC2";
+    case TINYGLTF_TYPE_VEC3: return "VEC3";
+    case TINYGLTF_TYPE_VEC4: return "VEC4";
+    case TINYGLTF_TYPE_MAT2: return "MAT2";
+    case TINYGLTF_TYPE_MAT3: return "MAT3";
+    case TINYGLTF_TYPE_MAT4: return "MAT4";
+    default: return "unknown";
+    }
+}
+
+const char *component_name(int component)
+{
+    switch (component) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: return "BYTE";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return "UNSIGNED_BYTE";
+    case TINYGLTF_COMPONENT_TYPE_SHORT: return "SHORT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return "UNSIGNED_SHORT";
+    case TINYGLTF_COMPONENT_TYPE_INT: return "INT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return "UNSIGNED_INT";
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return "FLOAT";
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return "DOUBLE";
+    default: return "unknown";
+    }
+}
+
+size_t component_size(int component)
+{
+    switch (component) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_INT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    default: return 0;
+    }
+}
+
+size_t component_count(int type)
+{
+    switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return 1;
+    case TINYGLTF_TYPE_VEC2: return 2;
+    case TINYGLTF_TYPE_VEC3: return 3;
+    default: return 0;
+    }
+}
+
+float read_float(const unsigned char *p)
+{
+    float f;
+    std::memcpy(&f, p, sizeof f);
+    return f;
+}
+
+/* Component k of element i as a float (normalized integers in [0, 1]). */
+float read_component(const View &v, size_t i, size_t k)
+{
+    const unsigned char *p = v.data + i * v.stride + k * component_size(v.component);
+    switch (v.component) {
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return float(p[0]) / 255.0f;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t u;
+        std::memcpy(&u, p, sizeof u);
+        return float(u) / 65535.0f;
+    }
+    default: return read_float(p);
+    }
+}
+
+uint32_t read_index(const View &v, size_t i)
+{
+    const unsigned char *p = v.data + i * v.stride;
+    switch (v.component) {
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return p[0];
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t u;
+        std::memcpy(&u, p, sizeof u);
+        return u;
+    }
+    default: {
+        uint32_t u;
+        std::memcpy(&u, p, sizeof u);
+        return u;
+    }
+    }
+}
+
+double number(const tinygltf::Value &v, double fallback)
+{
+    if (!v.IsNumber())
+        return fallback;
+    double d = v.GetNumberAsDouble();
+    return std::isfinite(d) ? d : fallback;
+}
+
+float clean(double v, float fallback) { return std::isfinite(v) ? float(v) : fallback; }
+
+float clamp01(float v) { return v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v; }
+
+/* Extensions whose "required" use rtk honours; any other required
+ * extension changes the meaning of the data, so the file is refused. */
+const char *const supported_required[] = {"KHR_materials_emissive_strength", "KHR_materials_ior",
+                                          "KHR_materials_transmission"};
+
+class Loader {
+  public:
+    Loader(const char *path, rtk_scene *scene, const tinygltf::Model &model)
+        : path_(path), scene_(scene), model_(model), dir_(take(rtk_path_dirname(path))),
+          want_normals_((scene->needs & RTK_NEED_NORMALS) != 0),
+          want_uvs_((scene->needs & (RTK_NEED_UVS | RTK_NEED_TEXTURES)) != 0),
+          on_path_(model.nodes.size(), 0)
+    {
+    }
+
+    rtk_status run();
+
+  private:
+    const char *path_;
+    rtk_scene *scene_;
+    const tinygltf::Model &model_;
+    std::string dir_;
+    bool want_normals_, want_uvs_;
+    std::vector<char> on_path_;
+    size_t visits_ = 0;
+    size_t skipped_primitives_ = 0, ragged_primitives_ = 0;
+    bool ortho_warned_ = false;
+    std::vector<uint32_t> materials_;
+    std::map<std::pair<int, int>, int> textures_; /* (image, srgb) -> scene texture */
+
+    rtk_status check_extensions();
+    rtk_status add_materials();
+    rtk_status add_texture(size_t material, const char *slot, int index, int srgb, int *out);
+    rtk_status visit(int index, const Mat4 &parent, int depth);
+    rtk_status local_matrix(int index, Mat4 *out);
+    void take_camera(int index, const Mat4 &world);
+    rtk_status add_primitive(int mesh, int primitive, const Mat4 &world);
+    rtk_status view(int accessor, const Where &where, const std::vector<int> &components, int type, View *out);
+    rtk_status fail(const Where &where, int accessor, const char *fmt, ...) RTK_PRINTF(4, 5);
+    const char *node_name(int index) const { return model_.nodes[size_t(index)].name.c_str(); }
+    const char *mesh_name(int index) const { return model_.meshes[size_t(index)].name.c_str(); }
+};
+
+rtk_status Loader::fail(const Where &where, int accessor, const char *fmt, ...)
+{
+    char problem[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    std::vsnprintf(problem, sizeof problem, fmt, ap);
+    va_end(ap);
+    return rtk_error(RTK_ERR_PARSE, "%s: mesh %d ('%s') primitive %d, %s accessor %d: %s", path_, where.mesh,
+                     mesh_name(where.mesh), where.primitive, where.what, accessor, problem);
+}
+
+rtk_status Loader::view(int index, const Where &where, const std::vector<int> &components, int type, View *out)
+{
+    if (index < 0 || size_t(index) >= model_.accessors.size())
+        return fail(where, index, "no such accessor (the file has %zu)", model_.accessors.size());
+    const tinygltf::Accessor &acc = model_.accessors[size_t(index)];
+    if (acc.sparse.isSparse)
+        return fail(where, index, "sparse accessors are not supported");
+    bool known = false;
+    std::string expected;
+    for (int c : components) {
+        known = known || c == acc.componentType;
+        expected += (expected.empty() ? "" : " or ") + std::string(component_name(c));
+    }
+    if (!known)
+        return fail(where, index, "component type %s (%d), expected %s", component_name(acc.componentType),
+                    acc.componentType, expected.c_str());
+    if (acc.type != type)
+        return fail(where, index, "type %s, expected %s", type_name(acc.type), type_name(type));
+    if (acc.bufferView < 0 || size_t(acc.bufferView) >= model_.bufferViews.size())
+        return fail(where, index, "buffer view %d does not exist (the file has %zu)", acc.bufferView,
+                    model_.bufferViews.size());
+    const tinygltf::BufferView &bv = model_.bufferViews[size_t(acc.bufferView)];
+    if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size())
+        return fail(where, index, "buffer view %d uses buffer %d, which does not exist (the file has %zu)",
+                    acc.bufferView, bv.buffer, model_.buffers.size());
+    const size_t buffer_size = model_.buffers[size_t(bv.buffer)].data.size();
+    if (bv.byteOffset > buffer_size || bv.byteLength > buffer_size - bv.byteOffset)
+        return fail(where, index, "buffer view %d spans bytes %zu..%zu+%zu, but buffer %d holds %zu bytes",
+                    acc.bufferView, bv.byteOffset, bv.byteOffset, bv.byteLength, bv.buffer, buffer_size);
+    const size_t elem = component_size(acc.componentType) * component_count(type);
+    const size_t stride = bv.byteStride ? bv.byteStride : elem;
+    if (stride < elem)
+        return fail(where, index, "byte stride %zu is smaller than one element (%zu bytes)", stride, elem);
+    if (acc.count) {
+        const size_t last = acc.count - 1;
+        if (last > (SIZE_MAX - elem) / stride || acc.byteOffset > bv.byteLength ||
+            last * stride + elem > bv.byteLength - acc.byteOffset)
+            return fail(where, index, "%zu elements of %zu bytes, %zu apart, from offset %zu do not fit in buffer "
+                        "view %d (%zu bytes)", acc.count, elem, stride, acc.byteOffset, acc.bufferView,
+                        bv.byteLength);
+        out->data = model_.buffers[size_t(bv.buffer)].data.data() + bv.byteOffset + acc.byteOffset;
+    }
+    out->count = acc.count;
+    out->stride = stride;
+    out->component = acc.componentType;
+    out->normalized = acc.normalized;
+    return RTK_OK;
+}
+
+rtk_status Loader::check_extensions()
+{
+    for (const std::string &ext : model_.extensionsRequired) {
+        bool ok = false;
+        for (const char *s : supported_required)
+            ok = ok || ext == s;
+        if (!ok)
+            return rtk_error(RTK_ERR_UNSUPPORTED,
+                             "%s: the file requires the glTF extension %s, which rtk does not support; "
+                             "export the scene without it",
+                             path_, ext.c_str());
+    }
+    return RTK_OK;
+}
+
+rtk_status Loader::add_texture(size_t material, const char *slot, int index, int srgb, int *out)
+{
+    *out = -1;
+    if (index < 0)
+        return RTK_OK;
+    const char *mat_name = model_.materials[material].name.c_str();
+    if (size_t(index) >= model_.textures.size()) {
+        rtk_log(RTK_LOG_WARN, "%s: material %zu ('%s') %s refers to texture %d, which does not exist; ignored",
+                path_, material, mat_name, slot, index);
+        return RTK_OK;
+    }
+    const tinygltf::Texture &tex = model_.textures[size_t(index)];
+    int source = tex.source;
+    /* Image-format extensions (EXT_texture_webp ...) name their own source. */
+    for (const auto &ext : tex.extensions) {
+        if (source < 0 && ext.second.Get("source").IsInt())
+            source = ext.second.Get("source").GetNumberAsInt();
+    }
+    if (source < 0 || size_t(source) >= model_.images.size()) {
+        rtk_log(RTK_LOG_WARN, "%s: material %zu ('%s') %s: texture %d has no usable image; ignored", path_,
+                material, mat_name, slot, index);
+        return RTK_OK;
+    }
+    std::pair<int, int> key(source, srgb);
+    std::map<std::pair<int, int>, int>::const_iterator found = textures_.find(key);
+    if (found != textures_.end()) {
+        *out = found->second;
+        return RTK_OK;
+    }
+    const tinygltf::Image &image = model_.images[size_t(source)];
+    rtk_status status;
+    int added = -1;
+    char name[512];
+    if (!image.uri.empty() && !starts_with(image.uri, "data:")) {
+        std::string file = take(rtk_path_join(dir_.c_str(), uri_decode(image.uri).c_str()));
+        status = rtk_scene_add_texture(scene_, NULL, file.c_str(), NULL, 0, srgb, &added);
+    } else if (image.bufferView >= 0) {
+        const tinygltf::BufferView *bv =
+            size_t(image.bufferView) < model_.bufferViews.size() ? &model_.bufferViews[size_t(image.bufferView)] : NULL;
+        const tinygltf::Buffer *buf =
+            bv && bv->buffer >= 0 && size_t(bv->buffer) < model_.buffers.size() ? &model_.buffers[size_t(bv->buffer)]
+                                                                                 : NULL;
+        if (!buf || bv->byteOffset > buf->data.size() || bv->byteLength > buf->data.size() - bv->byteOffset ||
+            !bv->byteLength) {
+            rtk_log(RTK_LOG_WARN, "%s: image %d ('%s') refers to a buffer view that does not exist or does not "
+                    "fit its buffer; ignored", path_, source, image.name.c_str());
+            return RTK_OK;
+        }
+        std::snprintf(name, sizeof name, "%s: image %d ('%s')", path_, source, image.name.c_str());
+        status = rtk_scene_add_texture(scene_, name, NULL, buf->data.data() + bv->byteOffset, bv->byteLength,
+                                       srgb, &added);
+    } else if (!image.image.empty()) {
+        std::snprintf(name, sizeof name, "%s: image %d ('%s', data URI)", path_, source, image.name.c_str());
+        status = rtk_scene_add_texture(scene_, name, NULL, image.image.data(), image.image.size(), srgb, &added);
+    } else {
+        rtk_log(RTK_LOG_WARN, "%s: image %d ('%s') has no data rtk can read (unsupported data URI?); ignored",
+                path_, source, image.name.c_str());
+        return RTK_OK;
+    }
+    if (status != RTK_OK)
+        return status;
+    textures_[key] = added;
+    *out = added;
+    return RTK_OK;
+}
+
+rtk_status Loader::add_materials()
+{
+    materials_.resize(model_.materials.size());
+    for (size_t i = 0; i < model_.materials.size(); i++) {
+        const tinygltf::Material &src = model_.materials[i];
+        const tinygltf::PbrMetallicRoughness &pbr = src.pbrMetallicRoughness;
+        rtk_material m = rtk_material_default();
+        m.name = const_cast<char *>(src.name.c_str());
+        if (pbr.baseColorFactor.size() == 4) {
+            m.base_color = rtk_rgb_make(clean(pbr.baseColorFactor[0], 1.0f), clean(pbr.baseColorFactor[1], 1.0f),
+                                        clean(pbr.baseColorFactor[2], 1.0f));
+            m.alpha = clamp01(clean(pbr.baseColorFactor[3], 1.0f));
+        }
+        m.metallic = clamp01(clean(pbr.metallicFactor, 1.0f));
+        m.roughness = clamp01(clean(pbr.roughnessFactor, 1.0f));
+        double strength = 1.0;
+        tinygltf::ExtensionMap::const_iterator ext = src.extensions.find("KHR_materials_emissive_strength");
+        if (ext != src.extensions.end())
+            strength = number(ext->second.Get("emissiveStrength"), 1.0);
+        if (src.emissiveFactor.size() == 3)
+            m.emission = rtk_rgb_make(clean(src.emissiveFactor[0] * strength, 0.0f),
+                                      clean(src.emissiveFactor[1] * strength, 0.0f),
+                                      clean(src.emissiveFactor[2] * strength, 0.0f));
+        ext = src.extensions.find("KHR_materials_ior");
+        if (ext != src.extensions.end()) {
+            double ior = number(ext->second.Get("ior"), 1.5);
+            if (ior >= 1.0)
+                m.ior = float(ior);
+        }
+        ext = src.extensions.find("KHR_materials_transmission");
+        if (ext != src.extensions.end())
+            m.transmission = clamp01(float(number(ext->second.Get("transmissionFactor"), 0.0)));
+        if (src.alphaMode == "MASK") {
+            m.alpha_mode = RTK_ALPHA_MASK;
+            m.alpha_cutoff = clean(src.alphaCutoff, 0.5f);
+        } else if (src.alphaMode == "BLEND") {
+            m.alpha_mode = RTK_ALPHA_BLEND;
+        } else if (src.alphaMode != "OPAQUE") {
+            rtk_log(RTK_LOG_WARN, "%s: material %zu ('%s') has alphaMode '%s'; treated as OPAQUE", path_, i,
+                    src.name.c_str(), src.alphaMode.c_str());
+        }
+        rtk_status status;
+        if ((status = add_texture(i, "baseColorTexture", pbr.baseColorTexture.index, 1, &m.base_tex)) != RTK_OK ||
+            (status = add_texture(i, "emissiveTexture", src.emissiveTexture.index, 1, &m.emission_tex)) != RTK_OK ||
+            (status = add_texture(i, "normalTexture", src.normalTexture.index, 0, &m.normal_tex)) != RTK_OK)
+            return status;
+        if (m.alpha_mode != RTK_ALPHA_OPAQUE)
+            m.alpha_tex = m.base_tex;
+        if ((status = rtk_scene_add_material(scene_, &m, &materials_[i])) != RTK_OK)
+            return status;
+    }
+    return RTK_OK;
+}
+
+rtk_status Loader::local_matrix(int index, Mat4 *out)
+{
+    const tinygltf::Node &node = model_.nodes[size_t(index)];
+    const char *bad = NULL;
+    if (!node.matrix.empty() && node.matrix.size() != 16)
+        bad = "matrix needs 16 numbers";
+    else if (!node.translation.empty() && node.translation.size() != 3)
+        bad = "translation needs 3 numbers";
+    else if (!node.rotation.empty() && node.rotation.size() != 4)
+        bad = "rotation needs 4 numbers";
+    else if (!node.scale.empty() && node.scale.size() != 3)
+        bad = "scale needs 3 numbers";
+    if (bad)
+        return rtk_error(RTK_ERR_PARSE, "%s: node %d ('%s'): %s", path_, index, node_name(index), bad);
+
+    Mat4 m = identity();
+    if (node.matrix.size() == 16) {
+        for (int k = 0; k < 16; k++)
+            m[size_t(k)] = node.matrix[size_t(k)];
+    } else {
+        double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+        for (size_t k = 0; k < node.translation.size(); k++)
+            t[k] = node.translation[k];
+        for (size_t k = 0; k < node.rotation.size(); k++)
+            q[k] = node.rotation[k];
+        for (size_t k = 0; k < node.scale.size(); k++)
+            s[k] = node.scale[k];
+        double len = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+        if (len > 0.0 && std::isfinite(len)) {
+            for (double &v : q)
+                v /= len;
+        }
+        const double x = q[0], y = q[1], z = q[2], w = q[3];
+        /* Columns of R scaled by S; T in the last column (T * R * S). */
+        const double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w),
+                             2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w),
+                             2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)};
+        for (int c = 0; c < 3; c++)
+            for (int row = 0; row < 3; row++)
+                m[size_t(c * 4 + row)] = r[c * 3 + row] * s[c];
+        m[12] = t[0];
+        m[13] = t[1];
+        m[14] = t[2];
+    }
+    for (double v : m) {
+        if (!std::isfinite(v))
+            return rtk_error(RTK_ERR_PARSE, "%s: node %d ('%s') has a non-finite transform", path_, index,
+                             node_name(index));
+    }
+    *out = m;
+    return RTK_OK;
+}
+
+void Loader::take_camera(int index, const Mat4 &world)
+{
+    const tinygltf::Node &node = model_.nodes[size_t(index)];
+    if (size_t(node.camera) >= model_.cameras.size()) {
+        rtk_log(RTK_LOG_WARN, "%s: node %d ('%s') refers to camera %d, which does not exist; ignored", path_, index,
+                node_name(index), node.camera);
+        return;
+    }
+    const tinygltf::Camera &cam = model_.cameras[size_t(node.camera)];
+    if (cam.type != "perspective") {
+        if (!ortho_warned_)
+            rtk_log(RTK_LOG_WARN, "%s: camera %d ('%s') is %s; rtk only uses perspective cameras", path_,
+                    node.camera, cam.name.c_str(), cam.type.c_str());
+        ortho_warned_ = true;
+        return;
+    }
+    double yfov = cam.perspective.yfov;
+    double pos[3], fwd[3], up[3];
+    transform(world, 0, 0, 0, 1, pos);
+    transform(world, 0, 0, -1, 0, fwd);
+    transform(world, 0, 1, 0, 0, up);
+    double lf = std::sqrt(fwd[0] * fwd[0] + fwd[1] * fwd[1] + fwd[2] * fwd[2]);
+    double lu = std::sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]);
+    if (!(yfov > 0.0 && yfov < pi) || !(lf > 0.0) || !(lu > 0.0)) {
+        rtk_log(RTK_LOG_WARN, "%s: camera %d ('%s') on node %d has an unusable field of view or transform; ignored",
+                path_, node.camera, cam.name.c_str(), index);
+        return;
+    }
+    rtk_camera_desc &desc = scene_->camera;
+    desc.position = rtk_vec3_make(float(pos[0]), float(pos[1]), float(pos[2]));
+    desc.look_at = rtk_vec3_make(float(pos[0] + fwd[0] / lf), float(pos[1] + fwd[1] / lf), float(pos[2] + fwd[2] / lf));
+    desc.up = rtk_vec3_make(float(up[0] / lu), float(up[1] / lu), float(up[2] / lu));
+    desc.fov_deg = float(yfov * 180.0 / pi);
+    double aspect = cam.perspective.aspectRatio;
+    scene_->camera_aspect = aspect > 0.0 && std::isfinite(aspect) ? float(aspect) : 0.0f;
+    scene_->has_camera = 1;
+}
+
+rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world)
+{
+    const tinygltf::Primitive &prim = model_.meshes[size_t(mesh)].primitives[size_t(index)];
+    const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE || mode == TINYGLTF_MODE_LINE_LOOP ||
+        mode == TINYGLTF_MODE_LINE_STRIP) {
+        skipped_primitives_++;
+        return RTK_OK;
+    }
+    if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
+        return rtk_error(RTK_ERR_PARSE, "%s: mesh %d ('%s') primitive %d has mode %d, which is not a glTF mode",
+                         path_, mesh, mesh_name(mesh), index, mode);
+    uint32_t material = RTK_INVALID_ID;
+    if (prim.material >= 0) {
+        if (size_t(prim.material) >= materials_.size())
+            return rtk_error(RTK_ERR_PARSE, "%s: mesh %d ('%s') primitive %d uses material %d, but the file has %zu",
+                             path_, mesh, mesh_name(mesh), index, prim.material, materials_.size());
+        material = materials_[size_t(prim.material)];
+    }
+
+    std::map<std::string, int>::const_iterator attr = prim.attributes.find("POSITION");
+    if (attr == prim.attributes.end())
+        return rtk_error(RTK_ERR_PARSE, "%s: mesh %d ('%s') primitive %d has no POSITION attribute", path_, mesh,
+                         mesh_name(mesh), index);
+    Where where = {mesh, index, "POSITION"};
+    View pos;
+    rtk_status status = view(attr->second, where, {TINYGLTF_COMPONENT_TYPE_FLOAT}, TINYGLTF_TYPE_VEC3, &pos);
+    if (status != RTK_OK)
+        return status;
+    const int pos_accessor = attr->second;
+    const size_t nverts = pos.count;
+    if (nverts >= size_t(RTK_INVALID_ID) - scene_->vertex_count)
+        return rtk_error(RTK_ERR_NOMEM, "%s: more vertices than rtk can index", path_);
+
+    View nrm, tex;
+    if (want_normals_ && (attr = prim.attributes.find("NORMAL")) != prim.attributes.end()) {
+        where.what = "NORMAL";
+        if ((status = view(attr->second, where, {TINYGLTF_COMPONENT_TYPE_FLOAT}, TINYGLTF_TYPE_VEC3, &nrm)) != RTK_OK)
+            return status;
+        if (nrm.count != nverts)
+            return fail(where, attr->second, "%zu normals for %zu positions", nrm.count, nverts);
+    }
+    if (want_uvs_ && (attr = prim.attributes.find("TEXCOORD_0")) != prim.attributes.end()) {
+        where.what = "TEXCOORD_0";
+        if ((status = view(attr->second, where,
+                           {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                            TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+                           TINYGLTF_TYPE_VEC2, &tex)) != RTK_OK)
+            return status;
+        if (tex.component != TINYGLTF_COMPONENT_TYPE_FLOAT && !tex.normalized)
+            return fail(where, attr->second, "integer texture coordinates must be normalized");
+        if (tex.count != nverts)
+            return fail(where, attr->second, "%zu texture coordinates for %zu positions", tex.count, nverts);
+    }
+    std::vector<uint32_t> indices;
+    if (prim.indices >= 0) {
+        where.what = "indices";
+        View iv;
+        if ((status = view(prim.indices, where,
+                           {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                            TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT},
+                           TINYGLTF_TYPE_SCALAR, &iv)) != RTK_OK)
+            return status;
+        indices.resize(iv.count);
+        for (size_t i = 0; i < iv.count; i++) {
+            indices[i] = read_index(iv, i);
+            if (indices[i] >= nverts)
+                return fail(where, prim.indices, "index %zu is %u, but POSITION has %zu vertices", i, indices[i],
+                            nverts);
+        }
+    }
+    const size_t n = prim.indices >= 0 ? indices.size() : nverts;
+    if (n < 3)
+        return RTK_OK;
+
+    const uint32_t base = scene_->vertex_count;
+    for (size_t i = 0; i < nverts; i++) {
+        const unsigned char *p = pos.data + i * pos.stride;
+        double v[3] = {read_float(p), read_float(p + 4), read_float(p + 8)};
+        if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
+            return fail({mesh, index, "POSITION"}, pos_accessor, "element %zu is not finite (%g, %g, %g)", i, v[0],
+                        v[1], v[2]);
+        double w[3];
+        transform(world, v[0], v[1], v[2], 1.0, w);
+        if ((status = rtk_scene_add_vertex(scene_, w[0], w[1], w[2], NULL)) != RTK_OK)
+            return status;
+    }
+
+    double det;
+    const std::array<double, 9> nm = normal_matrix(world, &det);
+    std::vector<float> normals(nrm.count * 3);
+    for (size_t i = 0; i < nrm.count; i++) {
+        const unsigned char *p = nrm.data + i * nrm.stride;
+        const double v[3] = {read_float(p), read_float(p + 4), read_float(p + 8)};
+        double w[3];
+        for (int r = 0; r < 3; r++)
+            w[r] = nm[size_t(r * 3)] * v[0] + nm[size_t(r * 3 + 1)] * v[1] + nm[size_t(r * 3 + 2)] * v[2];
+        /* Unusable normals stay zero or non-finite: rtk_scene_finish
+         * replaces them by the geometric normal. */
+        const double len = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+        for (int r = 0; r < 3; r++)
+            normals[i * 3 + size_t(r)] = len > 0.0 ? float(w[r] / len) : 0.0f;
+    }
+    std::vector<float> uvs(tex.count * 2);
+    for (size_t i = 0; i < tex.count; i++) {
+        /* glTF puts v = 0 at the top of the image; rtk at the bottom. */
+        uvs[i * 2] = read_component(tex, i, 0);
+        uvs[i * 2 + 1] = 1.0f - read_component(tex, i, 1);
+    }
+
+    size_t triangles;
+    if (mode == TINYGLTF_MODE_TRIANGLES) {
+        triangles = n / 3;
+        if (n % 3)
+            ragged_primitives_++;
+    } else {
+        triangles = n - 2;
+    }
+    /* A mirroring transform turns the winding around; swapping two corners
+     * keeps counter-clockwise as the front side. */
+    const bool mirrored = det < 0.0;
+    for (size_t t = 0; t < triangles; t++) {
+        /* Corner positions in the index list, per the glTF spec's topologies. */
+        const size_t list[3][3] = {{3 * t, 3 * t + 1, 3 * t + 2},
+                                   {t, t + 1 + t % 2, t + 2 - t % 2},
+                                   {t + 1, t + 2, 0}};
+        const size_t *c = list[mode == TINYGLTF_MODE_TRIANGLES ? 0 : mode == TINYGLTF_MODE_TRIANGLE_STRIP ? 1 : 2];
+        uint32_t v[3];
+        for (int k = 0; k < 3; k++)
+            v[k] = prim.indices >= 0 ? indices[c[k]] : uint32_t(c[k]);
+        if (mirrored)
+            std::swap(v[1], v[2]);
+        float tn[9], tuv[6];
+        for (int k = 0; k < 3; k++) {
+            if (!normals.empty())
+                std::memcpy(tn + k * 3, &normals[size_t(v[k]) * 3], 3 * sizeof(float));
+            if (!uvs.empty())
+                std::memcpy(tuv + k * 2, &uvs[size_t(v[k]) * 2], 2 * sizeof(float));
+        }
+        status = rtk_scene_add_triangle(scene_, base + v[0], base + v[1], base + v[2], normals.empty() ? NULL : tn,
+                                        uvs.empty() ? NULL : tuv, material);
+        if (status != RTK_OK)
+            return status;
+    }
+    return RTK_OK;
+}
+
+rtk_status Loader::visit(int index, const Mat4 &parent, int depth)
+{
+    if (index < 0 || size_t(index) >= model_.nodes.size())
+        return rtk_error(RTK_ERR_PARSE, "%s: the scene refers to node %d, but the file has %zu nodes", path_, index,
+                         model_.nodes.size());
+    if (on_path_[size_t(index)])
+        return rtk_error(RTK_ERR_PARSE, "%s: node %d ('%s') is its own ancestor: the node hierarchy has a cycle",
+                         path_, index, node_name(index));
+    if (depth > max_depth)
+        return rtk_error(RTK_ERR_PARSE, "%s: node %d ('%s') is nested more than %d levels deep", path_, index,
+                         node_name(index), max_depth);
+    if (++visits_ > max_node_visits)
+        return rtk_error(RTK_ERR_PARSE, "%s: the node hierarchy expands to more than %zu node instances "
+                         "(shared subtrees?)", path_, max_node_visits);
+    Mat4 local;
+    rtk_status status = local_matrix(index, &local);
+    if (status != RTK_OK)
+        return status;
+    const Mat4 world = mul(parent, local);
+    const tinygltf::Node &node = model_.nodes[size_t(index)];
+    if (node.camera >= 0 && !scene_->has_camera)
+        take_camera(index, world);
+    if (node.mesh >= 0) {
+        if (size_t(node.mesh) >= model_.meshes.size())
+            return rtk_error(RTK_ERR_PARSE, "%s: node %d ('%s') uses mesh %d, but the file has %zu meshes", path_,
+                             index, node_name(index), node.mesh, model_.meshes.size());
+        for (size_t p = 0; p < model_.meshes[size_t(node.mesh)].primitives.size(); p++) {
+            if ((status = add_primitive(node.mesh, int(p), world)) != RTK_OK)
+                return status;
+        }
+    }
+    on_path_[size_t(index)] = 1;
+    for (int child : node.children) {
+        if ((status = visit(child, world, depth + 1)) != RTK_OK)
+            return status;
+    }
+    on_path_[size_t(index)] = 0;
+    return RTK_OK;
+}
+
+rtk_status Loader::run()
+{
+    rtk_status status = check_extensions();
+    if (status != RTK_OK || (status = add_materials()) != RTK_OK)
+        return status;
+
+    std::vector<int> roots;
+    if (!model_.scenes.empty()) {
+        int s = model_.defaultScene < 0 ? 0 : model_.defaultScene;
+        if (size_t(s) >= model_.scenes.size()) {
+            rtk_log(RTK_LOG_WARN, "%s: default scene %d does not exist; using scene 0", path_, s);
+            s = 0;
+        }
+        roots = model_.scenes[size_t(s)].nodes;
+    } else {
+        /* No scenes: render every node that is nobody's child. */
+        std::vector<char> is_child(model_.nodes.size(), 0);
+        for (const tinygltf::Node &node : model_.nodes)
+            for (int child : node.children)
+                if (child >= 0 && size_t(child) < is_child.size())
+                    is_child[size_t(child)] = 1;
+        for (size_t i = 0; i < model_.nodes.size(); i++)
+            if (!is_child[i])
+                roots.push_back(int(i));
+    }
+    for (int root : roots) {
+        if ((status = visit(root, identity(), 0)) != RTK_OK)
+            return status;
+    }
+    if (skipped_primitives_)
+        rtk_log(RTK_LOG_WARN, "%s: skipped %zu point and line primitive%s (only triangles are rendered)", path_,
+                skipped_primitives_, skipped_primitives_ == 1 ? "" : "s");
+    if (ragged_primitives_)
+        rtk_log(RTK_LOG_WARN, "%s: %zu TRIANGLES primitive%s had an index count that is not a multiple of 3; "
+                "the extra indices were ignored", path_, ragged_primitives_, ragged_primitives_ == 1 ? "" : "s");
+    return RTK_OK;
+}
+
+bool has_extension(const char *path, const char *ext)
+{
+    size_t n = std::strlen(path), e = std::strlen(ext);
+    return n >= e && strcasecmp(path + n - e, ext) == 0;
+}
+
+rtk_status load(const char *path, rtk_scene *scene)
+{
+    tinygltf::TinyGLTF gltf;
+    gltf.SetImageLoader(keep_image, NULL);
+    tinygltf::Model model;
+    std::string err, warn;
+    bool ok = has_extension(path, ".glb") ? gltf.LoadBinaryFromFile(&model, &err, &warn, path)
+                                          : gltf.LoadASCIIFromFile(&model, &err, &warn, path);
+    log_warnings(path, warn);
+    if (!ok)
+        return rtk_error(RTK_ERR_PARSE, "%s: %s", path, one_line(err).c_str());
+    Loader loader(path, scene, model);
+    return loader.run();
+}
+
+} // namespace
+
+extern "C" rtk_status rtk_load_gltf(const char *path, rtk_scene *scene)
+{
+    try {
+        return load(path, scene);
+    } catch (const std::bad_alloc &) {
+        return rtk_error(RTK_ERR_NOMEM, "%s: out of memory while reading the glTF file", path);
+    } catch (const std::exception &e) {
+        return rtk_error(RTK_ERR_PARSE, "%s: %s", path, e.what());
+    } catch (...) {
+        return rtk_error(RTK_ERR_PARSE, "%s: unexpected failure while reading the glTF file", path);
+    }
+}
