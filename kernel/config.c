@@ -85,7 +85,6 @@ typedef struct loader {
     int trusted;           /* options->allow_config_plugins */
     char **overrides;      /* copies of the --set entries; settings they made point here */
     size_t override_count;
-    rtk_config *out;
 } loader;
 
 /* The name to show for file, a setting's source as libconfig reports it:
@@ -408,7 +407,8 @@ static rtk_status read_vec3(const loader *ld, const config_setting_t *group, con
     return RTK_OK;
 }
 
-/* Reads film.aovs: one string or a list of strings among aov_choices. */
+/* Reads film.aovs: one string or a list of strings among aov_choices;
+ * needs cfg->output set, as AOV layers exist only in EXR files. */
 static rtk_status read_aovs(const loader *ld, const config_setting_t *film, rtk_config *cfg)
 {
     const config_setting_t *s = member(film, "aovs");
@@ -445,6 +445,10 @@ static rtk_status read_aovs(const loader *ld, const config_setting_t *film, rtk_
             return fail(ld, s, RTK_ERR_INVALID, "film: aovs: '%s' is not one of: %s%s", name, aov_choices, mean);
         }
     }
+    size_t n = strlen(cfg->output);
+    if ((cfg->aov_albedo || cfg->aov_normal || cfg->aov_depth) && (n < 4 || strcasecmp(cfg->output + n - 4, ".exr")))
+        return fail(ld, s, RTK_ERR_INVALID, "film: aovs need an EXR output, but the image goes to '%s': "
+                    "set film.output = \"name.exr\"", cfg->output);
     return RTK_OK;
 }
 
@@ -613,6 +617,19 @@ static rtk_status read_camera(const loader *ld, const config_setting_t *root, rt
         (status = read_vec3(ld, group, "camera", "look_at", &cfg->camera.look_at)) != RTK_OK ||
         (status = read_vec3(ld, group, "camera", "up", &cfg->camera.up)) != RTK_OK)
         return status;
+    /* The same checks rtk_camera_init makes, here so they carry a line. */
+    rtk_vec3 p = cfg->camera.position, a = cfg->camera.look_at, u = cfg->camera.up;
+    double d[3] = {(double)a.x - p.x, (double)a.y - p.y, (double)a.z - p.z};
+    double c[3] = {d[1] * u.z - d[2] * u.y, d[2] * u.x - d[0] * u.z, d[0] * u.y - d[1] * u.x};
+    double dn = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    double un = sqrt((double)u.x * u.x + (double)u.y * u.y + (double)u.z * u.z);
+    double cn = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    if (dn == 0.0)
+        return fail(ld, member(group, "look_at"), RTK_ERR_INVALID, "camera: look_at is the same point as position");
+    if (un == 0.0 || cn <= 1e-6 * dn * un)
+        return fail(ld, member(group, "up") ? member(group, "up") : group, RTK_ERR_INVALID,
+                    "camera: up [%g, %g, %g] is %s the view direction", u.x, u.y, u.z,
+                    un == 0.0 ? "zero, it cannot orient" : "parallel to");
     return RTK_OK;
 }
 

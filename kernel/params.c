@@ -376,6 +376,12 @@ static rtk_status check_number(const char *plugin, const rtk_param_desc *desc)
     if (isnan(desc->min) || isnan(desc->max) || desc->min > desc->max)
         return rtk_error(RTK_ERR_PLUGIN, "plugin '%s': parameter '%s' has range %s with min > max", plugin,
                          desc->name, range);
+    int bounded = desc->min != desc->max;
+    if (desc->type == RTK_PARAM_INT && bounded &&
+        (desc->min != floor(desc->min) || desc->max != floor(desc->max) || desc->min < -INT64_LIMIT ||
+         desc->max > INT64_LIMIT))
+        return rtk_error(RTK_ERR_PLUGIN, "plugin '%s': integer parameter '%s' has range %s, not 64-bit integers",
+                         plugin, desc->name, range);
     if (desc->required)
         return RTK_OK;
     if (isnan(desc->def))
@@ -384,7 +390,7 @@ static rtk_status check_number(const char *plugin, const rtk_param_desc *desc)
         (desc->def != floor(desc->def) || desc->def < -INT64_LIMIT || desc->def >= INT64_LIMIT))
         return rtk_error(RTK_ERR_PLUGIN, "plugin '%s': integer parameter '%s' has default %g, not a 64-bit integer",
                          plugin, desc->name, desc->def);
-    if (desc->min != desc->max && (desc->def < desc->min || desc->def > desc->max))
+    if (bounded && (desc->def < desc->min || desc->def > desc->max))
         return rtk_error(RTK_ERR_PLUGIN, "plugin '%s': parameter '%s' has default %g outside its range %s", plugin,
                          desc->name, desc->def, range);
     return RTK_OK;

@@ -176,6 +176,15 @@ static void test_errors(void)
     p = write_file("aovs.cfg", "scene = \"m.obj\";\nfilm = { aovs = [\"albdo\"]; };\n");
     expect_error(__LINE__, p, NULL, "aovs.cfg:2", "'albdo'", "did you mean 'albedo'", NULL);
 
+    p = write_file("aovs_png.cfg", "scene = \"m.obj\";\nfilm = {\n aovs = \"depth\"; };\n");
+    expect_error(__LINE__, p, NULL, "aovs_png.cfg:3", "aovs need an EXR output", "aovs_png.png", NULL);
+
+    p = write_file("same.cfg", "scene = \"m.obj\";\ncamera = { position = [1, 2, 3];\n look_at = [1, 2, 3]; };\n");
+    expect_error(__LINE__, p, NULL, "same.cfg:3", "look_at is the same point as position", NULL);
+
+    p = write_file("up.cfg", "scene = \"m.obj\";\ncamera = { position = [0, 0, 0]; look_at = [0, 2, 0];\n up = [0, 1, 0]; };\n");
+    expect_error(__LINE__, p, NULL, "up.cfg:3", "parallel to the view direction", NULL);
+
     p = write_file("choice.cfg", "scene = \"m.obj\";\nsampler = { type = \"sobel\"; };\n");
     expect_error(__LINE__, p, NULL, "choice.cfg:2", "type = 'sobel' is not one of: independent", NULL);
 
@@ -365,7 +374,8 @@ static void remove_tree(const char *dir)
 
 int main(void)
 {
-    snprintf(tmpdir, sizeof tmpdir, "%s", "/tmp/rtk-test-config-XXXXXX");
+    const char *base = getenv("TMPDIR");
+    snprintf(tmpdir, sizeof tmpdir, "%s/rtk-test-config-XXXXXX", base && base[0] ? base : "/tmp");
     if (!mkdtemp(tmpdir)) {
         perror("mkdtemp");
         return 1;

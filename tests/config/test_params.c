@@ -152,6 +152,9 @@ static void test_check_schema(void)
     CHECK(check_one((rtk_param_desc){.name = "x", .type = RTK_PARAM_INT, .def = 0, .min = 1, .max = 4}) != RTK_OK);
     CHECK_MSG("default 0 outside its range [1, 4]");
     CHECK(check_one((rtk_param_desc){.name = "x", .type = RTK_PARAM_INT, .def = 1.5}) != RTK_OK);
+    CHECK(check_one((rtk_param_desc){.name = "x", .type = RTK_PARAM_INT, .def = 1, .min = 0.5, .max = 4}) != RTK_OK);
+    CHECK(check_one((rtk_param_desc){.name = "x", .type = RTK_PARAM_INT, .def = 1, .max = 1e30}) != RTK_OK);
+    CHECK_MSG("not 64-bit integers");
     CHECK(check_one((rtk_param_desc){.name = "x", .type = RTK_PARAM_FLOAT, .def = 2, .min = 3, .max = 1}) != RTK_OK);
     CHECK_MSG("min > max");
     CHECK(check_one((rtk_param_desc){.name = "x", .type = RTK_PARAM_FLOAT, .def = NAN}) != RTK_OK);
