@@ -108,10 +108,15 @@ static void prepare(const rtk_ray *r, ray_prep *p)
     }
 }
 
+/* 1 + 2 gamma(3): each slab distance carries three roundings (subtract,
+ * reciprocal, multiply); Ize 2013 widens the far distance by this much. */
+static const float slab_slack = 1.0f + 2.0f * (3.0f * 0.5f * FLT_EPSILON) / (1.0f - 3.0f * 0.5f * FLT_EPSILON);
+
 /* Entry distance into the node's box, or +inf when the ray misses it. The
- * exit distance is scaled up by 1 + 2 gamma(3) (Ize 2013) so that rounding
- * never culls a box the ray touches. NaN from 0 * inf is dropped by
- * fmaxf/fminf, which only widens the interval. */
+ * far end, including the ray's tmax (a hit found so far), is widened by
+ * slab_slack so that rounding never culls a box holding a hit at or before
+ * tmax. NaN from 0 * inf is dropped by fmaxf/fminf, which only widens the
+ * interval. */
 static float box_entry(const rtk_bvh_node *n, const ray_prep *p, float tmin, float tmax)
 {
     float t0 = tmin, t1 = tmax;
@@ -121,8 +126,9 @@ static float box_entry(const rtk_bvh_node *n, const ray_prep *p, float tmin, flo
         float a = (lo - p->org[k]) * p->inv[k];
         float b = (hi - p->org[k]) * p->inv[k];
         t0 = fmaxf(t0, a);
-        t1 = fminf(t1, b * (1.0f + 2.0f * 3.0f * FLT_EPSILON * 0.5f / (1.0f - 3.0f * FLT_EPSILON * 0.5f)));
+        t1 = fminf(t1, b);
     }
+    t1 = t1 >= 0.0f ? t1 * slab_slack : t1 / slab_slack;
     return t0 <= t1 ? t0 : INFINITY;
 }
 
