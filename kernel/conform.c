@@ -196,6 +196,8 @@ static rtk_scene *make_mesh(int which, const char **name)
 static int brute_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
 {
     hit->prim = RTK_INVALID_ID;
+    hit->t = ray->tmax;
+    hit->u = hit->v = 0.0f;
     float best = ray->tmax;
     for (uint32_t i = 0; i < s->triangle_count; i++) {
         rtk_vec3 a, b, c;

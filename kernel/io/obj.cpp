@@ -378,13 +378,19 @@ void Reader::triangulate()
     size_t start = 0;
     while (remaining.size() > 3) {
         const size_t m = remaining.size();
-        size_t ear = m;
+        size_t ear = m, flat = m, convex = m;
         for (size_t k = 0; k < m && ear == m; k++) {
             size_t i = (start + k) % m;
             uint32_t a = remaining[(i + m - 1) % m], b = remaining[i], c = remaining[(i + 1) % m];
             const float *pa = position(a), *pb = position(b), *pc = position(c);
-            if (turn(pl, pa, pb, pc) <= 0)
+            double t = turn(pl, pa, pb, pc);
+            if (t <= 0) {
+                if (t == 0 && flat == m)
+                    flat = i;
                 continue;
+            }
+            if (convex == m)
+                convex = i;
             bool empty = true;
             for (size_t j = 0; j < m && empty; j++) {
                 uint32_t o = remaining[j];
@@ -396,8 +402,10 @@ void Reader::triangulate()
             if (empty)
                 ear = i;
         }
+        /* No proper ear: the projected polygon is not simple. Clipping a
+         * collinear corner adds nothing; a convex one adds the least overlap. */
         if (ear == m)
-            ear = start % m;
+            ear = flat != m ? flat : convex != m ? convex : start % m;
         triangles.insert(triangles.end(), {remaining[(ear + m - 1) % m], remaining[ear], remaining[(ear + 1) % m]});
         remaining.erase(remaining.begin() + std::ptrdiff_t(ear));
         start = ear;
@@ -529,8 +537,8 @@ rtk_status load(const char *path, rtk_scene *scene)
     size_t shown = 0;
     for (const std::pair<const std::string, size_t> &u : r.unknown_materials) {
         if (shown++ < max_messages)
-            rtk_log(RTK_LOG_WARN, "%s: material '%s' is not defined in any mtllib; %zu use%s the default material",
-                    path, u.first.c_str(), u.second, u.second == 1 ? "" : "s");
+            rtk_log(RTK_LOG_WARN, "%s: material '%s' is not defined in any mtllib; its faces get the default material",
+                    path, u.first.c_str());
     }
     if (shown > max_messages)
         rtk_log(RTK_LOG_WARN, "%s: %zu more undefined materials", path, shown - max_messages);
