@@ -171,14 +171,27 @@ int main(int argc, char **argv)
             } else if (strcmp(a, "--plugin-path") == 0) {
                 rtk_registry_add_dir(reg, v, "--plugin-path");
             } else {
-                const char *key = a[1] == 't' || strcmp(a, "--threads") == 0 ? "threads=" : "film.output=";
-                char *s = malloc(strlen(key) + strlen(v) + 1);
+                /* -o names a file relative to the current directory, not
+                 * to the config's (where config paths are relative to). */
+                int output = strcmp(a, "--threads") != 0;
+                char cwd[4096] = "";
+                if (output && v[0] != '/' && !getcwd(cwd, sizeof cwd)) {
+                    fprintf(stderr, "rtk: cannot read the current directory for -o %s\n", v);
+                    status = 1;
+                    goto out;
+                }
+                size_t len = strlen(cwd) + strlen(v) + 32;
+                char *s = malloc(len);
                 if (!s) {
                     status = 1;
                     goto out;
                 }
-                strcpy(s, key);
-                strcat(s, v);
+                if (!output)
+                    snprintf(s, len, "threads=%s", v);
+                else if (cwd[0])
+                    snprintf(s, len, "film.output=%s/%s", cwd, v);
+                else
+                    snprintf(s, len, "film.output=%s", v);
                 owned[owned_count++] = s;
                 overrides[override_count++] = s;
             }
