@@ -115,8 +115,8 @@ static const float slab_slack = 1.0f + 2.0f * (3.0f * 0.5f * FLT_EPSILON) / (1.0
 /* Entry distance into the node's box, or +inf when the ray misses it. The
  * far end, including the ray's tmax (a hit found so far), is widened by
  * slab_slack so that rounding never culls a box holding a hit at or before
- * tmax. NaN from 0 * inf is dropped by fmaxf/fminf, which only widens the
- * interval. */
+ * tmax. NaN from 0 * inf fails both comparisons and is dropped, which
+ * only widens the interval. */
 static float box_entry(const rtk_bvh_node *n, const ray_prep *p, float tmin, float tmax)
 {
     float t0 = tmin, t1 = tmax;
@@ -125,8 +125,8 @@ static float box_entry(const rtk_bvh_node *n, const ray_prep *p, float tmin, flo
         float hi = p->neg[k] ? n->lower[k] : n->upper[k];
         float a = (lo - p->org[k]) * p->inv[k];
         float b = (hi - p->org[k]) * p->inv[k];
-        t0 = fmaxf(t0, a);
-        t1 = fminf(t1, b);
+        t0 = a > t0 ? a : t0;
+        t1 = b < t1 ? b : t1;
     }
     t1 = t1 >= 0.0f ? t1 * slab_slack : t1 / slab_slack;
     return t0 <= t1 ? t0 : INFINITY;
