@@ -207,6 +207,36 @@ static void test_balloon(const plugins *p, const char *data)
     rtk_scene_free(textured);
 }
 
+static void test_showroom(const plugins *p, const char *data)
+{
+    char path[2048];
+    snprintf(path, sizeof path, "%s/showroom/showroom.obj", data);
+    rtk_scene *scene = NULL;
+    double t0 = rtk_now();
+    rtk_status st = rtk_scene_load(path, RTK_NEED_NORMALS | RTK_NEED_MATERIALS | RTK_NEED_TEXTURES, &scene);
+    check(st == RTK_OK, "showroom (2.2M triangles, quads, 662 materials, 150 textures) loads");
+    if (st != RTK_OK)
+        return;
+    printf("     showroom: %u triangles, %u materials, %u textures, loaded in %.2f s, peak RSS %.0f MiB\n",
+           scene->triangle_count, scene->material_count, scene->texture_count, rtk_now() - t0,
+           (double)rtk_peak_rss() / 1048576.0);
+    /* The hall is closed: from the camera inside, every primary ray hits,
+     * so every pixel has a finite, positive depth. */
+    rtk_camera_desc d = {{-2.5f, 2.2f, -2.5f}, {14.0f, 0.5f, 10.0f}, {0, 1, 0}, 60.0f};
+    float *px = render(scene, p, &d, 64, 48, 1, 2);
+    if (px) {
+        uint32_t hits = 0;
+        for (uint32_t i = 0; i < 64 * 48; i++)
+            hits += px[(size_t)i * RTK_FILM_CHANNELS + 9] > 0.0f;
+        double mean[3], cov;
+        mean_rgb(px, 64 * 48, mean, &cov);
+        printf("     showroom: mean %.6f %.6f %.6f, %u of %u primary rays hit\n", mean[0], mean[1], mean[2], hits, 64 * 48);
+        check(hits == 64 * 48, "showroom: every primary ray from inside the hall hits");
+    }
+    free(px);
+    rtk_scene_free(scene);
+}
+
 int main(void)
 {
     rtk_registry *reg = NULL;
@@ -227,6 +257,7 @@ int main(void)
         test_mesh(&p, data, "meshes/bunny.obj", 75408);
         test_mesh(&p, data, "meshes/dragon.obj", 19994);
         test_balloon(&p, data);
+        test_showroom(&p, data);
     } else {
         printf("skip  shared data: %s is absent, mesh and glTF renders skipped\n", data);
         skipped++;
