@@ -22,7 +22,7 @@ static int keeps_textures(const rtk_scene *scene) { return (scene->needs & RTK_N
 
 static int keeps_materials(const rtk_scene *scene)
 {
-    return (scene->needs & (RTK_NEED_MATERIALS | RTK_NEED_LIGHTS)) != 0;
+    return (scene->needs & (RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS)) != 0;
 }
 
 rtk_material rtk_material_default(void)
@@ -454,10 +454,12 @@ rtk_status rtk_scene_load(const char *path, uint32_t needs, rtk_scene **out)
         load = rtk_load_obj;
     else if (strcasecmp(ext, "gltf") == 0 || strcasecmp(ext, "glb") == 0)
         load = rtk_load_gltf;
+    else if (!ext[0])
+        return rtk_error(RTK_ERR_UNSUPPORTED,
+                         "%s: the scene file has no extension; supported extensions are .obj, .gltf and .glb", path);
     else
         return rtk_error(RTK_ERR_UNSUPPORTED,
-                         "%s: unknown scene format '%s%s'; supported extensions are .obj, .gltf and .glb",
-                         path, ext[0] ? "." : "", ext);
+                         "%s: unknown scene format '.%s'; supported extensions are .obj, .gltf and .glb", path, ext);
 
     struct stat st;
     if (stat(path, &st) != 0)

@@ -105,6 +105,13 @@ std::vector<std::string> lines_of(const std::string &text)
 
 bool starts_with(const std::string &s, const char *prefix) { return s.compare(0, std::strlen(prefix), prefix) == 0; }
 
+/* "mesh 3 'Cube'", or "mesh 3" when the object has no name. */
+std::string label(const char *kind, size_t index, const std::string &name)
+{
+    std::string out = std::string(kind) + " " + std::to_string(index);
+    return name.empty() ? out : out + " '" + name + "'";
+}
+
 /* Passes tinygltf's warnings on, prefixed with the file name. A missing
  * external image is left out: it becomes a texture that the texture
  * service reports, once, when a plugin actually needs it. */
@@ -334,7 +341,7 @@ class Loader {
     std::vector<char> on_path_;
     size_t visits_ = 0;
     size_t skipped_primitives_ = 0, ragged_primitives_ = 0;
-    bool ortho_warned_ = false;
+    bool ortho_warned_ = false, other_uv_sets_ = false;
     std::vector<uint32_t> materials_;
     std::map<std::pair<int, int>, int> textures_; /* (image, srgb) -> scene texture */
 
@@ -347,8 +354,8 @@ class Loader {
     rtk_status add_primitive(int mesh, int primitive, const Mat4 &world);
     rtk_status view(int accessor, const Where &where, const std::vector<int> &components, int type, View *out);
     rtk_status fail(const Where &where, int accessor, const char *fmt, ...) RTK_PRINTF(4, 5);
-    const char *node_name(int index) const { return model_.nodes[size_t(index)].name.c_str(); }
-    const char *mesh_name(int index) const { return model_.meshes[size_t(index)].name.c_str(); }
+    std::string node_label(int index) const { return label("node", size_t(index), model_.nodes[size_t(index)].name); }
+    std::string mesh_label(int index) const { return label("mesh", size_t(index), model_.meshes[size_t(index)].name); }
 };
 
 rtk_status Loader::fail(const Where &where, int accessor, const char *fmt, ...)
@@ -358,8 +365,8 @@ rtk_status Loader::fail(const Where &where, int accessor, const char *fmt, ...)
     va_start(ap, fmt);
     std::vsnprintf(problem, sizeof problem, fmt, ap);
     va_end(ap);
-    return rtk_error(RTK_ERR_PARSE, "%s: mesh %d ('%s') primitive %d, %s accessor %d: %s", path_, where.mesh,
-                     mesh_name(where.mesh), where.primitive, where.what, accessor, problem);
+    return rtk_error(RTK_ERR_PARSE, "%s: %s primitive %d, %s accessor %d: %s", path_, mesh_label(where.mesh).c_str(),
+                     where.primitive, where.what, accessor, problem);
 }
 
 rtk_status Loader::view(int index, const Where &where, const std::vector<int> &components, int type, View *out)
@@ -389,8 +396,8 @@ rtk_status Loader::view(int index, const Where &where, const std::vector<int> &c
                     acc.bufferView, bv.buffer, model_.buffers.size());
     const size_t buffer_size = model_.buffers[size_t(bv.buffer)].data.size();
     if (bv.byteOffset > buffer_size || bv.byteLength > buffer_size - bv.byteOffset)
-        return fail(where, index, "buffer view %d spans bytes %zu..%zu+%zu, but buffer %d holds %zu bytes",
-                    acc.bufferView, bv.byteOffset, bv.byteOffset, bv.byteLength, bv.buffer, buffer_size);
+        return fail(where, index, "buffer view %d (%zu bytes from offset %zu) does not fit in buffer %d (%zu bytes)",
+                    acc.bufferView, bv.byteLength, bv.byteOffset, bv.buffer, buffer_size);
     const size_t elem = component_size(acc.componentType) * component_count(type);
     const size_t stride = bv.byteStride ? bv.byteStride : elem;
     if (stride < elem)
@@ -431,10 +438,10 @@ rtk_status Loader::add_texture(size_t material, const char *slot, int index, int
     *out = -1;
     if (index < 0)
         return RTK_OK;
-    const char *mat_name = model_.materials[material].name.c_str();
+    const std::string mat = label("material", material, model_.materials[material].name);
     if (size_t(index) >= model_.textures.size()) {
-        rtk_log(RTK_LOG_WARN, "%s: material %zu ('%s') %s refers to texture %d, which does not exist; ignored",
-                path_, material, mat_name, slot, index);
+        rtk_log(RTK_LOG_WARN, "%s: %s %s refers to texture %d, which does not exist; ignored", path_, mat.c_str(),
+                slot, index);
         return RTK_OK;
     }
     const tinygltf::Texture &tex = model_.textures[size_t(index)];
@@ -445,8 +452,8 @@ rtk_status Loader::add_texture(size_t material, const char *slot, int index, int
             source = ext.second.Get("source").GetNumberAsInt();
     }
     if (source < 0 || size_t(source) >= model_.images.size()) {
-        rtk_log(RTK_LOG_WARN, "%s: material %zu ('%s') %s: texture %d has no usable image; ignored", path_,
-                material, mat_name, slot, index);
+        rtk_log(RTK_LOG_WARN, "%s: %s %s: texture %d has no usable image; ignored", path_, mat.c_str(), slot,
+                index);
         return RTK_OK;
     }
     std::pair<int, int> key(source, srgb);
@@ -458,7 +465,7 @@ rtk_status Loader::add_texture(size_t material, const char *slot, int index, int
     const tinygltf::Image &image = model_.images[size_t(source)];
     rtk_status status;
     int added = -1;
-    char name[512];
+    const std::string image_label = label("image", size_t(source), image.name);
     if (!image.uri.empty() && !starts_with(image.uri, "data:")) {
         std::string file = take(rtk_path_join(dir_.c_str(), uri_decode(image.uri).c_str()));
         status = rtk_scene_add_texture(scene_, NULL, file.c_str(), NULL, 0, srgb, &added);
@@ -470,19 +477,19 @@ rtk_status Loader::add_texture(size_t material, const char *slot, int index, int
                                                                                  : NULL;
         if (!buf || bv->byteOffset > buf->data.size() || bv->byteLength > buf->data.size() - bv->byteOffset ||
             !bv->byteLength) {
-            rtk_log(RTK_LOG_WARN, "%s: image %d ('%s') refers to a buffer view that does not exist or does not "
-                    "fit its buffer; ignored", path_, source, image.name.c_str());
+            rtk_log(RTK_LOG_WARN, "%s: %s refers to a buffer view that does not exist or does not fit its buffer; "
+                    "ignored", path_, image_label.c_str());
             return RTK_OK;
         }
-        std::snprintf(name, sizeof name, "%s: image %d ('%s')", path_, source, image.name.c_str());
-        status = rtk_scene_add_texture(scene_, name, NULL, buf->data.data() + bv->byteOffset, bv->byteLength,
+        const std::string name = std::string(path_) + ": " + image_label;
+        status = rtk_scene_add_texture(scene_, name.c_str(), NULL, buf->data.data() + bv->byteOffset, bv->byteLength,
                                        srgb, &added);
     } else if (!image.image.empty()) {
-        std::snprintf(name, sizeof name, "%s: image %d ('%s', data URI)", path_, source, image.name.c_str());
-        status = rtk_scene_add_texture(scene_, name, NULL, image.image.data(), image.image.size(), srgb, &added);
+        const std::string name = std::string(path_) + ": " + image_label + " (data URI)";
+        status = rtk_scene_add_texture(scene_, name.c_str(), NULL, image.image.data(), image.image.size(), srgb, &added);
     } else {
-        rtk_log(RTK_LOG_WARN, "%s: image %d ('%s') has no data rtk can read (unsupported data URI?); ignored",
-                path_, source, image.name.c_str());
+        rtk_log(RTK_LOG_WARN, "%s: %s has no data rtk can read (unsupported data URI?); ignored", path_,
+                image_label.c_str());
         return RTK_OK;
     }
     if (status != RTK_OK)
@@ -530,8 +537,14 @@ rtk_status Loader::add_materials()
         } else if (src.alphaMode == "BLEND") {
             m.alpha_mode = RTK_ALPHA_BLEND;
         } else if (src.alphaMode != "OPAQUE") {
-            rtk_log(RTK_LOG_WARN, "%s: material %zu ('%s') has alphaMode '%s'; treated as OPAQUE", path_, i,
-                    src.name.c_str(), src.alphaMode.c_str());
+            rtk_log(RTK_LOG_WARN, "%s: %s has alphaMode '%s'; treated as OPAQUE", path_,
+                    label("material", i, src.name).c_str(), src.alphaMode.c_str());
+        }
+        if (!other_uv_sets_ && (pbr.baseColorTexture.texCoord != 0 || src.emissiveTexture.texCoord != 0 ||
+                                src.normalTexture.texCoord != 0)) {
+            rtk_log(RTK_LOG_WARN, "%s: %s maps a texture with a TEXCOORD other than TEXCOORD_0; rtk uses "
+                    "TEXCOORD_0 for every texture", path_, label("material", i, src.name).c_str());
+            other_uv_sets_ = true;
         }
         rtk_status status;
         if ((status = add_texture(i, "baseColorTexture", pbr.baseColorTexture.index, 1, &m.base_tex)) != RTK_OK ||
@@ -559,7 +572,7 @@ rtk_status Loader::local_matrix(int index, Mat4 *out)
     else if (!node.scale.empty() && node.scale.size() != 3)
         bad = "scale needs 3 numbers";
     if (bad)
-        return rtk_error(RTK_ERR_PARSE, "%s: node %d ('%s'): %s", path_, index, node_name(index), bad);
+        return rtk_error(RTK_ERR_PARSE, "%s: %s: %s", path_, node_label(index).c_str(), bad);
 
     Mat4 m = identity();
     if (node.matrix.size() == 16) {
@@ -592,8 +605,7 @@ rtk_status Loader::local_matrix(int index, Mat4 *out)
     }
     for (double v : m) {
         if (!std::isfinite(v))
-            return rtk_error(RTK_ERR_PARSE, "%s: node %d ('%s') has a non-finite transform", path_, index,
-                             node_name(index));
+            return rtk_error(RTK_ERR_PARSE, "%s: %s has a non-finite transform", path_, node_label(index).c_str());
     }
     *out = m;
     return RTK_OK;
@@ -603,15 +615,15 @@ void Loader::take_camera(int index, const Mat4 &world)
 {
     const tinygltf::Node &node = model_.nodes[size_t(index)];
     if (size_t(node.camera) >= model_.cameras.size()) {
-        rtk_log(RTK_LOG_WARN, "%s: node %d ('%s') refers to camera %d, which does not exist; ignored", path_, index,
-                node_name(index), node.camera);
+        rtk_log(RTK_LOG_WARN, "%s: %s refers to camera %d, which does not exist; ignored", path_,
+                node_label(index).c_str(), node.camera);
         return;
     }
     const tinygltf::Camera &cam = model_.cameras[size_t(node.camera)];
     if (cam.type != "perspective") {
         if (!ortho_warned_)
-            rtk_log(RTK_LOG_WARN, "%s: camera %d ('%s') is %s; rtk only uses perspective cameras", path_,
-                    node.camera, cam.name.c_str(), cam.type.c_str());
+            rtk_log(RTK_LOG_WARN, "%s: %s is %s; rtk only uses perspective cameras", path_,
+                    label("camera", size_t(node.camera), cam.name).c_str(), cam.type.c_str());
         ortho_warned_ = true;
         return;
     }
@@ -623,8 +635,8 @@ void Loader::take_camera(int index, const Mat4 &world)
     double lf = std::sqrt(fwd[0] * fwd[0] + fwd[1] * fwd[1] + fwd[2] * fwd[2]);
     double lu = std::sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]);
     if (!(yfov > 0.0 && yfov < pi) || !(lf > 0.0) || !(lu > 0.0)) {
-        rtk_log(RTK_LOG_WARN, "%s: camera %d ('%s') on node %d has an unusable field of view or transform; ignored",
-                path_, node.camera, cam.name.c_str(), index);
+        rtk_log(RTK_LOG_WARN, "%s: %s on %s has an unusable field of view or transform; ignored", path_,
+                label("camera", size_t(node.camera), cam.name).c_str(), node_label(index).c_str());
         return;
     }
     rtk_camera_desc &desc = scene_->camera;
@@ -647,20 +659,20 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world)
         return RTK_OK;
     }
     if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
-        return rtk_error(RTK_ERR_PARSE, "%s: mesh %d ('%s') primitive %d has mode %d, which is not a glTF mode",
-                         path_, mesh, mesh_name(mesh), index, mode);
+        return rtk_error(RTK_ERR_PARSE, "%s: %s primitive %d has mode %d, which is not a glTF mode", path_,
+                         mesh_label(mesh).c_str(), index, mode);
     uint32_t material = RTK_INVALID_ID;
     if (prim.material >= 0) {
         if (size_t(prim.material) >= materials_.size())
-            return rtk_error(RTK_ERR_PARSE, "%s: mesh %d ('%s') primitive %d uses material %d, but the file has %zu",
-                             path_, mesh, mesh_name(mesh), index, prim.material, materials_.size());
+            return rtk_error(RTK_ERR_PARSE, "%s: %s primitive %d uses material %d, but the file has %zu", path_,
+                             mesh_label(mesh).c_str(), index, prim.material, materials_.size());
         material = materials_[size_t(prim.material)];
     }
 
     std::map<std::string, int>::const_iterator attr = prim.attributes.find("POSITION");
     if (attr == prim.attributes.end())
-        return rtk_error(RTK_ERR_PARSE, "%s: mesh %d ('%s') primitive %d has no POSITION attribute", path_, mesh,
-                         mesh_name(mesh), index);
+        return rtk_error(RTK_ERR_PARSE, "%s: %s primitive %d has no POSITION attribute", path_,
+                         mesh_label(mesh).c_str(), index);
     Where where = {mesh, index, "POSITION"};
     View pos;
     rtk_status status = view(attr->second, where, {TINYGLTF_COMPONENT_TYPE_FLOAT}, TINYGLTF_TYPE_VEC3, &pos);
@@ -742,9 +754,9 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world)
     }
     std::vector<float> uvs(tex.count * 2);
     for (size_t i = 0; i < tex.count; i++) {
-        /* glTF puts v = 0 at the top of the image; rtk at the bottom. */
+        /* glTF's convention (v = 0 at the top row) is the texture service's. */
         uvs[i * 2] = read_component(tex, i, 0);
-        uvs[i * 2 + 1] = 1.0f - read_component(tex, i, 1);
+        uvs[i * 2 + 1] = read_component(tex, i, 1);
     }
 
     size_t triangles;
@@ -790,11 +802,11 @@ rtk_status Loader::visit(int index, const Mat4 &parent, int depth)
         return rtk_error(RTK_ERR_PARSE, "%s: the scene refers to node %d, but the file has %zu nodes", path_, index,
                          model_.nodes.size());
     if (on_path_[size_t(index)])
-        return rtk_error(RTK_ERR_PARSE, "%s: node %d ('%s') is its own ancestor: the node hierarchy has a cycle",
-                         path_, index, node_name(index));
+        return rtk_error(RTK_ERR_PARSE, "%s: %s is its own ancestor: the node hierarchy has a cycle", path_,
+                         node_label(index).c_str());
     if (depth > max_depth)
-        return rtk_error(RTK_ERR_PARSE, "%s: node %d ('%s') is nested more than %d levels deep", path_, index,
-                         node_name(index), max_depth);
+        return rtk_error(RTK_ERR_PARSE, "%s: %s is nested more than %d levels deep", path_,
+                         node_label(index).c_str(), max_depth);
     if (++visits_ > max_node_visits)
         return rtk_error(RTK_ERR_PARSE, "%s: the node hierarchy expands to more than %zu node instances "
                          "(shared subtrees?)", path_, max_node_visits);
@@ -808,8 +820,8 @@ rtk_status Loader::visit(int index, const Mat4 &parent, int depth)
         take_camera(index, world);
     if (node.mesh >= 0) {
         if (size_t(node.mesh) >= model_.meshes.size())
-            return rtk_error(RTK_ERR_PARSE, "%s: node %d ('%s') uses mesh %d, but the file has %zu meshes", path_,
-                             index, node_name(index), node.mesh, model_.meshes.size());
+            return rtk_error(RTK_ERR_PARSE, "%s: %s uses mesh %d, but the file has %zu meshes", path_,
+                             node_label(index).c_str(), node.mesh, model_.meshes.size());
         for (size_t p = 0; p < model_.meshes[size_t(node.mesh)].primitives.size(); p++) {
             if ((status = add_primitive(node.mesh, int(p), world)) != RTK_OK)
                 return status;
@@ -826,6 +838,9 @@ rtk_status Loader::visit(int index, const Mat4 &parent, int depth)
 
 rtk_status Loader::run()
 {
+    if (!starts_with(model_.asset.version, "2."))
+        return rtk_error(RTK_ERR_UNSUPPORTED, "%s: the file is glTF %s; rtk reads glTF 2.0", path_,
+                         model_.asset.version.empty() ? "of unknown version" : model_.asset.version.c_str());
     rtk_status status = check_extensions();
     if (status != RTK_OK || (status = add_materials()) != RTK_OK)
         return status;

@@ -204,7 +204,7 @@ struct Reader {
     std::vector<uint32_t> triangles, remaining;
 
     /* Stops the parse with an error naming the file. */
-    void fail(rtk_status code, const char *fmt, ...) RTK_PRINTF(3, 4);
+    [[noreturn]] void fail(rtk_status code, const char *fmt, ...) RTK_PRINTF(3, 4);
     void check(rtk_status status)
     {
         if (status != RTK_OK)
@@ -214,7 +214,7 @@ struct Reader {
     {
         return scene->positions + size_t(corners[corner].v) * 3;
     }
-    int64_t resolve(int raw, size_t count, const char *what);
+    int64_t resolve(int raw, size_t count, bool optional, const char *what, const char *plural);
     void add_face(const tinyobj::index_t *indices, int count);
     void triangulate();
     void add_materials(const tinyobj::material_t *list, int count);
@@ -231,17 +231,17 @@ void Reader::fail(rtk_status code, const char *fmt, ...)
 }
 
 /* 0-based index of an OBJ reference (1-based, or negative = relative to
- * the end so far); -1 when absent (0, allowed for normals and uvs only). */
-int64_t Reader::resolve(int raw, size_t count, const char *what)
+ * the end so far); -1 when an optional one (normal, uv) is absent (0). */
+int64_t Reader::resolve(int raw, size_t count, bool optional, const char *what, const char *plural)
 {
-    if (raw == 0 && std::strcmp(what, "vertex") != 0)
+    if (raw == 0 && optional)
         return -1;
     int64_t i = raw > 0 ? int64_t(raw) - 1 : int64_t(count) + raw;
     if (raw == 0 || i < 0 || uint64_t(i) >= count)
         fail(RTK_ERR_PARSE,
-             "face %zu (object '%s') refers to %s %d, but %zu %s%s defined before it; fix the face's indices",
-             face, object.empty() ? "(unnamed)" : object.c_str(), what, raw, count, what,
-             count == 1 ? " is" : "s are");
+             "face %zu (object '%s') refers to %s %d, but the file defines %zu %s before that face; "
+             "fix the face's indices",
+             face, object.empty() ? "(unnamed)" : object.c_str(), what, raw, count, plural);
     return i;
 }
 
@@ -341,6 +341,8 @@ double turn(const Plane &pl, const float *p, const float *q, const float *s)
                       (double(q[pl.b]) - p[pl.b]) * (double(s[pl.a]) - p[pl.a]));
 }
 
+bool same(const float *p, const float *q) { return p[0] == q[0] && p[1] == q[1] && p[2] == q[2]; }
+
 /* Ear clipping in the polygon's plane. Every polygon of n corners gives
  * n - 2 triangles: when no proper ear exists (self-intersecting or
  * degenerate input) the first corner is clipped anyway, and zero-area
@@ -391,13 +393,15 @@ void Reader::triangulate()
             }
             if (convex == m)
                 convex = i;
+            /* A corner inside the ear or on its border (the new diagonal
+             * included) blocks it; one sitting on the ear's own corners
+             * (a repeated position) does not. */
             bool empty = true;
             for (size_t j = 0; j < m && empty; j++) {
-                uint32_t o = remaining[j];
-                if (o == a || o == b || o == c)
+                const float *po = position(remaining[j]);
+                if (same(po, pa) || same(po, pb) || same(po, pc))
                     continue;
-                const float *po = position(o);
-                empty = !(turn(pl, pa, pb, po) > 0 && turn(pl, pb, pc, po) > 0 && turn(pl, pc, pa, po) > 0);
+                empty = !(turn(pl, pa, pb, po) >= 0 && turn(pl, pb, pc, po) >= 0 && turn(pl, pc, pa, po) >= 0);
             }
             if (empty)
                 ear = i;
@@ -423,9 +427,9 @@ void Reader::add_face(const tinyobj::index_t *indices, int count)
     corners.resize(size_t(count));
     for (int k = 0; k < count; k++) {
         Corner &c = corners[size_t(k)];
-        c.v = base + uint32_t(resolve(indices[k].vertex_index, vertex_count, "vertex"));
-        c.vt = resolve(indices[k].texcoord_index, uv_count, "texture coordinate");
-        c.vn = resolve(indices[k].normal_index, normal_count, "normal");
+        c.v = base + uint32_t(resolve(indices[k].vertex_index, vertex_count, false, "vertex", "vertices"));
+        c.vt = resolve(indices[k].texcoord_index, uv_count, true, "texture coordinate", "texture coordinates");
+        c.vn = resolve(indices[k].normal_index, normal_count, true, "normal", "normals");
     }
     triangulate();
     for (size_t t = 0; t < triangles.size(); t += 3) {
@@ -466,7 +470,7 @@ void on_texcoord(void *user, tinyobj::real_t u, tinyobj::real_t v, tinyobj::real
 {
     Reader &r = *static_cast<Reader *>(user);
     if (r.want_uvs)
-        r.uvs.insert(r.uvs.end(), {float(u), float(v)});
+        r.uvs.insert(r.uvs.end(), {float(u), 1.0f - float(v)}); /* OBJ's v points up; the texture service's down */
     r.uv_count++;
 }
 
@@ -504,6 +508,12 @@ rtk_status load(const char *path, rtk_scene *scene)
     std::ifstream in(path, std::ios::binary);
     if (!in)
         return rtk_error(RTK_ERR_IO, "%s: cannot open: %s", path, std::strerror(errno));
+    unsigned char bom[3] = {0, 0, 0};
+    in.read(reinterpret_cast<char *>(bom), 3);
+    if ((bom[0] == 0xFE && bom[1] == 0xFF) || (bom[0] == 0xFF && bom[1] == 0xFE))
+        return rtk_error(RTK_ERR_UNSUPPORTED, "%s: the file is UTF-16 encoded; save it as UTF-8 or ASCII", path);
+    in.clear();
+    in.seekg(bom[0] == 0xEF && bom[1] == 0xBB && bom[2] == 0xBF ? 3 : 0); /* skip a UTF-8 byte order mark */
 
     Reader r;
     r.path = path;

@@ -36,7 +36,11 @@ static int visit(const char *path, const struct stat *st, int type, struct FTW *
         rtk_scene_free(scene);
         loaded++;
     } else if (rtk_error_message()[0]) {
-        printf("refused: %s: %s\n", path, rtk_error_message());
+        /* Messages name the file; add it when one does not. */
+        if (strstr(rtk_error_message(), path))
+            printf("refused: %s\n", rtk_error_message());
+        else
+            printf("refused: %s: %s\n", path, rtk_error_message());
         refused++;
     } else {
         printf("FAILED: %s: refused (status %d) without a message\n", path, (int)status);

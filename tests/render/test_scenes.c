@@ -120,6 +120,49 @@ static void test_headlight_truth(const plugins *p, const char *dir)
     rtk_scene_free(scene);
 }
 
+static void test_texture_orientation(const plugins *p, const char *dir)
+{
+    /* A texture whose top half is red and bottom half blue, on a quad with
+     * OBJ uvs (v up): the top of the rendered quad must be red. */
+    char png[1024], obj[1024], mtl[1024];
+    snprintf(png, sizeof png, "%s/tb.png", dir);
+    snprintf(obj, sizeof obj, "%s/tq.obj", dir);
+    snprintf(mtl, sizeof mtl, "%s/tq.mtl", dir);
+    float texels[8 * 8 * 3];
+    for (int y = 0; y < 8; y++)
+        for (int x = 0; x < 8; x++) {
+            float *t = texels + 3 * (y * 8 + x);
+            t[0] = y < 4 ? 1.0f : 0.0f;
+            t[1] = 0.0f;
+            t[2] = y < 4 ? 0.0f : 1.0f;
+        }
+    const char *names[3] = {"R", "G", "B"};
+    check(rtk_image_write(png, 8, 8, 3, names, texels, 0) == RTK_OK, "texture written");
+    FILE *f = fopen(mtl, "w");
+    fputs("newmtl t\nKd 1 1 1\nmap_Kd tb.png\n", f);
+    fclose(f);
+    f = fopen(obj, "w");
+    fputs("mtllib tq.mtl\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+          "usemtl t\nf 1/1 2/2 3/3 4/4\n",
+          f);
+    fclose(f);
+    rtk_scene *scene = NULL;
+    if (rtk_scene_load(obj, RTK_NEED_NORMALS | RTK_NEED_MATERIALS | RTK_NEED_TEXTURES, &scene) != RTK_OK) {
+        check(0, "textured quad loads");
+        return;
+    }
+    rtk_camera_desc d = {{0, 0, 5}, {0, 0, 0}, {0, 1, 0}, 10.0f};
+    float *px = render(scene, p, &d, 16, 16, 1, 1);
+    if (px) {
+        const float *top = px + (size_t)(2 * 16 + 8) * RTK_FILM_CHANNELS;
+        const float *bottom = px + (size_t)(13 * 16 + 8) * RTK_FILM_CHANNELS;
+        check(top[0] > 0.9f && top[2] < 0.1f && bottom[2] > 0.9f && bottom[0] < 0.1f,
+              "OBJ texture: the image's top row shows at the top (v points up)");
+    }
+    free(px);
+    rtk_scene_free(scene);
+}
+
 static int data_dir(char *out, size_t cap)
 {
     snprintf(out, cap, "%s/../shared/data", RTK_SOURCE_ROOT);
@@ -252,6 +295,7 @@ int main(void)
     if (!dir)
         return 1;
     test_headlight_truth(&p, dir);
+    test_texture_orientation(&p, dir);
     char data[1024];
     if (data_dir(data, sizeof data)) {
         test_mesh(&p, data, "meshes/bunny.obj", 75408);
