@@ -91,6 +91,8 @@ static int cmd_plugins(rtk_registry *reg, const char *name)
         }
         printf("%-12s %-12s %-6s %s%s\n", rtk_kind_name(p->kind), p->name, p->version, p->summary,
                info->problem ? "  [refused, see below]" : "");
+        for (uint32_t k = 0; k < p->param_count; k++)
+            print_param(&p->params[k]);
         shown++;
     }
     if (!name) {
