@@ -4,44 +4,7 @@
  * 'renamed'") because configs name plugins by file. Test-only. */
 #include <rtk/rtk.h>
 
-static rtk_status stub_create(const rtk_params *params, void **state)
-{
-    (void)params;
-    *state = NULL;
-    return RTK_OK;
-}
-
-static float stub_radius(const void *state)
-{
-    (void)state;
-    return 0.5f;
-}
-
-static float stub_eval(const void *state, float dx, float dy)
-{
-    (void)state;
-    return dx >= -0.5f && dx <= 0.5f && dy >= -0.5f && dy <= 0.5f ? 1.0f : 0.0f;
-}
-
-static double stub_integral(const void *state)
-{
-    (void)state;
-    return 1.0;
-}
-
-static void stub_destroy(void *state)
-{
-    (void)state;
-}
-
-static const rtk_filter_fns stub_fns = {
-    .size = sizeof(rtk_filter_fns),
-    .create = stub_create,
-    .radius = stub_radius,
-    .eval = stub_eval,
-    .integral = stub_integral,
-    .destroy = stub_destroy,
-};
+#include "flat_filter.h"
 
 static const rtk_plugin name_mismatch_plugin = {
     RTK_PLUGIN_HEADER,
@@ -49,7 +12,7 @@ static const rtk_plugin name_mismatch_plugin = {
     .name = "renamed",
     .version = "1.0",
     .summary = "broken on purpose: plugin name differs from the file name",
-    .functions = &stub_fns,
+    .functions = &flat_fns,
 };
 
 RTK_PLUGIN_ENTRY(name_mismatch_plugin)
