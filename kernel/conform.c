@@ -97,6 +97,25 @@ static uint32_t variant_count(const rtk_plugin *p)
     }
 }
 
+/* Creates an instance with parameter set vi, checking both steps; label
+ * names the set. Returns 1 with *state set on success. */
+static int create_variant(runner *r, const rtk_plugin *p, uint32_t vi,
+                          rtk_status (*create)(const rtk_params *, void **), char *label, size_t cap, void **state)
+{
+    char name[256];
+    rtk_params *params = param_variant(p, (int)vi, label, cap);
+    if (!params) {
+        snprintf(name, sizeof name, "parameter set %u is accepted", vi);
+        check(r, 0, name, "%s", rtk_error_message());
+        return 0;
+    }
+    rtk_status st = create(params, state);
+    snprintf(name, sizeof name, "create [%s]", label);
+    check(r, st == RTK_OK, name, "%s", rtk_error_message());
+    rtk_params_destroy(params);
+    return st == RTK_OK;
+}
+
 static void check_schema(runner *r, const rtk_plugin *p)
 {
     rtk_status st = rtk_params_check_schema(p);
@@ -317,18 +336,8 @@ static void conform_filter(runner *r, const rtk_plugin *p)
     uint32_t variants = variant_count(p);
     for (uint32_t vi = 0; vi < variants; vi++) {
         char label[128], name[256];
-        rtk_params *params = param_variant(p, (int)vi, label, sizeof label);
-        if (!params) {
-            snprintf(name, sizeof name, "parameter set %u is accepted", vi);
-            check(r, 0, name, "%s", rtk_error_message());
-            continue;
-        }
         void *state = NULL;
-        rtk_status st = f->create(params, &state);
-        snprintf(name, sizeof name, "create [%s]", label);
-        check(r, st == RTK_OK, name, "%s", rtk_error_message());
-        rtk_params_destroy(params);
-        if (st != RTK_OK)
+        if (!create_variant(r, p, vi, f->create, label, sizeof label, &state))
             continue;
         float rad = f->radius(state);
         snprintf(name, sizeof name, "radius is finite and in (0, 64] [%s]", label);
@@ -498,24 +507,14 @@ static void conform_integrator(runner *r, const rtk_plugin *p)
     uint32_t variants = variant_count(p);
     for (uint32_t vi = 0; vi < variants; vi++) {
         char label[128], name[256];
-        rtk_params *params = param_variant(p, (int)vi, label, sizeof label);
-        if (!params) {
-            snprintf(name, sizeof name, "parameter set %u is accepted", vi);
-            check(r, 0, name, "%s", rtk_error_message());
-            continue;
-        }
         void *state = NULL;
-        rtk_status st = f->create(params, &state);
-        snprintf(name, sizeof name, "create [%s]", label);
-        check(r, st == RTK_OK, name, "%s", rtk_error_message());
-        rtk_params_destroy(params);
-        if (st != RTK_OK)
+        if (!create_variant(r, p, vi, f->create, label, sizeof label, &state))
             continue;
         uint32_t needs = f->needs(state);
         snprintf(name, sizeof name, "needs only known flags [%s]", label);
         check(r, (needs & ~0x1fu) == 0, name, "needs 0x%x has unknown bits", needs);
         rtk_scene *scene = NULL;
-        st = make_room(needs, &scene);
+        rtk_status st = make_room(needs, &scene);
         if (st == RTK_OK)
             st = rtk_bvh_build(scene, &single_leaf, NULL, 1);
         if (st != RTK_OK) {
