@@ -5,6 +5,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -144,6 +145,8 @@ int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray_in, rtk_hit *hit)
     hit->prim = RTK_INVALID_ID;
     hit->t = ray_in->tmax;
     hit->u = hit->v = 0.0f;
+    if (s->own_traversal)
+        return s->own_traversal->closest(s->own_state, ray_in, hit) && hit->prim < s->triangle_count;
     if (s->node_count == 0)
         return 0;
     rtk_ray ray = *ray_in;
@@ -201,6 +204,8 @@ int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray_in, rtk_hit *hit)
 
 int rtk_bvh_any(const rtk_scene *s, const rtk_ray *ray)
 {
+    if (s->own_traversal)
+        return s->own_traversal->any(s->own_state, ray);
     if (s->node_count == 0)
         return 0;
     ray_prep p;
@@ -321,8 +326,26 @@ done:
     return st;
 }
 
+void rtk_bvh_release(rtk_scene *s)
+{
+    if (s->own_traversal && s->own_state)
+        s->own_traversal->destroy(s->own_state);
+    s->own_traversal = NULL;
+    s->own_state = NULL;
+}
+
+/* The plugin's own traversal functions, if its table is new enough to
+ * have them and sets both. */
+static const rtk_accelerator_fns *own_traversal(const rtk_accelerator_fns *fns)
+{
+    if (fns->size < offsetof(rtk_accelerator_fns, any) + sizeof fns->any)
+        return NULL;
+    return fns->closest && fns->any ? fns : NULL;
+}
+
 rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads)
 {
+    rtk_bvh_release(s);
     free(s->nodes);
     free(s->prim_ids);
     free(s->tri_verts);
@@ -341,18 +364,19 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     a.thread_count = threads ? threads : 1;
     rtk_bounds *bounds = rtk_alloc(sizeof *bounds * n);
     rtk_vec3 *centroids = rtk_alloc(sizeof *centroids * n);
+    rtk_vec3 *vertices = rtk_alloc(sizeof *vertices * 3 * (size_t)n);
     a.nodes = rtk_calloc(a.max_nodes, sizeof *a.nodes);
     a.prim_order = rtk_calloc(n, sizeof *a.prim_order);
     s->tri_verts = rtk_alloc(sizeof(float) * 9 * (size_t)n);
     rtk_status st = RTK_OK;
     void *state = NULL;
     const rtk_accelerator_fns *fns = plugin->functions;
-    if (!bounds || !centroids || !a.nodes || !a.prim_order || !s->tri_verts) {
+    if (!bounds || !centroids || !vertices || !a.nodes || !a.prim_order || !s->tri_verts) {
         st = RTK_ERR_NOMEM;
         goto fail;
     }
     for (uint32_t i = 0; i < n; i++) {
-        rtk_vec3 v[3];
+        rtk_vec3 *v = vertices + 3 * (size_t)i;
         rtk_scene_triangle(s, i, &v[0], &v[1], &v[2]);
         rtk_bounds b = {v[0], v[0]};
         for (int k = 1; k < 3; k++) {
@@ -364,6 +388,7 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     }
     a.prim_bounds = bounds;
     a.centroids = centroids;
+    a.vertices = vertices;
     st = fns->create(params, &state);
     if (st != RTK_OK) {
         char msg[2048];
@@ -372,12 +397,30 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
         goto fail;
     }
     st = fns->build(state, &a);
-    fns->destroy(state);
+    const rtk_accelerator_fns *own = own_traversal(fns);
+    if (st != RTK_OK || !own)
+        fns->destroy(state);
     if (st != RTK_OK) {
         char msg[2048];
         snprintf(msg, sizeof msg, "%s", rtk_error_message());
         st = rtk_error(st, "accelerator '%s' failed: %s", plugin->name, msg);
         goto fail;
+    }
+    if (own) {
+        /* The plugin answers every trace; a tree it also emitted is checked
+         * and kept for statistics only. */
+        s->own_traversal = own;
+        s->own_state = state;
+        if (a.node_count == 0) {
+            free(bounds);
+            free(centroids);
+            free(vertices);
+            free(a.nodes);
+            free(a.prim_order);
+            free(s->tri_verts);
+            s->tri_verts = NULL;
+            return RTK_OK;
+        }
     }
     st = rtk_bvh_validate(&a, &s->bvh_depth);
     if (st != RTK_OK) {
@@ -398,10 +441,13 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     s->prim_ids = a.prim_order;
     free(bounds);
     free(centroids);
+    free(vertices);
     return RTK_OK;
 fail:
+    rtk_bvh_release(s);
     free(bounds);
     free(centroids);
+    free(vertices);
     free(a.nodes);
     free(a.prim_order);
     free(s->tri_verts);

@@ -490,16 +490,20 @@ static double unit_box_integral(const void *state)
     return 1.0;
 }
 
-static const rtk_accelerator_fns single_leaf_fns = {sizeof(rtk_accelerator_fns), no_state, single_leaf_build,
-                                                    no_destroy};
+static const rtk_accelerator_fns single_leaf_fns = {
+    .size = sizeof(rtk_accelerator_fns), .create = no_state, .build = single_leaf_build, .destroy = no_destroy};
 static const rtk_plugin single_leaf = {RTK_PLUGIN_HEADER,
                                        .kind = RTK_KIND_ACCELERATOR,
                                        .name = "conform-single-leaf",
                                        .version = "1",
                                        .summary = "",
                                        .functions = &single_leaf_fns};
-static const rtk_filter_fns unit_box = {sizeof(rtk_filter_fns), no_state, unit_box_radius, unit_box_eval,
-                                        unit_box_integral, no_destroy};
+static const rtk_filter_fns unit_box = {.size = sizeof(rtk_filter_fns),
+                                        .create = no_state,
+                                        .radius = unit_box_radius,
+                                        .eval = unit_box_eval,
+                                        .integral = unit_box_integral,
+                                        .destroy = no_destroy};
 
 static void conform_integrator(runner *r, const rtk_plugin *p)
 {

@@ -186,6 +186,10 @@ struct rtk_scene {
     uint32_t bvh_depth;
     uint32_t *prim_ids;          /* leaf slot -> triangle id */
     float *tri_verts;            /* 9 floats per leaf slot: the triangle's vertices */
+    /* An accelerator with its own traversal (ABI 1.1), kept alive while
+     * the scene lives; NULL for kernel traversal. */
+    const rtk_accelerator_fns *own_traversal;
+    void *own_state;
 };
 
 /* Empty scene that keeps the data in needs (RTK_NEED_*). [caller frees] */
@@ -222,6 +226,8 @@ rtk_status rtk_load_gltf(const char *path, rtk_scene *scene);
  * returned, and lays triangles out in leaf order. */
 rtk_status rtk_bvh_build(rtk_scene *scene, const rtk_plugin *accelerator, const rtk_params *params,
                          uint32_t threads);
+/* Destroys an accelerator instance that traverses itself, if any. */
+void rtk_bvh_release(rtk_scene *scene);
 /* Structural check of a builder's output against args (every primitive in
  * exactly one leaf, indices in range, no cycles, bounds enclosing). */
 rtk_status rtk_bvh_validate(const rtk_build_args *args, uint32_t *depth);

@@ -7,6 +7,7 @@
 #include <dlfcn.h>
 #include <errno.h>
 #include <limits.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,15 +26,15 @@ RTK_API const char *rtk_kind_name(rtk_plugin_kind kind)
     return "unknown kind";
 }
 
-/* Smallest function table each kind must provide (the fields every
- * version of the ABI has). */
+/* Smallest function table each kind must provide: the fields of ABI 1.0;
+ * later fields are read only when the table's size covers them. */
 static size_t min_table_size(rtk_plugin_kind kind)
 {
     switch (kind) {
     case RTK_KIND_INTEGRATOR:
         return sizeof(rtk_integrator_fns);
     case RTK_KIND_ACCELERATOR:
-        return sizeof(rtk_accelerator_fns);
+        return offsetof(rtk_accelerator_fns, closest);
     case RTK_KIND_FILTER:
         return sizeof(rtk_filter_fns);
     }
@@ -55,6 +56,9 @@ static rtk_status check_functions(const rtk_plugin *p, const char *path)
     } else if (p->kind == RTK_KIND_ACCELERATOR) {
         const rtk_accelerator_fns *f = p->functions;
         missing = !f->create ? "create" : !f->build ? "build" : !f->destroy ? "destroy" : NULL;
+        if (!missing && size >= sizeof(rtk_accelerator_fns) && !f->closest != !f->any)
+            return rtk_error(RTK_ERR_PLUGIN, "%s: accelerator '%s' sets only one of 'closest' and 'any'; "
+                             "its own traversal needs both", path, p->name);
     } else {
         const rtk_filter_fns *f = p->functions;
         missing = !f->create      ? "create"

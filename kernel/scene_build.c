@@ -78,6 +78,7 @@ void rtk_scene_free(rtk_scene *scene)
     free(scene->nodes);
     free(scene->prim_ids);
     free(scene->tri_verts);
+    rtk_bvh_release(scene);
     free(scene);
 }
 

@@ -1,10 +1,13 @@
 /* Accelerator plugins build a BVH into the kernel's node format; the
- * kernel validates the result, reorders triangles and traverses it. */
+ * kernel validates the result, reorders triangles and traverses it, so
+ * builders compare on tree quality alone. A plugin may instead supply its
+ * own traversal (closest, any: ABI 1.1), as a yardstick such as Embree. */
 #ifndef RTK_ACCELERATOR_H
 #define RTK_ACCELERATOR_H
 
 #include <rtk/math.h>
 #include <rtk/plugin.h>
+#include <rtk/ray.h>
 
 RTK_EXTERN_C_BEGIN
 
@@ -29,6 +32,8 @@ typedef struct rtk_build_args {
     uint32_t node_count;           /* out: nodes used */
     uint32_t *prim_order;          /* out: permutation of 0 .. prim_count - 1 */
     uint32_t thread_count;         /* threads the builder may use */
+    /* ABI 1.1 */
+    const rtk_vec3 *vertices;      /* 3 per primitive: its triangle's corners */
 } rtk_build_args;
 
 /* Function table of an accelerator. */
@@ -40,6 +45,13 @@ typedef struct rtk_accelerator_fns {
     rtk_status (*build)(void *state, rtk_build_args *args);
     /* Frees the instance. [main thread] */
     void (*destroy)(void *state);
+    /* ABI 1.1, optional, both or neither: the plugin's own traversal. With
+     * them, build need not emit nodes (node_count 0 is allowed), the
+     * instance lives as long as the scene, and every trace goes through
+     * them; hit->prim is the primitive's index in the build arguments.
+     * [any thread, concurrently] */
+    int (*closest)(const void *state, const rtk_ray *ray, rtk_hit *hit);
+    int (*any)(const void *state, const rtk_ray *ray);
 } rtk_accelerator_fns;
 
 RTK_EXTERN_C_END

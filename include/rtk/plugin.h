@@ -10,7 +10,7 @@
 RTK_EXTERN_C_BEGIN
 
 #define RTK_ABI_MAJOR 1
-#define RTK_ABI_MINOR 0
+#define RTK_ABI_MINOR 1
 
 /* Name of the one symbol a plugin exports. */
 #define RTK_PLUGIN_ENTRY_NAME "rtk_plugin_entry"
