@@ -190,6 +190,8 @@ struct rtk_scene {
      * the scene lives; NULL for kernel traversal. */
     const rtk_accelerator_fns *own_traversal;
     void *own_state;
+    /* The binary tree collapsed for SIMD traversal (bvh_wide.c), or NULL. */
+    struct rtk_wide_bvh *wide;
 };
 
 /* Empty scene that keeps the data in needs (RTK_NEED_*). [caller frees] */
