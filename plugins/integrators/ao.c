@@ -1,0 +1,119 @@
+/* ao: ambient occlusion with cosine-weighted rays around the shading
+ * normal. A pixel shows the fraction of rays that travel `distance`
+ * without hitting anything (times the albedo when asked).
+ *
+ * Parameters:
+ *   rays      int [1, 4096]        16     occlusion rays per camera ray
+ *   distance  float (0, inf]       inf    how far a ray must get to count as open
+ *   albedo    bool                 false  multiply by the surface's base colour
+ *
+ * Example: integrator = { plugin = "ao"; rays = 64; distance = 0.5; };
+ */
+#include <rtk/rtk.h>
+
+#include <math.h>
+#include <stdlib.h>
+
+typedef struct ao {
+    int rays;
+    float distance;
+    int albedo;
+} ao;
+
+static rtk_status ao_create(const rtk_params *params, void **state)
+{
+    ao *a = malloc(sizeof *a);
+    if (!a)
+        return rtk_error(RTK_ERR_NOMEM, "ao: out of memory");
+    a->rays = (int)rtk_params_int(params, "rays");
+    a->distance = (float)rtk_params_float(params, "distance");
+    a->albedo = rtk_params_bool(params, "albedo");
+    *state = a;
+    return RTK_OK;
+}
+
+static uint32_t ao_needs(const void *state)
+{
+    const ao *a = state;
+    return RTK_NEED_NORMALS | (a->albedo ? RTK_NEED_MATERIALS | RTK_NEED_TEXTURES : 0u);
+}
+
+/* Orthonormal basis around unit n (Duff et al. 2017). */
+static void basis(rtk_vec3 n, rtk_vec3 *b1, rtk_vec3 *b2)
+{
+    float s = copysignf(1.0f, n.z);
+    float a = -1.0f / (s + n.z);
+    float b = n.x * n.y * a;
+    *b1 = rtk_vec3_make(1.0f + s * n.x * n.x * a, s * b, -s * n.x);
+    *b2 = rtk_vec3_make(b, s + n.y * n.y * a, -n.y);
+}
+
+static void ao_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
+{
+    const ao *a = state;
+    rtk_hit hit;
+    if (!rtk_trace(ctx, ray, &hit))
+        return;
+    rtk_surface s;
+    rtk_surface_at(rtk_ctx_scene(ctx), ray, &hit, &s);
+    rtk_vec3 b1, b2;
+    basis(s.ns, &b1, &b2);
+    rtk_ray r;
+    r.org = rtk_offset_ray_origin(s.p, s.ng);
+    r.tmin = 0.0f;
+    r.tmax = a->distance;
+    int open = 0;
+    for (int i = 0; i < a->rays; i++) {
+        rtk_vec2 u = rtk_sample_2d(ctx);
+        float rad = sqrtf(u.x), phi = 2.0f * (float)M_PI * u.y;
+        float z = sqrtf(fmaxf(0.0f, 1.0f - u.x));
+        r.dir = rtk_vec3_add(rtk_vec3_add(rtk_vec3_scale(b1, rad * cosf(phi)), rtk_vec3_scale(b2, rad * sinf(phi))),
+                             rtk_vec3_scale(s.ns, z));
+        /* A direction below the geometric surface (possible with
+         * interpolated normals) would start inside: it counts as blocked. */
+        if (rtk_vec3_dot(r.dir, s.ng) <= 0.0f)
+            continue;
+        if (!rtk_occluded(ctx, &r))
+            open++;
+    }
+    float v = (float)open / (float)a->rays;
+    out->radiance = a->albedo ? rtk_rgb_scale(s.base_color, v) : rtk_rgb_make(v, v, v);
+    out->albedo = s.base_color;
+    out->normal = s.ns;
+    out->depth = hit.t * rtk_vec3_length(ray->dir);
+}
+
+static void ao_destroy(void *state)
+{
+    free(state);
+}
+
+static const rtk_param_desc ao_params[] = {
+    {.name = "rays", .type = RTK_PARAM_INT, .def = 16, .min = 1, .max = 4096,
+     .doc = "occlusion rays per camera ray"},
+    {.name = "distance", .type = RTK_PARAM_FLOAT, .def = INFINITY, .min = 1e-30, .max = INFINITY,
+     .doc = "length an occlusion ray must travel unblocked (inf = any distance)"},
+    {.name = "albedo", .type = RTK_PARAM_BOOL, .def = 0,
+     .doc = "multiply the occlusion by the surface's base colour"},
+};
+
+static const rtk_integrator_fns ao_fns = {
+    .size = sizeof(rtk_integrator_fns),
+    .create = ao_create,
+    .needs = ao_needs,
+    .li = ao_li,
+    .destroy = ao_destroy,
+};
+
+static const rtk_plugin ao_plugin = {
+    RTK_PLUGIN_HEADER,
+    .kind = RTK_KIND_INTEGRATOR,
+    .name = "ao",
+    .version = "1.0",
+    .summary = "ambient occlusion: fraction of cosine-weighted rays that escape",
+    .params = ao_params,
+    .param_count = RTK_COUNTOF(ao_params),
+    .functions = &ao_fns,
+};
+
+RTK_PLUGIN_ENTRY(ao_plugin)
