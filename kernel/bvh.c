@@ -17,6 +17,50 @@ static float axis(rtk_vec3 v, int k)
     return k == 0 ? v.x : k == 1 ? v.y : v.z;
 }
 
+/* Bound on the rounding error of the float t below (Pharr, Jakob,
+ * Humphreys, pbrt-v4 section 6.8.7): t carries error proportional to the
+ * vertices' distance from the origin, not to t itself. */
+static float t_error_bound(float U, float V, float W, float ax, float ay, float bx, float by, float cx, float cy,
+                           float az, float bz, float cz, float rcp)
+{
+    const float g2 = 2.0f * 0.5f * FLT_EPSILON / (1.0f - 2.0f * 0.5f * FLT_EPSILON);
+    const float g3 = 3.0f * 0.5f * FLT_EPSILON / (1.0f - 3.0f * 0.5f * FLT_EPSILON);
+    const float g5 = 5.0f * 0.5f * FLT_EPSILON / (1.0f - 5.0f * 0.5f * FLT_EPSILON);
+    float max_z = fmaxf(fabsf(az), fmaxf(fabsf(bz), fabsf(cz)));
+    float max_x = fmaxf(fabsf(ax), fmaxf(fabsf(bx), fabsf(cx)));
+    float max_y = fmaxf(fabsf(ay), fmaxf(fabsf(by), fabsf(cy)));
+    float dz = g3 * max_z, dx = g5 * (max_x + max_z), dy = g5 * (max_y + max_z);
+    float de = 2.0f * (g2 * max_x * max_y + dy * max_x + dx * max_y);
+    float max_e = fmaxf(fabsf(U), fmaxf(fabsf(V), fabsf(W)));
+    return 3.0f * (g3 * max_e * max_z + de * max_z + dz * max_e) * fabsf(rcp);
+}
+
+static double axis_d(rtk_vec3 v, int k)
+{
+    return k == 0 ? v.x : k == 1 ? v.y : v.z;
+}
+
+/* The same ray-space computation of t, in double. */
+static double exact_distance(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, int kx, int ky, int kz)
+{
+    double dz = axis_d(ray->dir, kz);
+    double sx = axis_d(ray->dir, kx) / dz, sy = axis_d(ray->dir, ky) / dz, sz = 1.0 / dz;
+    double A[3], B[3], C[3];
+    for (int k = 0; k < 3; k++) {
+        A[k] = axis_d(a, k) - axis_d(ray->org, k);
+        B[k] = axis_d(b, k) - axis_d(ray->org, k);
+        C[k] = axis_d(c, k) - axis_d(ray->org, k);
+    }
+    double ax = A[kx] - sx * A[kz], ay = A[ky] - sy * A[kz];
+    double bx = B[kx] - sx * B[kz], by = B[ky] - sy * B[kz];
+    double cx = C[kx] - sx * C[kz], cy = C[ky] - sy * C[kz];
+    double U = cx * by - cy * bx, V = ax * cy - ay * cx, W = bx * ay - by * ax;
+    double det = U + V + W;
+    if (det == 0.0)
+        return -1.0;
+    return (U * sz * A[kz] + V * sz * B[kz] + W * sz * C[kz]) / det;
+}
+
 RTK_API int rtk_intersect_triangle(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, float *t_out,
                                    float *u_out, float *v_out)
 {
@@ -54,6 +98,15 @@ RTK_API int rtk_intersect_triangle(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, r
     float t = T * rcp;
     if (!(t >= ray->tmin && t <= ray->tmax))
         return 0;
+    if (ray->tmin >= 0.0f && t <= t_error_bound(U, V, W, ax, ay, bx, by, cx, cy, az, bz, cz, rcp)) {
+        /* Too close to the origin for float to tell the sign: decide in
+         * double (a ray leaving a large triangle would otherwise meet it or
+         * its coplanar neighbours again). */
+        double td = exact_distance(ray, a, b, c, kx, ky, kz);
+        if (!(td > 0.0 && td >= ray->tmin && td <= ray->tmax))
+            return 0;
+        t = (float)td;
+    }
     *t_out = t;
     *u_out = V * rcp;
     *v_out = W * rcp;
