@@ -192,6 +192,8 @@ struct rtk_scene {
     void *own_state;
     /* The binary tree collapsed for SIMD traversal (bvh_wide.c), or NULL. */
     struct rtk_wide_bvh *wide;
+    /* Emitters and their sampling table (lights.c); NULL unless needed. */
+    struct rtk_lights *lights;
 };
 
 /* Empty scene that keeps the data in needs (RTK_NEED_*). [caller frees] */

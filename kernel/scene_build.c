@@ -4,6 +4,7 @@
  * Rules for loaders: call only the rtk_scene_add_* functions; they keep
  * just what scene->needs asks for, so a loader may offer everything. */
 #include "internal.h"
+#include "lights.h"
 
 #include <errno.h>
 #include <float.h>
@@ -79,6 +80,7 @@ void rtk_scene_free(rtk_scene *scene)
     free(scene->prim_ids);
     free(scene->tri_verts);
     rtk_bvh_release(scene);
+    rtk_lights_free(scene->lights);
     free(scene);
 }
 
@@ -431,8 +433,13 @@ rtk_status rtk_scene_finish(rtk_scene *scene)
         rtk_log(RTK_LOG_WARN, "%s: the scene has no triangles", scene->path);
     shrink_arrays(scene);
 
-    if (keeps_textures(scene))
-        return decode_textures(scene);
+    if (keeps_textures(scene)) {
+        status = decode_textures(scene);
+        if (status != RTK_OK)
+            return status;
+    }
+    if (scene->needs & RTK_NEED_LIGHTS)
+        return rtk_lights_build(scene);
     return RTK_OK;
 }
 

@@ -7,6 +7,9 @@
 
 RTK_EXTERN_C_BEGIN
 
+/* pi, for plugins built without _GNU_SOURCE (strict C has no M_PI). */
+#define RTK_PI 3.14159265358979323846
+
 /* A 2D point or direction. */
 typedef struct rtk_vec2 {
     float x, y;

@@ -10,6 +10,7 @@
 #include <rtk/plugin.h>
 #include <rtk/scene.h>
 #include <rtk/sampler.h>
+#include <rtk/lights.h>
 #include <rtk/integrator.h>
 #include <rtk/accelerator.h>
 #include <rtk/filter.h>

@@ -65,7 +65,7 @@ static void ao_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_re
     int open = 0;
     for (int i = 0; i < a->rays; i++) {
         rtk_vec2 u = rtk_sample_2d(ctx);
-        float rad = sqrtf(u.x), phi = 2.0f * (float)M_PI * u.y;
+        float rad = sqrtf(u.x), phi = 2.0f * (float)RTK_PI * u.y;
         float z = sqrtf(fmaxf(0.0f, 1.0f - u.x));
         r.dir = rtk_vec3_add(rtk_vec3_add(rtk_vec3_scale(b1, rad * cosf(phi)), rtk_vec3_scale(b2, rad * sinf(phi))),
                              rtk_vec3_scale(s.ns, z));

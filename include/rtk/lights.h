@@ -1,0 +1,38 @@
+/* Light services: the scene's emitters and importance sampling of them.
+ * Emitters are the triangles whose material emits (MTL Ke, glTF
+ * emissiveFactor); they exist only when the integrator asked for
+ * RTK_NEED_LIGHTS. Emission is one-sided: towards the side the triangle's
+ * geometric normal (from its winding) faces. */
+#ifndef RTK_LIGHTS_H
+#define RTK_LIGHTS_H
+
+#include <rtk/scene.h>
+
+RTK_EXTERN_C_BEGIN
+
+/* A point chosen on an emitter. */
+typedef struct rtk_light_sample {
+    rtk_vec3 p;     /* the point */
+    rtk_vec3 n;     /* unit normal of the emitting side */
+    rtk_rgb le;     /* emitted radiance at p (towards the n side) */
+    float pdf_area; /* density of choosing p, per unit area over all emitters */
+    uint32_t prim;  /* the emitting triangle */
+} rtk_light_sample;
+
+/* Number of emitting triangles. [any thread] */
+RTK_API uint32_t rtk_scene_light_count(const rtk_scene *scene);
+
+/* Chooses an emitting triangle in proportion to its emitted power
+ * (radiance x area; one alias table over the scene) with u_pick, then a
+ * uniform point on it with u. Returns 0 when the scene has no emitters.
+ * [any thread] */
+RTK_API int rtk_scene_sample_light(const rtk_scene *scene, float u_pick, rtk_vec2 u, rtk_light_sample *out);
+
+/* Area density with which rtk_scene_sample_light picks points of triangle
+ * prim (0 when prim does not emit), for multiple importance sampling.
+ * [any thread] */
+RTK_API float rtk_scene_light_pdf(const rtk_scene *scene, uint32_t prim);
+
+RTK_EXTERN_C_END
+
+#endif

@@ -1,0 +1,170 @@
+/* Emitters: the triangles whose material emits, chosen in proportion to
+ * power with one alias table (Vose 1991) over the whole scene, then a
+ * uniform point on the chosen triangle. */
+#include "lights.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static float luminance(rtk_rgb c)
+{
+    return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b;
+}
+
+static const rtk_material *material_of(const rtk_scene *s, uint32_t prim)
+{
+    if (!s->tri_material)
+        return NULL;
+    uint32_t id = s->tri_material[prim];
+    return id < s->material_count ? &s->materials[id] : NULL;
+}
+
+void rtk_lights_free(rtk_lights *l)
+{
+    if (!l)
+        return;
+    free(l->prims);
+    free(l->area);
+    free(l->pick);
+    free(l->alias_prob);
+    free(l->alias);
+    free(l->light_of);
+    free(l);
+}
+
+rtk_status rtk_lights_build(rtk_scene *s)
+{
+    rtk_lights_free(s->lights);
+    s->lights = NULL;
+    rtk_lights *l = rtk_calloc(1, sizeof *l);
+    if (!l)
+        return RTK_ERR_NOMEM;
+    uint32_t n = 0;
+    for (uint32_t t = 0; t < s->triangle_count; t++) {
+        const rtk_material *m = material_of(s, t);
+        if (m && luminance(m->emission) > 0.0f)
+            n++;
+    }
+    l->count = n;
+    s->lights = l;
+    if (n == 0)
+        return RTK_OK;
+    l->prims = rtk_alloc(sizeof *l->prims * n);
+    l->area = rtk_alloc(sizeof *l->area * n);
+    l->pick = rtk_alloc(sizeof *l->pick * n);
+    l->alias_prob = rtk_alloc(sizeof *l->alias_prob * n);
+    l->alias = rtk_alloc(sizeof *l->alias * n);
+    l->light_of = rtk_alloc(sizeof *l->light_of * s->triangle_count);
+    double *scaled = rtk_alloc(sizeof *scaled * n);
+    uint32_t *small = rtk_alloc(sizeof *small * n), *large = rtk_alloc(sizeof *large * n);
+    if (!l->prims || !l->area || !l->pick || !l->alias_prob || !l->alias || !l->light_of || !scaled || !small ||
+        !large) {
+        free(scaled);
+        free(small);
+        free(large);
+        return RTK_ERR_NOMEM;
+    }
+    double total = 0.0;
+    uint32_t k = 0;
+    for (uint32_t t = 0; t < s->triangle_count; t++) {
+        const rtk_material *m = material_of(s, t);
+        l->light_of[t] = RTK_INVALID_ID;
+        if (!m || !(luminance(m->emission) > 0.0f))
+            continue;
+        rtk_vec3 a, b, c;
+        rtk_scene_triangle(s, t, &a, &b, &c);
+        double ex = (double)b.x - a.x, ey = (double)b.y - a.y, ez = (double)b.z - a.z;
+        double fx = (double)c.x - a.x, fy = (double)c.y - a.y, fz = (double)c.z - a.z;
+        double cx = ey * fz - ez * fy, cy = ez * fx - ex * fz, cz = ex * fy - ey * fx;
+        double area = 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
+        l->prims[k] = t;
+        l->area[k] = (float)area;
+        l->light_of[t] = k;
+        scaled[k] = area * luminance(m->emission);
+        total += scaled[k];
+        k++;
+    }
+    /* Vose's alias method: columns of height 1, each split between its
+     * own light and one alias. */
+    uint32_t ns = 0, nl = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        l->pick[i] = (float)(scaled[i] / total);
+        scaled[i] = scaled[i] / total * n;
+        if (scaled[i] < 1.0)
+            small[ns++] = i;
+        else
+            large[nl++] = i;
+    }
+    while (ns > 0 && nl > 0) {
+        uint32_t lo = small[--ns], hi = large[--nl];
+        l->alias_prob[lo] = (float)scaled[lo];
+        l->alias[lo] = hi;
+        scaled[hi] = (scaled[hi] + scaled[lo]) - 1.0;
+        if (scaled[hi] < 1.0)
+            small[ns++] = hi;
+        else
+            large[nl++] = hi;
+    }
+    while (nl > 0) {
+        uint32_t i = large[--nl];
+        l->alias_prob[i] = 1.0f, l->alias[i] = i;
+    }
+    while (ns > 0) {
+        uint32_t i = small[--ns];
+        l->alias_prob[i] = 1.0f, l->alias[i] = i;
+    }
+    free(scaled);
+    free(small);
+    free(large);
+    return RTK_OK;
+}
+
+RTK_API uint32_t rtk_scene_light_count(const rtk_scene *s)
+{
+    return s->lights ? s->lights->count : 0;
+}
+
+RTK_API int rtk_scene_sample_light(const rtk_scene *s, float u_pick, rtk_vec2 u, rtk_light_sample *out)
+{
+    const rtk_lights *l = s->lights;
+    if (!l || l->count == 0)
+        return 0;
+    float x = u_pick * (float)l->count;
+    uint32_t col = (uint32_t)x;
+    if (col >= l->count)
+        col = l->count - 1;
+    float frac = x - (float)col;
+    uint32_t light = frac < l->alias_prob[col] ? col : l->alias[col];
+    uint32_t prim = l->prims[light];
+    rtk_vec3 a, b, c;
+    rtk_scene_triangle(s, prim, &a, &b, &c);
+    /* Uniform on the triangle: the square-root warp. */
+    float r = sqrtf(u.x);
+    float b0 = 1.0f - r, b1 = u.y * r, b2 = 1.0f - b0 - b1;
+    out->p = rtk_vec3_make(b0 * a.x + b1 * b.x + b2 * c.x, b0 * a.y + b1 * b.y + b2 * c.y,
+                           b0 * a.z + b1 * b.z + b2 * c.z);
+    out->n = rtk_vec3_normalize(rtk_vec3_cross(rtk_vec3_sub(b, a), rtk_vec3_sub(c, a)));
+    const rtk_material *m = material_of(s, prim);
+    out->le = m->emission;
+    if (m->emission_tex >= 0 && (uint32_t)m->emission_tex < s->texture_count && s->uvs &&
+        s->textures[m->emission_tex].decoded) {
+        const float *t = s->uvs + 6 * (size_t)prim;
+        float texel[4];
+        rtk_texture_lookup(&s->textures[m->emission_tex], b0 * t[0] + b1 * t[2] + b2 * t[4],
+                           b0 * t[1] + b1 * t[3] + b2 * t[5], texel);
+        out->le = rtk_rgb_mul(out->le, rtk_rgb_make(texel[0], texel[1], texel[2]));
+    }
+    out->pdf_area = l->pick[light] / l->area[light];
+    out->prim = prim;
+    return 1;
+}
+
+RTK_API float rtk_scene_light_pdf(const rtk_scene *s, uint32_t prim)
+{
+    const rtk_lights *l = s->lights;
+    if (!l || l->count == 0 || prim >= s->triangle_count)
+        return 0.0f;
+    uint32_t light = l->light_of[prim];
+    return light == RTK_INVALID_ID ? 0.0f : l->pick[light] / l->area[light];
+}

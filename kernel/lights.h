@@ -1,0 +1,23 @@
+/* The scene's emitters and their alias table (lights.c). */
+#ifndef RTK_KERNEL_LIGHTS_H
+#define RTK_KERNEL_LIGHTS_H
+
+#include "internal.h"
+
+/* Emitting triangles and a Vose alias table over their power. */
+typedef struct rtk_lights {
+    uint32_t count;
+    uint32_t *prims;      /* light -> triangle */
+    float *area;          /* light -> triangle area */
+    float *pick;          /* light -> probability of being chosen */
+    float *alias_prob;    /* alias table: keep probability per column */
+    uint32_t *alias;      /* alias table: other light per column */
+    uint32_t *light_of;   /* triangle -> light, RTK_INVALID_ID when it does not emit */
+} rtk_lights;
+
+/* Finds the emitters of a finished scene and builds the table; a scene
+ * without emitters gets an empty table. */
+rtk_status rtk_lights_build(rtk_scene *scene);
+void rtk_lights_free(rtk_lights *lights);
+
+#endif
