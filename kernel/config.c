@@ -5,6 +5,7 @@
  * the same checks and "did you mean" suggestions. Every error names the
  * config file and line, or the --set entry it came from, and happens
  * before any scene data is read. */
+#include "bvh_cache.h"
 #include "internal.h"
 
 #include <errno.h>
@@ -28,6 +29,9 @@ static const rtk_param_desc top_params[] = {
     {.name = "sampler", .type = RTK_PARAM_STRING, .doc = "group: type, seed"},
     {.name = "threads", .type = RTK_PARAM_INT, .def = 0, .min = 0, .max = 1024,
      .doc = "render threads, 0 = one per core"},
+    {.name = "cache", .type = RTK_PARAM_STRING, .def_string = "",
+     .doc = "BVH cache directory, relative to the config file; \"off\" disables; "
+            "default $XDG_CACHE_HOME/rtk or ~/.cache/rtk"},
     {.name = "plugin_path", .type = RTK_PARAM_STRING,
      .doc = "directory or list of directories with more plugins (trusted configs only)"},
     {.name = "accelerator", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"median\"; and its parameters"},
@@ -697,6 +701,25 @@ static rtk_status read_sampler(const loader *ld, const config_setting_t *root, r
     return cfg->sampler_type ? RTK_OK : RTK_ERR_NOMEM;
 }
 
+/* cache: a directory (relative to the config), "off", or the default. */
+static rtk_status read_cache(const loader *ld, const config_setting_t *root, const rtk_params *params,
+                             rtk_config *cfg)
+{
+    const config_setting_t *at = member(root, "cache");
+    const char *dir = rtk_params_string(params, "cache");
+    if (!at) {
+        cfg->cache_dir = rtk_bvh_cache_default_dir();
+        if (!cfg->cache_dir)
+            rtk_log(RTK_LOG_DEBUG, "no XDG_CACHE_HOME or HOME: the BVH cache is off");
+        return RTK_OK;
+    }
+    if (!dir[0])
+        return fail(ld, at, RTK_ERR_INVALID, "cache is empty: give a directory, or \"off\" for no BVH cache");
+    if (strcmp(dir, "off") == 0)
+        return RTK_OK;
+    return (cfg->cache_dir = rtk_path_join(ld->dir, dir)) ? RTK_OK : RTK_ERR_NOMEM;
+}
+
 /* Top level: known settings only, scene required, threads in range. */
 static rtk_status read_top(const loader *ld, const config_setting_t *root, rtk_config *cfg)
 {
@@ -720,6 +743,8 @@ static rtk_status read_top(const loader *ld, const config_setting_t *root, rtk_c
         status = fail(ld, member(root, "scene"), RTK_ERR_INVALID, "scene is empty: give the model to render");
     else if (!(cfg->scene_path = rtk_path_join(ld->dir, scene)))
         status = RTK_ERR_NOMEM;
+    if (status == RTK_OK)
+        status = read_cache(ld, root, params, cfg);
     rtk_params_destroy(params);
     return status;
 }
@@ -1032,6 +1057,7 @@ RTK_API void rtk_config_destroy(rtk_config *config)
     free(config->scene_path);
     free(config->output);
     free(config->sampler_type);
+    free(config->cache_dir);
     rtk_params_destroy(config->integrator.params);
     rtk_params_destroy(config->accelerator.params);
     rtk_params_destroy(config->filter.params);

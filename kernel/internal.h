@@ -286,6 +286,7 @@ struct rtk_config {
     char *sampler_type;          /* "independent" */
     uint64_t seed;
     uint32_t threads;            /* 0 = all cores */
+    char *cache_dir;             /* BVH cache directory, NULL = caching off */
     rtk_plugin_slot integrator, accelerator, filter;
 };
 

@@ -1,11 +1,13 @@
 /* One render, start to finish: load what the plugins need, build the BVH,
  * render tiles on a thread pool, write the image atomically, report. */
+#include "bvh_cache.h"
 #include "film.h"
 #include "internal.h"
 
 #include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -228,6 +230,13 @@ done:
     return st;
 }
 
+/* 1 when the caller's report (of report->size bytes) has the field that
+ * ends at offset end: the struct only grows at the end. */
+static int report_has(const rtk_render_report *report, size_t end)
+{
+    return report->size >= end;
+}
+
 static int has_extension(const char *path, const char *ext)
 {
     const char *dot = strrchr(path, '.');
@@ -248,8 +257,8 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     memset(&defaults, 0, sizeof defaults);
     if (!options)
         options = &defaults;
-    uint32_t report_size = report->size;
-    memset(report, 0, sizeof *report);
+    uint32_t report_size = report->size ? report->size : (uint32_t)sizeof *report;
+    memset(report, 0, report_size < sizeof *report ? report_size : sizeof *report);
     report->size = report_size;
     int want_aovs = cfg->aov_albedo || cfg->aov_normal || cfg->aov_depth;
     if (want_aovs && !has_extension(cfg->output, ".exr"))
@@ -285,10 +294,16 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     report->triangles = scene->triangle_count;
 
     t = rtk_now();
-    st = rtk_bvh_build(scene, cfg->accelerator.plugin, cfg->accelerator.params, threads);
+    rtk_bvh_cache_use cache;
+    st = rtk_bvh_build_cached(scene, cfg->accelerator.plugin, cfg->accelerator.params, threads, cfg->cache_dir,
+                              &cache);
     if (st != RTK_OK)
         goto done;
     report->build_seconds = rtk_now() - t;
+    if (report_has(report, offsetof(rtk_render_report, bvh_cache_file) + sizeof report->bvh_cache_file)) {
+        report->bvh_from_cache = cache.from_cache;
+        snprintf(report->bvh_cache_file, sizeof report->bvh_cache_file, "%s", cache.file);
+    }
     report->bvh_nodes = scene->node_count;
     report->bvh_depth = scene->bvh_depth;
 
@@ -387,7 +402,14 @@ RTK_API void rtk_render_report_print(const rtk_render_report *r, FILE *f)
 {
     double total = r->render_seconds > 0.0 ? r->render_seconds : 1e-9;
     fprintf(f, "load    %8.3f s   %u triangles\n", r->load_seconds, r->triangles);
-    fprintf(f, "build   %8.3f s   %u nodes, depth %u\n", r->build_seconds, r->bvh_nodes, r->bvh_depth);
+    const char *cache = "";
+    if (report_has(r, offsetof(rtk_render_report, bvh_cache_file) + sizeof r->bvh_cache_file) &&
+        r->bvh_cache_file[0])
+        cache = r->bvh_from_cache ? "from cache " : "saved to cache ";
+    fprintf(f, "build   %8.3f s   %u nodes, depth %u", r->build_seconds, r->bvh_nodes, r->bvh_depth);
+    if (cache[0])
+        fprintf(f, " (%s%.1023s)", cache, r->bvh_cache_file);
+    fputc('\n', f);
     fprintf(f, "render  %8.3f s   %ux%u, %u spp, %u threads\n", r->render_seconds, r->width, r->height, r->spp,
             r->threads);
     fprintf(f, "write   %8.3f s   %s\n", r->write_seconds, r->output);

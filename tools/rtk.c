@@ -15,6 +15,7 @@ static const char usage_text[] =
     "  --set KEY=VALUE          override a config setting, e.g. --set integrator.rays=64\n"
     "  -o, --output FILE        shorthand for --set film.output=FILE\n"
     "  --threads N              shorthand for --set threads=N\n"
+    "  --no-cache               neither load nor save a cached BVH (--set cache=off)\n"
     "  --allow-config-plugins   trust the config's plugin_path and plugins given as paths\n"
     "  -q, --quiet              no progress bar and no report\n"
     "options for every command:\n"
@@ -161,6 +162,8 @@ int main(int argc, char **argv)
             rtk_log_set_level(RTK_LOG_DEBUG);
         } else if (strcmp(a, "--allow-config-plugins") == 0) {
             allow = 1;
+        } else if (strcmp(a, "--no-cache") == 0) {
+            overrides[override_count++] = "cache=off";
         } else if (strcmp(a, "--set") == 0 || strcmp(a, "--plugin-path") == 0 || strcmp(a, "-o") == 0 ||
                    strcmp(a, "--output") == 0 || strcmp(a, "--threads") == 0) {
             if (i + 1 >= argc) {

@@ -90,6 +90,8 @@ typedef struct rtk_render_report {
     double mean[3];          /* mean linear RGB of the image */
     size_t peak_rss_bytes;   /* peak resident memory of the process */
     char output[1024];       /* the file written */
+    int bvh_from_cache;      /* 1: the BVH was loaded from bvh_cache_file */
+    char bvh_cache_file[1024]; /* cache file loaded or written, "" when none */
 } rtk_render_report;
 
 /* Loads the scene, builds the BVH, renders and writes the image(s). */

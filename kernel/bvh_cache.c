@@ -1,0 +1,575 @@
+/* The on-disk BVH cache (format in bvh_cache.h). A file is trusted only
+ * after every check passed; any doubt means one warning and a rebuild. */
+#include "bvh_cache.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+_Static_assert(sizeof(rtk_bvh_node) == 32, "the cache format stores 32-byte nodes");
+
+#define BUILDER_TEXT 40 /* bytes of "name version" in the header */
+
+static const unsigned char cache_magic[8] = {'R', 'T', 'K', 'B', 'V', 'H', 0, 0};
+
+/* XXH64 (Yann Collet): four lanes of 8 bytes, then the tail, then an
+ * avalanche. Reads are in host byte order, like the rest of the file. */
+static const uint64_t P1 = 0x9E3779B185EBCA87ull, P2 = 0xC2B2AE3D27D4EB4Full, P3 = 0x165667B19E3779F9ull,
+                      P4 = 0x85EBCA77C2B2AE63ull, P5 = 0x27D4EB2F165667C5ull;
+
+static uint64_t rotl64(uint64_t x, int r)
+{
+    return (x << r) | (x >> (64 - r));
+}
+
+static uint64_t load64(const unsigned char *p)
+{
+    uint64_t v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+static uint32_t load32(const unsigned char *p)
+{
+    uint32_t v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+static uint64_t xxh_round(uint64_t acc, uint64_t input)
+{
+    acc += input * P2;
+    return rotl64(acc, 31) * P1;
+}
+
+static uint64_t xxh_merge(uint64_t h, uint64_t v)
+{
+    h ^= xxh_round(0, v);
+    return h * P1 + P4;
+}
+
+uint64_t rtk_hash64(const void *data, size_t size, uint64_t seed)
+{
+    const unsigned char *p = data;
+    const unsigned char *end = size ? p + size : p;
+    uint64_t h;
+    if (size >= 32) {
+        uint64_t v1 = seed + P1 + P2, v2 = seed + P2, v3 = seed, v4 = seed - P1;
+        const unsigned char *limit = end - 32;
+        do {
+            v1 = xxh_round(v1, load64(p));
+            v2 = xxh_round(v2, load64(p + 8));
+            v3 = xxh_round(v3, load64(p + 16));
+            v4 = xxh_round(v4, load64(p + 24));
+            p += 32;
+        } while (p <= limit);
+        h = rotl64(v1, 1) + rotl64(v2, 7) + rotl64(v3, 12) + rotl64(v4, 18);
+        h = xxh_merge(h, v1);
+        h = xxh_merge(h, v2);
+        h = xxh_merge(h, v3);
+        h = xxh_merge(h, v4);
+    } else {
+        h = seed + P5;
+    }
+    h += (uint64_t)size;
+    for (; end - p >= 8; p += 8) {
+        h ^= xxh_round(0, load64(p));
+        h = rotl64(h, 27) * P1 + P4;
+    }
+    if (end - p >= 4) {
+        h ^= (uint64_t)load32(p) * P1;
+        h = rotl64(h, 23) * P2 + P3;
+        p += 4;
+    }
+    for (; p < end; p++) {
+        h ^= *p * P5;
+        h = rotl64(h, 11) * P1;
+    }
+    h ^= h >> 33;
+    h *= P2;
+    h ^= h >> 29;
+    h *= P3;
+    h ^= h >> 32;
+    return h;
+}
+
+uint64_t rtk_bvh_cache_geometry_hash(const rtk_scene *s)
+{
+    const uint32_t counts[2] = {s->vertex_count, s->triangle_count};
+    uint64_t h = rtk_hash64(counts, sizeof counts, RTK_BVH_CACHE_SEED);
+    h = rtk_hash64(s->positions, sizeof(float) * 3 * (size_t)s->vertex_count, h);
+    return rtk_hash64(s->indices, sizeof(uint32_t) * 3 * (size_t)s->triangle_count, h);
+}
+
+static uint64_t hash_text(const char *text, uint64_t h)
+{
+    if (!text)
+        text = "";
+    return rtk_hash64(text, strlen(text) + 1, h);
+}
+
+uint64_t rtk_bvh_cache_builder_hash(const rtk_plugin *plugin, const rtk_params *params)
+{
+    uint64_t h = hash_text(plugin->name, RTK_BVH_CACHE_SEED);
+    h = hash_text(plugin->version, h);
+    uint32_t count = params ? params->count : 0;
+    h = rtk_hash64(&count, sizeof count, h);
+    for (uint32_t i = 0; i < count; i++) {
+        const rtk_param_value *v = &params->values[i];
+        uint32_t type = (uint32_t)v->desc->type;
+        h = hash_text(v->desc->name, h);
+        h = rtk_hash64(&type, sizeof type, h);
+        if (type == RTK_PARAM_FLOAT)
+            h = rtk_hash64(&v->f, sizeof v->f, h);
+        else if (type == RTK_PARAM_STRING)
+            h = hash_text(v->s, h);
+        else
+            h = rtk_hash64(&v->i, sizeof v->i, h);
+    }
+    return h;
+}
+
+char *rtk_bvh_cache_default_dir(void)
+{
+    /* The XDG spec ignores relative values of XDG_CACHE_HOME. */
+    const char *xdg = getenv("XDG_CACHE_HOME");
+    if (xdg && xdg[0] == '/')
+        return rtk_path_join(xdg, "rtk");
+    const char *home = getenv("HOME");
+    if (home && home[0] == '/')
+        return rtk_path_join(home, ".cache/rtk");
+    return NULL;
+}
+
+char *rtk_bvh_cache_path(const char *dir, uint64_t geometry, uint64_t builder)
+{
+    char name[64];
+    snprintf(name, sizeof name, "%016llx-%016llx.bvh", (unsigned long long)geometry, (unsigned long long)builder);
+    return rtk_path_join(dir, name);
+}
+
+/* "name version" of plugin, cut to fit the header. */
+static void builder_text(const rtk_plugin *plugin, char out[BUILDER_TEXT + 1])
+{
+    memset(out, 0, BUILDER_TEXT + 1);
+    snprintf(out, BUILDER_TEXT + 1, "%s %s", plugin && plugin->name ? plugin->name : "?",
+             plugin && plugin->version ? plugin->version : "?");
+}
+
+/* Frees the scene's BVH and any accelerator instance it holds. */
+static void clear_bvh(rtk_scene *s)
+{
+    rtk_bvh_release(s);
+    free(s->nodes);
+    free(s->prim_ids);
+    free(s->tri_verts);
+    s->nodes = NULL, s->prim_ids = NULL, s->tri_verts = NULL;
+    s->node_count = 0, s->bvh_depth = 0;
+}
+
+/* Reads up to size bytes; returns the count read (short at end of file),
+ * or -1 with errno set. */
+static ssize_t read_all(int fd, void *buf, size_t size)
+{
+    size_t done = 0;
+    while (done < size) {
+        ssize_t n = read(fd, (char *)buf + done, size - done);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n < 0)
+            return -1;
+        if (n == 0)
+            break;
+        done += (size_t)n;
+    }
+    return (ssize_t)done;
+}
+
+/* Header fields after parsing. */
+typedef struct cache_header {
+    uint32_t version, endian, header_size, node_size;
+    uint64_t geometry, builder;
+    uint32_t node_count, depth, prim_count, zero;
+    char builder_text[BUILDER_TEXT + 1];
+} cache_header;
+
+static void parse_header(const unsigned char *b, cache_header *h)
+{
+    h->version = load32(b + 8);
+    h->endian = load32(b + 12);
+    h->header_size = load32(b + 16);
+    h->node_size = load32(b + 20);
+    h->geometry = load64(b + 24);
+    h->builder = load64(b + 32);
+    h->node_count = load32(b + 40);
+    h->depth = load32(b + 44);
+    h->prim_count = load32(b + 48);
+    h->zero = load32(b + 52);
+    /* Text from the file goes to a terminal: printable ASCII only. */
+    for (int i = 0; i < BUILDER_TEXT; i++) {
+        unsigned char c = b[56 + i];
+        h->builder_text[i] = (char)(c == 0 || (c >= 0x20 && c < 0x7f) ? c : '?');
+    }
+    h->builder_text[BUILDER_TEXT] = '\0';
+}
+
+static void fill_header(unsigned char *b, const rtk_scene *s, uint64_t geometry, uint64_t builder,
+                        const rtk_plugin *plugin)
+{
+    memset(b, 0, RTK_BVH_CACHE_HEADER_SIZE);
+    memcpy(b, cache_magic, sizeof cache_magic);
+    const uint32_t words[4] = {RTK_BVH_CACHE_VERSION, RTK_BVH_CACHE_ENDIAN, RTK_BVH_CACHE_HEADER_SIZE,
+                               (uint32_t)sizeof(rtk_bvh_node)};
+    memcpy(b + 8, words, sizeof words);
+    memcpy(b + 24, &geometry, 8);
+    memcpy(b + 32, &builder, 8);
+    const uint32_t counts[4] = {s->node_count, s->bvh_depth, s->triangle_count, 0};
+    memcpy(b + 40, counts, sizeof counts);
+    char text[BUILDER_TEXT + 1];
+    builder_text(plugin, text);
+    memcpy(b + 56, text, BUILDER_TEXT);
+}
+
+static uint64_t checksum(const unsigned char *header, const rtk_bvh_node *nodes, uint32_t node_count,
+                         const uint32_t *prim_ids, uint32_t prim_count)
+{
+    uint64_t h = rtk_hash64(header, RTK_BVH_CACHE_HEADER_SIZE, RTK_BVH_CACHE_SEED);
+    h = rtk_hash64(nodes, sizeof *nodes * (size_t)node_count, h);
+    return rtk_hash64(prim_ids, sizeof *prim_ids * (size_t)prim_count, h);
+}
+
+/* Each primitive's bounds, exactly as rtk_bvh_build computes them. */
+static void triangle_bounds(const rtk_scene *s, rtk_bounds *bounds)
+{
+    for (uint32_t i = 0; i < s->triangle_count; i++) {
+        rtk_vec3 v[3];
+        rtk_scene_triangle(s, i, &v[0], &v[1], &v[2]);
+        rtk_bounds b = {v[0], v[0]};
+        for (int k = 1; k < 3; k++) {
+            b.lower = rtk_vec3_make(fminf(b.lower.x, v[k].x), fminf(b.lower.y, v[k].y), fminf(b.lower.z, v[k].z));
+            b.upper = rtk_vec3_make(fmaxf(b.upper.x, v[k].x), fmaxf(b.upper.y, v[k].y), fmaxf(b.upper.z, v[k].z));
+        }
+        bounds[i] = b;
+    }
+}
+
+/* The checks of one load, in order; on failure why says what is wrong
+ * (empty when the file is simply absent). Fills the scene only on success. */
+static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometry, uint64_t builder,
+                        const rtk_plugin *plugin, char *why, size_t why_size)
+{
+    const uint32_t n = s->triangle_count;
+    struct stat st;
+    if (fstat(fd, &st) != 0) {
+        snprintf(why, why_size, "cannot stat: %s", strerror(errno));
+        return 0;
+    }
+    if (!S_ISREG(st.st_mode)) {
+        snprintf(why, why_size, "not a regular file");
+        return 0;
+    }
+    const unsigned long long size = st.st_size > 0 ? (unsigned long long)st.st_size : 0;
+    unsigned char hb[RTK_BVH_CACHE_HEADER_SIZE];
+    ssize_t got = read_all(fd, hb, sizeof hb);
+    if (got < 0) {
+        snprintf(why, why_size, "cannot read: %s", strerror(errno));
+        return 0;
+    }
+    if ((size_t)got >= sizeof cache_magic && memcmp(hb, cache_magic, sizeof cache_magic) != 0) {
+        snprintf(why, why_size, "not an rtk BVH cache (bad magic)");
+        return 0;
+    }
+    if ((size_t)got < sizeof hb) {
+        snprintf(why, why_size, "truncated (%llu bytes, shorter than the %u-byte header)", size,
+                 RTK_BVH_CACHE_HEADER_SIZE);
+        return 0;
+    }
+    cache_header h;
+    parse_header(hb, &h);
+    if (h.endian != RTK_BVH_CACHE_ENDIAN) {
+        if (h.endian == 0x04030201u)
+            snprintf(why, why_size, "written on a machine of the other byte order");
+        else
+            snprintf(why, why_size, "bad byte-order marker 0x%08x", h.endian);
+        return 0;
+    }
+    if (h.version != RTK_BVH_CACHE_VERSION) {
+        snprintf(why, why_size, "format version %u, expected %u", h.version, RTK_BVH_CACHE_VERSION);
+        return 0;
+    }
+    if (h.header_size != RTK_BVH_CACHE_HEADER_SIZE || h.node_size != sizeof(rtk_bvh_node) || h.zero != 0) {
+        snprintf(why, why_size, "malformed header (header size %u, node size %u, reserved %u; expected %u, %u, 0)",
+                 h.header_size, h.node_size, h.zero, RTK_BVH_CACHE_HEADER_SIZE, (unsigned)sizeof(rtk_bvh_node));
+        return 0;
+    }
+    if (h.geometry != geometry || h.prim_count != n) {
+        snprintf(why, why_size, "stale: built for other geometry (%u triangles, hash %016llx; the scene has %u, %016llx)",
+                 h.prim_count, (unsigned long long)h.geometry, n, (unsigned long long)geometry);
+        return 0;
+    }
+    if (h.builder != builder) {
+        char want[BUILDER_TEXT + 1];
+        builder_text(plugin, want);
+        if (strcmp(h.builder_text, want) != 0)
+            snprintf(why, why_size, "stale: built by '%s', not '%s'", h.builder_text, want);
+        else
+            snprintf(why, why_size, "stale: built by '%s' with other parameters", h.builder_text);
+        return 0;
+    }
+    /* n <= (UINT32_MAX - 1) / 2 (checked by the caller), so 2n - 1 fits. */
+    const uint32_t max_nodes = 2 * n - 1;
+    if (h.node_count == 0 || h.node_count > max_nodes) {
+        snprintf(why, why_size, "node count %u outside 1 .. %u", h.node_count, max_nodes);
+        return 0;
+    }
+    /* Both counts are 32-bit: the sum stays far below 2^64. */
+    const unsigned long long expected = RTK_BVH_CACHE_HEADER_SIZE + 32ull * h.node_count + 4ull * h.prim_count + 8ull;
+    if (size < expected) {
+        snprintf(why, why_size, "truncated (%llu of %llu bytes)", size, expected);
+        return 0;
+    }
+    if (size > expected) {
+        snprintf(why, why_size, "%llu bytes, expected %llu (trailing data)", size, expected);
+        return 0;
+    }
+    rtk_bvh_node *nodes = rtk_alloc(sizeof *nodes * (size_t)h.node_count);
+    uint32_t *prims = rtk_alloc(sizeof *prims * (size_t)n);
+    rtk_bounds *bounds = rtk_alloc(sizeof *bounds * (size_t)n);
+    float *tri_verts = rtk_alloc(sizeof(float) * 9 * (size_t)n);
+    int ok = 0;
+    uint64_t stored = 0;
+    if (!nodes || !prims || !bounds || !tri_verts) {
+        snprintf(why, why_size, "out of memory for %u nodes", h.node_count);
+        goto done;
+    }
+    const size_t node_bytes = sizeof *nodes * (size_t)h.node_count, prim_bytes = sizeof *prims * (size_t)n;
+    ssize_t a = read_all(fd, nodes, node_bytes);
+    ssize_t b = a == (ssize_t)node_bytes ? read_all(fd, prims, prim_bytes) : 0;
+    ssize_t c = b == (ssize_t)prim_bytes ? read_all(fd, &stored, sizeof stored) : 0;
+    if (a < 0 || b < 0 || c < 0) {
+        snprintf(why, why_size, "cannot read: %s", strerror(errno));
+        goto done;
+    }
+    if (c != (ssize_t)sizeof stored) {
+        snprintf(why, why_size, "truncated while reading (the file changed)");
+        goto done;
+    }
+    if (checksum(hb, nodes, h.node_count, prims, n) != stored) {
+        snprintf(why, why_size, "checksum mismatch");
+        goto done;
+    }
+    triangle_bounds(s, bounds);
+    rtk_build_args args;
+    memset(&args, 0, sizeof args);
+    args.size = sizeof args;
+    args.prim_count = n;
+    args.prim_bounds = bounds;
+    args.max_nodes = max_nodes;
+    args.nodes = nodes;
+    args.node_count = h.node_count;
+    args.prim_order = prims;
+    uint32_t depth = 0;
+    if (rtk_bvh_validate(&args, &depth) != RTK_OK) {
+        const char *msg = rtk_error_message();
+        const char *prefix = "builder output: ";
+        if (strncmp(msg, prefix, strlen(prefix)) == 0)
+            msg += strlen(prefix);
+        snprintf(why, why_size, "invalid tree: %s", msg);
+        goto done;
+    }
+    if (depth != h.depth) {
+        snprintf(why, why_size, "header says depth %u, the tree has %u", h.depth, depth);
+        goto done;
+    }
+    for (uint32_t slot = 0; slot < n; slot++) {
+        rtk_vec3 v[3];
+        rtk_scene_triangle(s, prims[slot], &v[0], &v[1], &v[2]);
+        float *dst = tri_verts + 9 * (size_t)slot;
+        for (int k = 0; k < 3; k++)
+            dst[3 * k] = v[k].x, dst[3 * k + 1] = v[k].y, dst[3 * k + 2] = v[k].z;
+    }
+    s->nodes = nodes, s->node_count = h.node_count, s->bvh_depth = depth;
+    s->prim_ids = prims, s->tri_verts = tri_verts;
+    nodes = NULL, prims = NULL, tri_verts = NULL;
+    ok = 1;
+    rtk_log(RTK_LOG_DEBUG, "BVH cache %s: loaded %u nodes, depth %u", path, s->node_count, depth);
+done:
+    free(nodes);
+    free(prims);
+    free(bounds);
+    free(tri_verts);
+    return ok;
+}
+
+int rtk_bvh_cache_load(rtk_scene *s, const char *path, uint64_t geometry, uint64_t builder, const rtk_plugin *plugin)
+{
+    clear_bvh(s);
+    if (s->triangle_count == 0 || s->triangle_count > (UINT32_MAX - 1) / 2)
+        return 0;
+    /* O_NONBLOCK: a FIFO planted at the path must not hang the render. */
+    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+    char why[1024] = "";
+    int ok = 0;
+    if (fd < 0) {
+        if (errno == ENOENT || errno == ENOTDIR)
+            rtk_log(RTK_LOG_DEBUG, "BVH cache %s: not there yet", path);
+        else
+            snprintf(why, sizeof why, "cannot open: %s", strerror(errno));
+    } else {
+        ok = load_checked(s, fd, path, geometry, builder, plugin, why, sizeof why);
+        close(fd);
+    }
+    if (!ok && why[0])
+        rtk_log(RTK_LOG_WARN, "BVH cache %s: %s; rebuilding it", path, why);
+    return ok;
+}
+
+/* Writes all of size bytes; 0 on failure with errno set. */
+static int write_all(int fd, const void *buf, size_t size)
+{
+    size_t done = 0;
+    while (done < size) {
+        ssize_t n = write(fd, (const char *)buf + done, size - done);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0) {
+            if (n == 0)
+                errno = EIO;
+            return 0;
+        }
+        done += (size_t)n;
+    }
+    return 1;
+}
+
+rtk_status rtk_bvh_cache_save(const rtk_scene *s, const char *path, uint64_t geometry, uint64_t builder,
+                              const rtk_plugin *plugin)
+{
+    if (!s->nodes || s->node_count == 0 || !s->prim_ids || s->triangle_count == 0)
+        return rtk_error(RTK_ERR_INVALID, "BVH cache %s: the scene has no kernel BVH to save", path);
+    static atomic_uint counter;
+    size_t len = strlen(path) + 64;
+    char *temp = rtk_alloc(len);
+    if (!temp)
+        return RTK_ERR_NOMEM;
+    snprintf(temp, len, "%s.tmp%ld-%u", path, (long)getpid(), atomic_fetch_add(&counter, 1));
+    unsigned char hb[RTK_BVH_CACHE_HEADER_SIZE];
+    fill_header(hb, s, geometry, builder, plugin);
+    uint64_t sum = checksum(hb, s->nodes, s->node_count, s->prim_ids, s->triangle_count);
+    const char *step = "create";
+    int fd = open(temp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    int ok = fd >= 0;
+    if (ok) {
+        step = "write";
+        ok = write_all(fd, hb, sizeof hb) && write_all(fd, s->nodes, sizeof *s->nodes * (size_t)s->node_count) &&
+             write_all(fd, s->prim_ids, sizeof *s->prim_ids * (size_t)s->triangle_count) &&
+             write_all(fd, &sum, sizeof sum);
+        int err = errno;
+        if (close(fd) != 0 && ok) {
+            ok = 0;
+            err = errno;
+        }
+        errno = err;
+    }
+    if (ok) {
+        step = "rename";
+        ok = rename(temp, path) == 0;
+    }
+    rtk_status st = RTK_OK;
+    if (!ok) {
+        int err = errno;
+        if (fd >= 0)
+            unlink(temp);
+        st = rtk_error(RTK_ERR_IO, "BVH cache %s: cannot %s %s: %s", path, step, strcmp(step, "rename") ? temp : "it",
+                       strerror(err));
+        rtk_log(RTK_LOG_WARN, "%s; rendering goes on without saving it", rtk_error_message());
+    } else {
+        rtk_log(RTK_LOG_DEBUG, "BVH cache %s: saved %u nodes", path, s->node_count);
+    }
+    free(temp);
+    return st;
+}
+
+/* mkdir -p dir; on failure why says what went wrong. */
+static int make_dirs(const char *dir, char *why, size_t why_size)
+{
+    struct stat st;
+    if (stat(dir, &st) == 0) {
+        if (S_ISDIR(st.st_mode))
+            return 1;
+        snprintf(why, why_size, "it exists and is not a directory");
+        return 0;
+    }
+    char *copy = rtk_strdup(dir);
+    if (!copy) {
+        snprintf(why, why_size, "out of memory");
+        return 0;
+    }
+    int ok = 1;
+    for (char *p = copy + 1; ok; p++) {
+        if (*p != '/' && *p != '\0')
+            continue;
+        char c = *p;
+        *p = '\0';
+        if (mkdir(copy, 0755) != 0 && errno != EEXIST) {
+            snprintf(why, why_size, "cannot create '%s': %s", copy, strerror(errno));
+            ok = 0;
+        }
+        *p = c;
+        if (!c)
+            break;
+    }
+    free(copy);
+    if (ok && (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))) {
+        snprintf(why, why_size, "it is not a directory");
+        ok = 0;
+    }
+    return ok;
+}
+
+/* 1 when the accelerator answers traces itself (ABI 1.1): a cached tree
+ * would bypass its traversal, so such builds are never cached. */
+static int own_traversal(const rtk_plugin *plugin)
+{
+    const rtk_accelerator_fns *fns = plugin->functions;
+    if (fns->size < offsetof(rtk_accelerator_fns, any) + sizeof fns->any)
+        return 0;
+    return fns->closest && fns->any;
+}
+
+rtk_status rtk_bvh_build_cached(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads,
+                                const char *dir, rtk_bvh_cache_use *use)
+{
+    memset(use, 0, sizeof *use);
+    if (!dir || s->triangle_count == 0 || s->triangle_count > (UINT32_MAX - 1) / 2 || own_traversal(plugin))
+        return rtk_bvh_build(s, plugin, params, threads);
+    uint64_t geometry = rtk_bvh_cache_geometry_hash(s);
+    uint64_t builder = rtk_bvh_cache_builder_hash(plugin, params);
+    char *path = rtk_bvh_cache_path(dir, geometry, builder);
+    if (!path)
+        return rtk_bvh_build(s, plugin, params, threads);
+    if (rtk_bvh_cache_load(s, path, geometry, builder, plugin)) {
+        use->from_cache = 1;
+        snprintf(use->file, sizeof use->file, "%s", path);
+        free(path);
+        return RTK_OK;
+    }
+    rtk_status st = rtk_bvh_build(s, plugin, params, threads);
+    if (st == RTK_OK && s->node_count > 0 && !s->own_traversal) {
+        char why[1024] = "";
+        char key[1200];
+        snprintf(key, sizeof key, "bvh cache dir %s", dir);
+        if (!make_dirs(dir, why, sizeof why))
+            rtk_warn_once(key, "BVH cache directory %s: %s; rendering goes on without a cache", dir, why);
+        else if (rtk_bvh_cache_save(s, path, geometry, builder, plugin) == RTK_OK)
+            snprintf(use->file, sizeof use->file, "%s", path);
+    }
+    free(path);
+    return st;
+}

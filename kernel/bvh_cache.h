@@ -1,0 +1,83 @@
+/* The on-disk BVH cache: a built tree saved next to hashes of what it was
+ * built from, and loaded only after everything in the file has been
+ * checked. Caching is an optimisation: nothing here ever fails a render.
+ * Every problem with a cache file (stale, truncated, corrupt, unwritable)
+ * is one warning that names the file and the reason, and the tree is
+ * built by the plugin instead. Main thread only.
+ *
+ * File format 1 (all integers in the writer's byte order, which the
+ * endianness marker records; a reader of the other order refuses it):
+ *
+ *   offset size
+ *        0    8  magic "RTKBVH\0\0"
+ *        8    4  format version (1)
+ *       12    4  endianness marker 0x01020304
+ *       16    4  header size (96)
+ *       20    4  node size (32, sizeof(rtk_bvh_node))
+ *       24    8  geometry hash (rtk_bvh_cache_geometry_hash)
+ *       32    8  builder hash (rtk_bvh_cache_builder_hash)
+ *       40    4  node count, 1 .. 2 * prim count - 1
+ *       44    4  tree depth
+ *       48    4  prim count (the scene's triangles)
+ *       52    4  zero
+ *       56   40  "name version" of the builder, NUL-padded (for messages)
+ *       96       node count rtk_bvh_node
+ *                prim count uint32_t: leaf slot -> triangle id
+ *                8  checksum: h = hash(header, RTK_BVH_CACHE_SEED),
+ *                   h = hash(nodes, h), h = hash(prim ids, h)
+ *
+ * A file's size is exactly 96 + 32 * nodes + 4 * prims + 8. */
+#ifndef RTK_BVH_CACHE_H
+#define RTK_BVH_CACHE_H
+
+#include "internal.h"
+
+#define RTK_BVH_CACHE_VERSION 1u
+#define RTK_BVH_CACHE_HEADER_SIZE 96u
+#define RTK_BVH_CACHE_ENDIAN 0x01020304u
+#define RTK_BVH_CACHE_SEED 0x5254cb42u
+
+/* Where a render's BVH came from. */
+typedef struct rtk_bvh_cache_use {
+    int from_cache;  /* 1: loaded from file; 0: built by the plugin */
+    char file[1024]; /* the cache file loaded or written, "" when none */
+} rtk_bvh_cache_use;
+
+/* 64-bit hash of size bytes (the XXH64 algorithm), chained through seed. */
+uint64_t rtk_hash64(const void *data, size_t size, uint64_t seed);
+
+/* Hash of the scene's geometry: counts, positions and indices. */
+uint64_t rtk_bvh_cache_geometry_hash(const rtk_scene *scene);
+
+/* Hash of the builder: plugin name and version, every parameter's name,
+ * type and value. */
+uint64_t rtk_bvh_cache_builder_hash(const rtk_plugin *plugin, const rtk_params *params);
+
+/* $XDG_CACHE_HOME/rtk, else $HOME/.cache/rtk, else NULL. [caller frees] */
+char *rtk_bvh_cache_default_dir(void);
+
+/* "<dir>/<geometry hash>-<builder hash>.bvh". [caller frees] */
+char *rtk_bvh_cache_path(const char *dir, uint64_t geometry, uint64_t builder);
+
+/* Replaces scene's BVH with the one in path when every check passes
+ * (size, magic, byte order, version, hashes, checksum, then the kernel's
+ * structural validation against freshly computed primitive bounds) and
+ * returns 1. Otherwise returns 0 with the scene's BVH cleared and, unless
+ * the file does not exist, exactly one warning naming path and the reason.
+ * plugin names the expected builder in messages. */
+int rtk_bvh_cache_load(rtk_scene *scene, const char *path, uint64_t geometry, uint64_t builder,
+                       const rtk_plugin *plugin);
+
+/* Writes scene's BVH to path through a temporary sibling and a rename, so
+ * readers never see a partial file. On failure warns once and returns
+ * the error; the scene is untouched either way. */
+rtk_status rtk_bvh_cache_save(const rtk_scene *scene, const char *path, uint64_t geometry, uint64_t builder,
+                              const rtk_plugin *plugin);
+
+/* rtk_bvh_build behind the cache in dir (NULL = caching off): loads a
+ * valid cache file, else builds and saves. Accelerators with their own
+ * traversal are never cached. Fails only when the build itself fails. */
+rtk_status rtk_bvh_build_cached(rtk_scene *scene, const rtk_plugin *accelerator, const rtk_params *params,
+                                uint32_t threads, const char *dir, rtk_bvh_cache_use *use);
+
+#endif
