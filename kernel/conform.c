@@ -2,6 +2,7 @@
  * exactly as the renderer does and runs the checks of its kind. Every
  * check prints one line; the last line is "N passed, N failed". */
 #include "film.h"
+#include "lights.h"
 #include "internal.h"
 
 #include <float.h>
@@ -429,7 +430,12 @@ static rtk_status make_room(uint32_t needs, rtk_scene **out)
     add_quad(s, rtk_vec3_make(1, 0, -1), rtk_vec3_make(0, 0, 2), rtk_vec3_make(0, 2, 0), white);   /* right */
     add_quad(s, rtk_vec3_make(-0.25f, 1.99f, -0.25f), rtk_vec3_make(0.5f, 0, 0), rtk_vec3_make(0, 0, 0.5f), light);
     add_quad(s, rtk_vec3_make(-0.5f, 0.6f, -0.5f), rtk_vec3_make(0.4f, 0, 0), rtk_vec3_make(0, 0, 0.4f), white);
-    rtk_status st = rtk_scene_finish(s);
+    /* A point light under the ceiling for integrators that use punctual lights. */
+    rtk_punctual_light point = {.type = RTK_LIGHT_POINT, .position = rtk_vec3_make(0.2f, 1.8f, 0.3f),
+                                .intensity = rtk_rgb_make(2.0f, 2.0f, 2.0f)};
+    rtk_status st = rtk_scene_add_punctual(s, &point);
+    if (st == RTK_OK)
+        st = rtk_scene_finish(s);
     if (st != RTK_OK) {
         rtk_scene_free(s);
         return st;

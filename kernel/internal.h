@@ -194,6 +194,9 @@ struct rtk_scene {
     struct rtk_wide_bvh *wide;
     /* Emitters and their sampling table (lights.c); NULL unless needed. */
     struct rtk_lights *lights;
+    /* Point, spot and directional lights (lights.c). */
+    rtk_punctual_light *punctual;
+    uint32_t punctual_count;
 };
 
 /* Empty scene that keeps the data in needs (RTK_NEED_*). [caller frees] */

@@ -168,3 +168,23 @@ RTK_API float rtk_scene_light_pdf(const rtk_scene *s, uint32_t prim)
     uint32_t light = l->light_of[prim];
     return light == RTK_INVALID_ID ? 0.0f : l->pick[light] / l->area[light];
 }
+
+rtk_status rtk_scene_add_punctual(rtk_scene *s, const rtk_punctual_light *light)
+{
+    rtk_punctual_light *grown = rtk_realloc_array(s->punctual, (size_t)s->punctual_count + 1, sizeof *grown);
+    if (!grown)
+        return RTK_ERR_NOMEM;
+    s->punctual = grown;
+    s->punctual[s->punctual_count++] = *light;
+    return RTK_OK;
+}
+
+RTK_API uint32_t rtk_scene_punctual_count(const rtk_scene *s)
+{
+    return s->punctual_count;
+}
+
+RTK_API const rtk_punctual_light *rtk_scene_punctual(const rtk_scene *s, uint32_t i)
+{
+    return i < s->punctual_count ? &s->punctual[i] : NULL;
+}

@@ -15,6 +15,9 @@ typedef struct rtk_lights {
     uint32_t *light_of;   /* triangle -> light, RTK_INVALID_ID when it does not emit */
 } rtk_lights;
 
+/* Appends a punctual light to the scene (copied). */
+rtk_status rtk_scene_add_punctual(rtk_scene *scene, const rtk_punctual_light *light);
+
 /* Finds the emitters of a finished scene and builds the table; a scene
  * without emitters gets an empty table. */
 rtk_status rtk_lights_build(rtk_scene *scene);

@@ -26,7 +26,7 @@ RTK_API const char *rtk_kind_name(rtk_plugin_kind kind)
     return "unknown kind";
 }
 
-/* Smallest function table each kind must provide: the fields of ABI 1.0;
+/* Smallest function table each kind must provide: its required fields;
  * later fields are read only when the table's size covers them. */
 static size_t min_table_size(rtk_plugin_kind kind)
 {

@@ -114,6 +114,8 @@ RTK_API void rtk_surface_at(const rtk_scene *s, const rtk_ray *ray, const rtk_hi
             out->alpha *= texel[0];
         }
         if (m.emission_tex >= 0 && (uint32_t)m.emission_tex < s->texture_count && s->textures[m.emission_tex].decoded) {
+    out->transmission = m.transmission;
+    out->illum = m.illum;
             rtk_texture_lookup(&s->textures[m.emission_tex], out->uv.x, out->uv.y, texel);
             out->emission = rtk_rgb_mul(out->emission, rtk_rgb_make(texel[0], texel[1], texel[2]));
         }

@@ -81,6 +81,7 @@ void rtk_scene_free(rtk_scene *scene)
     free(scene->tri_verts);
     rtk_bvh_release(scene);
     rtk_lights_free(scene->lights);
+    free(scene->punctual);
     free(scene);
 }
 

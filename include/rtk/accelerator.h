@@ -1,7 +1,7 @@
 /* Accelerator plugins build a BVH into the kernel's node format; the
  * kernel validates the result, reorders triangles and traverses it, so
  * builders compare on tree quality alone. A plugin may instead supply its
- * own traversal (closest, any: ABI 1.1), as a yardstick such as Embree. */
+ * own traversal (closest, any), as a yardstick such as Embree. */
 #ifndef RTK_ACCELERATOR_H
 #define RTK_ACCELERATOR_H
 
@@ -32,7 +32,6 @@ typedef struct rtk_build_args {
     uint32_t node_count;           /* out: nodes used */
     uint32_t *prim_order;          /* out: permutation of 0 .. prim_count - 1 */
     uint32_t thread_count;         /* threads the builder may use */
-    /* ABI 1.1 */
     const rtk_vec3 *vertices;      /* 3 per primitive: its triangle's corners */
 } rtk_build_args;
 
@@ -45,7 +44,7 @@ typedef struct rtk_accelerator_fns {
     rtk_status (*build)(void *state, rtk_build_args *args);
     /* Frees the instance. [main thread] */
     void (*destroy)(void *state);
-    /* ABI 1.1, optional, both or neither: the plugin's own traversal. With
+    /* Optional, both or neither: the plugin's own traversal. With
      * them, build need not emit nodes (node_count 0 is allowed), the
      * instance lives as long as the scene, and every trace goes through
      * them; hit->prim is the primitive's index in the build arguments.

@@ -33,6 +33,29 @@ RTK_API int rtk_scene_sample_light(const rtk_scene *scene, float u_pick, rtk_vec
  * [any thread] */
 RTK_API float rtk_scene_light_pdf(const rtk_scene *scene, uint32_t prim);
 
+/* Kinds of punctual light (from the config or glTF KHR_lights_punctual). */
+typedef enum rtk_punctual_type {
+    RTK_LIGHT_POINT = 1,       /* intensity in W/sr, falls off with 1/r^2 */
+    RTK_LIGHT_DIRECTIONAL = 2, /* intensity is irradiance, W/m^2, on a surface facing it */
+    RTK_LIGHT_SPOT = 3         /* a point light limited to a cone */
+} rtk_punctual_type;
+
+/* A light with no area: hard shadows, reached only by shadow rays. */
+typedef struct rtk_punctual_light {
+    rtk_punctual_type type;
+    rtk_vec3 position;  /* point and spot */
+    rtk_vec3 direction; /* unit direction the light travels (directional, spot axis) */
+    rtk_rgb intensity;
+    float cos_inner;    /* spot: full intensity inside this cone (cosine of the angle) */
+    float cos_outer;    /* spot: zero outside this cone */
+} rtk_punctual_light;
+
+/* Number of punctual lights. [any thread] */
+RTK_API uint32_t rtk_scene_punctual_count(const rtk_scene *scene);
+
+/* The i-th punctual light (i < count). [any thread] */
+RTK_API const rtk_punctual_light *rtk_scene_punctual(const rtk_scene *scene, uint32_t i);
+
 RTK_EXTERN_C_END
 
 #endif

@@ -9,8 +9,8 @@
 
 RTK_EXTERN_C_BEGIN
 
-#define RTK_ABI_MAJOR 1
-#define RTK_ABI_MINOR 1
+#define RTK_ABI_MAJOR 2
+#define RTK_ABI_MINOR 0
 
 /* Name of the one symbol a plugin exports. */
 #define RTK_PLUGIN_ENTRY_NAME "rtk_plugin_entry"

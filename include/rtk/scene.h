@@ -31,6 +31,8 @@ typedef struct rtk_surface {
     float roughness;     /* glTF roughness factor */
     uint32_t material;   /* material index, RTK_INVALID_ID for the default */
     int front_face;      /* 1 when the ray hit the side ng was authored on */
+    float transmission;  /* glTF KHR_materials_transmission; MTL: 1 - d for illum 4, 6, 7, 9 */
+    int illum;           /* MTL illumination model, -1 when the material has none */
 } rtk_surface;
 
 /* Closest hit along ray; returns 1 on a hit. Invalid rays (NaN, zero
