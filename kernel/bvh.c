@@ -1,7 +1,7 @@
 /* The kernel's BVH: ray/triangle and ray/box tests, robust ray offsets,
  * closest-hit and any-hit traversal, and the checked hand-off to builder
  * plugins. Builders only emit nodes; everything here is shared by all. */
-#include "internal.h"
+#include "bvh_wide.h"
 
 #include <float.h>
 #include <math.h>
@@ -193,13 +193,10 @@ static int leaf_hit(const rtk_scene *s, uint32_t slot, const rtk_ray *ray, float
                                   rtk_vec3_make(tv[6], tv[7], tv[8]), t, u, v);
 }
 
-int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray_in, rtk_hit *hit)
+/* Closest hit on the binary tree; counts into work when not NULL. */
+static inline __attribute__((always_inline)) int binary_closest(const rtk_scene *s, const rtk_ray *ray_in,
+                                                                 rtk_hit *hit, rtk_trace_work *work)
 {
-    hit->prim = RTK_INVALID_ID;
-    hit->t = ray_in->tmax;
-    hit->u = hit->v = 0.0f;
-    if (s->own_traversal)
-        return s->own_traversal->closest(s->own_state, ray_in, hit) && hit->prim < s->triangle_count;
     if (s->node_count == 0)
         return 0;
     rtk_ray ray = *ray_in;
@@ -213,6 +210,8 @@ int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray_in, rtk_hit *hit)
     for (;;) {
         const rtk_bvh_node *n = &s->nodes[node];
         if (n->count > 0) {
+            if (work)
+                work->triangles += n->count;
             for (uint32_t i = 0; i < n->count; i++) {
                 uint32_t slot = n->offset + i;
                 float t, u, v;
@@ -226,6 +225,8 @@ int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray_in, rtk_hit *hit)
                 }
             }
         } else {
+            if (work)
+                work->nodes++;
             uint32_t c0 = n->offset, c1 = n->offset + 1;
             float t0 = box_entry(&s->nodes[c0], &p, ray.tmin, ray.tmax);
             float t1 = box_entry(&s->nodes[c1], &p, ray.tmin, ray.tmax);
@@ -255,10 +256,10 @@ int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray_in, rtk_hit *hit)
     return hit->prim != RTK_INVALID_ID;
 }
 
-int rtk_bvh_any(const rtk_scene *s, const rtk_ray *ray)
+/* Any hit on the binary tree; counts into work when not NULL. */
+static inline __attribute__((always_inline)) int binary_any(const rtk_scene *s, const rtk_ray *ray,
+                                                             rtk_trace_work *work)
 {
-    if (s->own_traversal)
-        return s->own_traversal->any(s->own_state, ray);
     if (s->node_count == 0)
         return 0;
     ray_prep p;
@@ -273,15 +274,71 @@ int rtk_bvh_any(const rtk_scene *s, const rtk_ray *ray)
         if (n->count > 0) {
             for (uint32_t i = 0; i < n->count; i++) {
                 float t, u, v;
+                if (work)
+                    work->triangles++;
                 if (leaf_hit(s, n->offset + i, ray, &t, &u, &v))
                     return 1;
             }
         } else {
+            if (work)
+                work->nodes++;
             stack[top++] = n->offset + 1;
             stack[top++] = n->offset;
         }
     }
     return 0;
+}
+
+/* The wide tree serves rays with tmin >= 0 (its box test widens exit
+ * distances through the reciprocal, which assumes it); the binary tree
+ * the rest, and everything when RTK_SIMD=binary. */
+static int use_wide(const rtk_scene *s, const rtk_ray *ray)
+{
+    return s->wide && s->wide->path != RTK_SIMD_BINARY && ray->tmin >= 0.0f;
+}
+
+int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
+{
+    if (use_wide(s, ray) && !s->own_traversal)
+        return rtk_wide_closest(s, s->wide->path, ray, hit, NULL);
+    hit->prim = RTK_INVALID_ID;
+    hit->t = ray->tmax;
+    hit->u = hit->v = 0.0f;
+    if (s->own_traversal)
+        return s->own_traversal->closest(s->own_state, ray, hit) && hit->prim < s->triangle_count;
+    return binary_closest(s, ray, hit, NULL);
+}
+
+int rtk_bvh_any(const rtk_scene *s, const rtk_ray *ray)
+{
+    if (s->own_traversal)
+        return s->own_traversal->any(s->own_state, ray);
+    if (use_wide(s, ray))
+        return rtk_wide_any(s, s->wide->path, ray, NULL);
+    return binary_any(s, ray, NULL);
+}
+
+int rtk_bvh_closest_measure(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
+{
+    work->nodes = work->triangles = 0;
+    if (use_wide(s, ray) && !s->own_traversal)
+        return rtk_wide_closest(s, s->wide->path, ray, hit, work);
+    hit->prim = RTK_INVALID_ID;
+    hit->t = ray->tmax;
+    hit->u = hit->v = 0.0f;
+    if (s->own_traversal)
+        return s->own_traversal->closest(s->own_state, ray, hit) && hit->prim < s->triangle_count;
+    return binary_closest(s, ray, hit, work);
+}
+
+int rtk_bvh_any_measure(const rtk_scene *s, const rtk_ray *ray, rtk_trace_work *work)
+{
+    work->nodes = work->triangles = 0;
+    if (s->own_traversal)
+        return s->own_traversal->any(s->own_state, ray);
+    if (use_wide(s, ray))
+        return rtk_wide_any(s, s->wide->path, ray, work);
+    return binary_any(s, ray, work);
 }
 
 static int box_contains(const float lo[3], const float hi[3], const float clo[3], const float chi[3])
@@ -381,6 +438,7 @@ done:
 
 void rtk_bvh_release(rtk_scene *s)
 {
+    rtk_wide_free(s);
     if (s->own_traversal && s->own_state)
         s->own_traversal->destroy(s->own_state);
     s->own_traversal = NULL;
@@ -495,6 +553,8 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     free(bounds);
     free(centroids);
     free(vertices);
+    if (!s->own_traversal && rtk_wide_build(s) != RTK_OK)
+        rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
     return RTK_OK;
 fail:
     rtk_bvh_release(s);

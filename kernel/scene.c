@@ -1,6 +1,6 @@
 /* Kernel services over a loaded scene: tracing with counters, surface
  * interaction (normals, uvs, materials, textures), scene queries. */
-#include "internal.h"
+#include "bvh_wide.h"
 
 #include <math.h>
 
@@ -25,6 +25,20 @@ RTK_API int rtk_occluded(rtk_ctx *ctx, const rtk_ray *ray)
         return 0;
     }
     return rtk_bvh_any(ctx->scene, ray);
+}
+
+RTK_API int rtk_trace_measure(rtk_ctx *ctx, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
+{
+    ctx->rays++;
+    if (!rtk_ray_valid(ray)) {
+        ctx->invalid_rays++;
+        hit->prim = RTK_INVALID_ID;
+        hit->t = INFINITY;
+        hit->u = hit->v = 0.0f;
+        work->nodes = work->triangles = 0;
+        return 0;
+    }
+    return rtk_bvh_closest_measure(ctx->scene, ray, hit, work);
 }
 
 RTK_API const rtk_scene *rtk_ctx_scene(const rtk_ctx *ctx)
@@ -100,6 +114,8 @@ RTK_API void rtk_surface_at(const rtk_scene *s, const rtk_ray *ray, const rtk_hi
     out->ior = m.ior;
     out->metallic = m.metallic;
     out->roughness = m.roughness;
+    out->transmission = m.transmission;
+    out->illum = m.illum;
     if (s->textures && s->uvs) {
         float texel[4];
         if (m.base_tex >= 0 && (uint32_t)m.base_tex < s->texture_count && s->textures[m.base_tex].decoded) {
@@ -114,8 +130,6 @@ RTK_API void rtk_surface_at(const rtk_scene *s, const rtk_ray *ray, const rtk_hi
             out->alpha *= texel[0];
         }
         if (m.emission_tex >= 0 && (uint32_t)m.emission_tex < s->texture_count && s->textures[m.emission_tex].decoded) {
-    out->transmission = m.transmission;
-    out->illum = m.illum;
             rtk_texture_lookup(&s->textures[m.emission_tex], out->uv.x, out->uv.y, texel);
             out->emission = rtk_rgb_mul(out->emission, rtk_rgb_make(texel[0], texel[1], texel[2]));
         }

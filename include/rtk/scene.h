@@ -59,6 +59,19 @@ RTK_API uint32_t rtk_scene_triangle_count(const rtk_scene *scene);
 RTK_API void rtk_scene_triangle(const rtk_scene *scene, uint32_t prim, rtk_vec3 *a, rtk_vec3 *b,
                                 rtk_vec3 *c);
 
+/* Work one closest-hit traversal did: BVH nodes whose children's boxes
+ * were tested, and ray/triangle tests. */
+typedef struct rtk_trace_work {
+    uint32_t nodes;
+    uint32_t triangles;
+} rtk_trace_work;
+
+/* rtk_trace that also reports its traversal work (for BVH heat maps): the
+ * same hit, counted the same way; work is all zero for an invalid ray or
+ * an accelerator with its own traversal. Slower than rtk_trace.
+ * [ctx's thread] */
+RTK_API int rtk_trace_measure(rtk_ctx *ctx, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work);
+
 RTK_EXTERN_C_END
 
 #endif

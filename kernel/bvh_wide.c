@@ -1,0 +1,870 @@
+/* The wide BVH (see bvh_wide.h): collapse of the binary tree, and its
+ * traversal in plain C, SSE and AVX2, the SIMD paths compiled here with
+ * target attributes and chosen at run time.
+ *
+ * Every path computes the same numbers: the box test is the binary
+ * traversal's (differences, products by the reciprocal, NaN of 0 * inf
+ * dropped, far distances and tmax widened by 1 + 2 gamma(3)); the triangle
+ * test is rtk_intersect_triangle's arithmetic, operation for operation, on
+ * four triangles at once. Nothing here may contract a * b + c into an FMA,
+ * which is why the AVX2 target does not include FMA. */
+#include "bvh_wide.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#if defined(__x86_64__) || defined(__i386__)
+#define RTK_HAVE_X86 1
+#include <immintrin.h>
+#define RTK_TARGET_AVX2 __attribute__((target("avx2")))
+#else
+#define RTK_HAVE_X86 0
+#endif
+
+#define RTK_INLINE static inline __attribute__((always_inline))
+
+/* Deepest wide tree: the binary limit (each wide level spans at least one
+ * binary level) plus levels that split oversized leaves. */
+#define RTK_WIDE_MAX_DEPTH 288
+/* Each level pushes at most RTK_WIDE - 1 entries. */
+#define RTK_WIDE_STACK ((RTK_WIDE - 1) * RTK_WIDE_MAX_DEPTH + 2)
+
+/* 1 + 2 gamma(3), as in bvh.c. */
+static const float slab_slack = 1.0f + 2.0f * (3.0f * 0.5f * FLT_EPSILON) / (1.0f - 3.0f * 0.5f * FLT_EPSILON);
+
+/* ---- collapse ---- */
+
+typedef struct collapser {
+    const rtk_scene *s;
+    rtk_wide_node *nodes;
+    uint32_t node_count, node_cap;
+    rtk_wide_tris *tris;
+    uint32_t tri_count, tri_cap;
+    uint32_t depth;
+    int failed;
+} collapser;
+
+static float half_area(const float lo[3], const float hi[3])
+{
+    float dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
+    return dx * dy + dy * dz + dz * dx;
+}
+
+static uint32_t new_node(collapser *c)
+{
+    if (c->node_count == c->node_cap) {
+        uint32_t cap = c->node_cap ? 2 * c->node_cap : 64;
+        rtk_wide_node *n = rtk_realloc_array(c->nodes, cap, sizeof *n);
+        if (!n) {
+            c->failed = 1;
+            return UINT32_MAX;
+        }
+        c->nodes = n, c->node_cap = cap;
+    }
+    rtk_wide_node *n = &c->nodes[c->node_count];
+    for (int i = 0; i < RTK_WIDE; i++) {
+        for (int k = 0; k < 3; k++) {
+            n->bounds[2 * k][i] = INFINITY;
+            n->bounds[2 * k + 1][i] = -INFINITY;
+        }
+        n->child[i] = RTK_WIDE_LEAF; /* never reached: the empty box is missed */
+        n->pad[i] = 0;
+    }
+    return c->node_count++;
+}
+
+static void set_child(collapser *c, uint32_t node, int i, const float lo[3], const float hi[3], uint32_t ref)
+{
+    rtk_wide_node *n = &c->nodes[node];
+    for (int k = 0; k < 3; k++) {
+        n->bounds[2 * k][i] = lo[k];
+        n->bounds[2 * k + 1][i] = hi[k];
+    }
+    n->child[i] = ref;
+}
+
+/* Bounds of the triangles in slots [begin, end). */
+static void slot_bounds(const rtk_scene *s, uint32_t begin, uint32_t end, float lo[3], float hi[3])
+{
+    for (int k = 0; k < 3; k++)
+        lo[k] = INFINITY, hi[k] = -INFINITY;
+    for (uint32_t i = begin; i < end; i++) {
+        const float *v = s->tri_verts + 9 * (size_t)i;
+        for (int j = 0; j < 9; j++) {
+            int k = j % 3;
+            lo[k] = fminf(lo[k], v[j]);
+            hi[k] = fmaxf(hi[k], v[j]);
+        }
+    }
+}
+
+/* Leaf reference for slots [begin, end), at most RTK_WIDE_LEAF_BLOCKS blocks. */
+static uint32_t make_blocks(collapser *c, uint32_t begin, uint32_t end)
+{
+    uint32_t blocks = (end - begin + RTK_WIDE_TRIS - 1) / RTK_WIDE_TRIS;
+    if (c->tri_count + blocks > c->tri_cap) {
+        uint32_t cap = c->tri_cap ? 2 * c->tri_cap : 64;
+        while (cap < c->tri_count + blocks)
+            cap *= 2;
+        rtk_wide_tris *t = rtk_realloc_array(c->tris, cap, sizeof *t);
+        if (!t) {
+            c->failed = 1;
+            return RTK_WIDE_LEAF;
+        }
+        c->tris = t, c->tri_cap = cap;
+    }
+    uint32_t first = c->tri_count;
+    for (uint32_t b = 0; b < blocks; b++) {
+        rtk_wide_tris *t = &c->tris[c->tri_count++];
+        for (int lane = 0; lane < RTK_WIDE_TRIS; lane++) {
+            uint32_t slot = begin + b * RTK_WIDE_TRIS + (uint32_t)lane;
+            if (slot < end) {
+                const float *v = c->s->tri_verts + 9 * (size_t)slot;
+                for (int j = 0; j < 9; j++)
+                    t->v[j][lane] = v[j];
+                t->prim[lane] = c->s->prim_ids[slot];
+            } else {
+                /* NaN corners: every comparison of the test fails, a miss. */
+                for (int j = 0; j < 9; j++)
+                    t->v[j][lane] = NAN;
+                t->prim[lane] = RTK_INVALID_ID;
+            }
+        }
+    }
+    return RTK_WIDE_LEAF | first << RTK_WIDE_LEAF_SHIFT | (blocks - 1);
+}
+
+/* Reference for the leaf over slots [begin, end): blocks directly, or a
+ * node over up to RTK_WIDE pieces when the leaf is too large for one
+ * reference. */
+static uint32_t make_leaf(collapser *c, uint32_t begin, uint32_t end, uint32_t depth)
+{
+    const uint32_t per_ref = RTK_WIDE_LEAF_BLOCKS * RTK_WIDE_TRIS;
+    if (end - begin <= per_ref)
+        return make_blocks(c, begin, end);
+    if (depth > RTK_WIDE_MAX_DEPTH) {
+        c->failed = 1;
+        return RTK_WIDE_LEAF;
+    }
+    if (depth > c->depth)
+        c->depth = depth;
+    uint32_t node = new_node(c);
+    if (c->failed)
+        return RTK_WIDE_LEAF;
+    uint64_t n = end - begin;
+    uint64_t piece = (n + RTK_WIDE - 1) / RTK_WIDE;
+    if (piece < per_ref)
+        piece = per_ref;
+    int i = 0;
+    for (uint64_t b = begin; b < end; b += piece, i++) {
+        uint32_t e = (uint32_t)(b + piece < end ? b + piece : end);
+        float lo[3], hi[3];
+        slot_bounds(c->s, (uint32_t)b, e, lo, hi);
+        uint32_t ref = make_leaf(c, (uint32_t)b, e, depth + 1);
+        if (c->failed)
+            return RTK_WIDE_LEAF;
+        set_child(c, node, i, lo, hi, ref);
+    }
+    return node;
+}
+
+/* Wide node for binary node bin: its children, then repeatedly the inner
+ * child of largest surface area replaced by its two children (Wald et al.
+ * 2008), until RTK_WIDE children or only leaves remain. */
+static uint32_t collapse(collapser *c, uint32_t bin, uint32_t depth)
+{
+    const rtk_bvh_node *bn = c->s->nodes;
+    if (depth > RTK_WIDE_MAX_DEPTH) {
+        c->failed = 1;
+        return 0;
+    }
+    if (depth > c->depth)
+        c->depth = depth;
+    uint32_t kids[RTK_WIDE];
+    int n = 0;
+    if (bn[bin].count > 0) {
+        kids[n++] = bin;
+    } else {
+        kids[n++] = bn[bin].offset;
+        kids[n++] = bn[bin].offset + 1;
+    }
+    while (n < RTK_WIDE) {
+        int best = -1;
+        float best_area = -1.0f;
+        for (int i = 0; i < n; i++) {
+            const rtk_bvh_node *k = &bn[kids[i]];
+            if (k->count > 0)
+                continue;
+            float a = half_area(k->lower, k->upper);
+            if (a > best_area)
+                best = i, best_area = a;
+        }
+        if (best < 0)
+            break;
+        uint32_t open = kids[best];
+        kids[best] = bn[open].offset;
+        kids[n++] = bn[open].offset + 1;
+    }
+    uint32_t node = new_node(c);
+    if (c->failed)
+        return 0;
+    for (int i = 0; i < n; i++) {
+        const rtk_bvh_node *k = &bn[kids[i]];
+        uint32_t ref = k->count > 0 ? make_leaf(c, k->offset, k->offset + k->count, depth + 1)
+                                    : collapse(c, kids[i], depth + 1);
+        if (c->failed)
+            return 0;
+        set_child(c, node, i, k->lower, k->upper, ref);
+    }
+    return node;
+}
+
+/* Copies n elements of size bytes into a fresh 64-byte aligned array. */
+static void *aligned_copy(const void *src, size_t n, size_t size)
+{
+    size_t bytes = (n * size + 63) / 64 * 64;
+    void *p = aligned_alloc(64, bytes ? bytes : 64);
+    if (!p)
+        return NULL;
+    if (n)
+        memcpy(p, src, n * size);
+    return p;
+}
+
+void rtk_wide_free(rtk_scene *s)
+{
+    if (!s->wide)
+        return;
+    free(s->wide->nodes);
+    free(s->wide->tris);
+    free(s->wide);
+    s->wide = NULL;
+}
+
+rtk_status rtk_wide_build(rtk_scene *s)
+{
+    rtk_wide_free(s);
+    if (s->node_count == 0 || !s->tri_verts || !s->prim_ids)
+        return RTK_OK;
+    collapser c;
+    memset(&c, 0, sizeof c);
+    c.s = s;
+    collapse(&c, 0, 0);
+    rtk_wide_bvh *w = NULL;
+    if (!c.failed && c.tri_count >= 1u << (31 - RTK_WIDE_LEAF_SHIFT))
+        c.failed = 1;
+    if (!c.failed) {
+        w = rtk_calloc(1, sizeof *w);
+        if (w) {
+            w->nodes = aligned_copy(c.nodes, c.node_count, sizeof *c.nodes);
+            w->tris = aligned_copy(c.tris, c.tri_count, sizeof *c.tris);
+            w->node_count = c.node_count;
+            w->tri_block_count = c.tri_count;
+            w->depth = c.depth;
+            w->path = rtk_simd_from_env();
+        }
+        if (!w || !w->nodes || !w->tris)
+            c.failed = 1;
+    }
+    free(c.nodes);
+    free(c.tris);
+    if (c.failed) {
+        if (w) {
+            free(w->nodes);
+            free(w->tris);
+            free(w);
+        }
+        return rtk_error(RTK_ERR_NOMEM, "wide BVH: out of memory or tree too deep");
+    }
+    s->wide = w;
+    return RTK_OK;
+}
+
+/* ---- path selection ---- */
+
+int rtk_simd_supported(rtk_simd_path path)
+{
+    switch (path) {
+    case RTK_SIMD_BINARY:
+    case RTK_SIMD_SCALAR:
+        return 1;
+#if RTK_HAVE_X86
+    case RTK_SIMD_SSE:
+        return 1; /* SSE2 is part of x86-64; nothing newer is used */
+    case RTK_SIMD_AVX2:
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx2") != 0;
+#endif
+    default:
+        return 0;
+    }
+}
+
+rtk_simd_path rtk_simd_best(void)
+{
+    if (rtk_simd_supported(RTK_SIMD_AVX2))
+        return RTK_SIMD_AVX2;
+    if (rtk_simd_supported(RTK_SIMD_SSE))
+        return RTK_SIMD_SSE;
+    return RTK_SIMD_SCALAR;
+}
+
+const char *rtk_simd_name(rtk_simd_path path)
+{
+    static const char *const names[] = {"binary", "scalar", "sse", "avx2"};
+    return (unsigned)path < 4 ? names[path] : "?";
+}
+
+rtk_simd_path rtk_simd_from_env(void)
+{
+    const char *e = getenv("RTK_SIMD");
+    if (!e || !*e)
+        return rtk_simd_best();
+    for (int p = RTK_SIMD_BINARY; p <= RTK_SIMD_AVX2; p++) {
+        if (strcmp(e, rtk_simd_name((rtk_simd_path)p)) == 0) {
+            if (rtk_simd_supported((rtk_simd_path)p))
+                return (rtk_simd_path)p;
+            rtk_warn_once("RTK_SIMD unsupported", "RTK_SIMD=%s: this CPU cannot run it; using %s", e,
+                          rtk_simd_name(rtk_simd_best()));
+            return rtk_simd_best();
+        }
+    }
+    rtk_warn_once("RTK_SIMD unknown", "RTK_SIMD=%s is not one of binary, scalar, sse, avx2; using %s", e,
+                  rtk_simd_name(rtk_simd_best()));
+    return rtk_simd_best();
+}
+
+/* ---- per-ray constants ---- */
+
+typedef struct wide_ray {
+    float org[3], inv[3], inv_far[3];
+    int near[3], far[3];   /* rows of rtk_wide_node.bounds: entry and exit plane per axis */
+    /* triangle test: shear constants of rtk_intersect_triangle */
+    int kx, ky, kz;
+    float sx, sy, sz;
+} wide_ray;
+
+RTK_INLINE void wide_prepare(const rtk_ray *r, wide_ray *p)
+{
+    const float d[3] = {r->dir.x, r->dir.y, r->dir.z};
+    p->org[0] = r->org.x, p->org[1] = r->org.y, p->org[2] = r->org.z;
+    for (int k = 0; k < 3; k++) {
+        p->inv[k] = 1.0f / d[k]; /* +-0 gives +-inf */
+        /* The exit distance is widened through the reciprocal: more
+         * roundings than bvh.c's, still inside 1 + 2 gamma(3) (see the
+         * callers: only rays with tmin >= 0 come here, so a negative exit
+         * distance is a box behind the origin and needs no care). */
+        p->inv_far[k] = p->inv[k] * slab_slack;
+        int neg = signbit(d[k]) != 0;
+        p->near[k] = 2 * k + neg;
+        p->far[k] = 2 * k + 1 - neg;
+    }
+    float adx = fabsf(d[0]), ady = fabsf(d[1]), adz = fabsf(d[2]);
+    int kz = adx > ady ? (adx > adz ? 0 : 2) : (ady > adz ? 1 : 2);
+    int kx = kz == 2 ? 0 : kz + 1;
+    int ky = kx == 2 ? 0 : kx + 1;
+    float dz = d[kz];
+    if (dz < 0.0f) {
+        int tmp = kx;
+        kx = ky;
+        ky = tmp;
+    }
+    p->kx = kx, p->ky = ky, p->kz = kz;
+    p->sx = d[kx] / dz, p->sy = d[ky] / dz, p->sz = 1.0f / dz;
+}
+
+/* The widened tmax of the box test. */
+RTK_INLINE float widen(float tmax)
+{
+    return tmax * slab_slack;
+}
+
+/* A pending subtree and its entry distance. */
+typedef struct stack_entry {
+    uint32_t ref;
+    float t;
+} stack_entry;
+
+/* Orders the hit children (mask over lanes, entry distances dist) nearest
+ * last on the stack and returns the nearest. At least two bits set. */
+RTK_INLINE uint32_t push_sorted(const rtk_wide_node *n, uint32_t mask, const float *dist, stack_entry *stack,
+                                int *top)
+{
+    uint32_t i0 = (uint32_t)__builtin_ctz(mask);
+    mask &= mask - 1;
+    uint32_t i1 = (uint32_t)__builtin_ctz(mask);
+    mask &= mask - 1;
+    if (mask == 0) {
+        if (dist[i1] < dist[i0]) {
+            uint32_t tmp = i0;
+            i0 = i1;
+            i1 = tmp;
+        }
+        stack[*top].ref = n->child[i1];
+        stack[*top].t = dist[i1];
+        ++*top;
+        return n->child[i0];
+    }
+    /* Three or more: insertion sort, farthest first. */
+    stack_entry *base = stack + *top;
+    int count = 0;
+    uint32_t lanes[RTK_WIDE];
+    lanes[0] = i0, lanes[1] = i1;
+    int nl = 2;
+    while (mask) {
+        lanes[nl++] = (uint32_t)__builtin_ctz(mask);
+        mask &= mask - 1;
+    }
+    for (int j = 0; j < nl; j++) {
+        stack_entry e = {n->child[lanes[j]], dist[lanes[j]]};
+        int k = count++;
+        while (k > 0 && base[k - 1].t < e.t) {
+            base[k] = base[k - 1];
+            k--;
+        }
+        base[k] = e;
+    }
+    *top += count - 1;
+    return base[count - 1].ref;
+}
+
+/* Records a hit found at (t, u, v) on prim if it is closer, or as close
+ * with a lower id. Returns 1 when the hit changed. */
+RTK_INLINE int record_hit(rtk_hit *hit, float t, float u, float v, uint32_t prim)
+{
+    if (t < hit->t || (t == hit->t && prim < hit->prim)) {
+        hit->t = t, hit->u = u, hit->v = v, hit->prim = prim;
+        return 1;
+    }
+    return 0;
+}
+
+/* ---- plain C ---- */
+
+/* Entry distance of child i, or +inf when missed; same arithmetic and
+ * NaN handling as the SIMD paths. */
+RTK_INLINE int scalar_box(const rtk_wide_node *n, int i, const wide_ray *p, float tmin, float tmax_w, float *entry)
+{
+    float t0 = tmin, t1 = tmax_w;
+    for (int k = 0; k < 3; k++) {
+        float a = (n->bounds[p->near[k]][i] - p->org[k]) * p->inv[k];
+        float b = (n->bounds[p->far[k]][i] - p->org[k]) * p->inv_far[k];
+        t0 = a > t0 ? a : t0;
+        t1 = b < t1 ? b : t1;
+    }
+    *entry = t0;
+    return t0 <= t1;
+}
+
+RTK_INLINE int scalar_lane(const rtk_wide_tris *t, int lane, const rtk_ray *ray, float *tt, float *u, float *v)
+{
+    return rtk_intersect_triangle(ray, rtk_vec3_make(t->v[0][lane], t->v[1][lane], t->v[2][lane]),
+                                  rtk_vec3_make(t->v[3][lane], t->v[4][lane], t->v[5][lane]),
+                                  rtk_vec3_make(t->v[6][lane], t->v[7][lane], t->v[8][lane]), tt, u, v);
+}
+
+RTK_INLINE int scalar_traverse(const rtk_scene *s, const rtk_ray *ray_in, rtk_hit *hit, int any,
+                               rtk_trace_work *work)
+{
+    const rtk_wide_bvh *w = s->wide;
+    rtk_ray ray = *ray_in;
+    wide_ray p;
+    wide_prepare(&ray, &p);
+    float tmax_w = widen(ray.tmax);
+    stack_entry stack[RTK_WIDE_STACK];
+    int top = 0;
+    uint32_t cur = 0;
+    for (;;) {
+        while (!(cur & RTK_WIDE_LEAF)) {
+            const rtk_wide_node *n = &w->nodes[cur];
+            if (work)
+                work->nodes++;
+            float dist[RTK_WIDE];
+            uint32_t mask = 0;
+            for (int i = 0; i < RTK_WIDE; i++)
+                mask |= (uint32_t)scalar_box(n, i, &p, ray.tmin, tmax_w, &dist[i]) << i;
+            if (mask == 0)
+                goto pop;
+            if ((mask & (mask - 1)) == 0)
+                cur = n->child[__builtin_ctz(mask)];
+            else
+                cur = push_sorted(n, mask, dist, stack, &top);
+        }
+        {
+            const rtk_wide_tris *t = &w->tris[(cur & ~RTK_WIDE_LEAF) >> RTK_WIDE_LEAF_SHIFT];
+            const rtk_wide_tris *end = t + (cur & (RTK_WIDE_LEAF_BLOCKS - 1)) + 1;
+            for (; t < end; t++) {
+                for (int lane = 0; lane < RTK_WIDE_TRIS; lane++) {
+                    if (t->prim[lane] == RTK_INVALID_ID)
+                        continue;
+                    if (work)
+                        work->triangles++;
+                    float tt, u, v;
+                    if (!scalar_lane(t, lane, &ray, &tt, &u, &v))
+                        continue;
+                    if (any)
+                        return 1;
+                    if (record_hit(hit, tt, u, v, t->prim[lane])) {
+                        ray.tmax = tt;
+                        tmax_w = widen(tt);
+                    }
+                }
+            }
+        }
+    pop:
+        do {
+            if (top == 0)
+                return any ? 0 : hit->prim != RTK_INVALID_ID;
+            --top;
+        } while (stack[top].t > tmax_w);
+        cur = stack[top].ref;
+    }
+}
+
+#if RTK_HAVE_X86
+
+/* ---- four triangles at once (SSE2; VEX-encoded inside the AVX2 path) ---- */
+
+/* Ray constants of the triangle test, broadcast. */
+typedef struct tri_ray {
+    __m128 ox, oy, oz; /* origin components kx, ky, kz */
+    __m128 sx, sy, sz;
+    int kx, ky, kz;
+} tri_ray;
+
+RTK_INLINE void tri_prepare(const wide_ray *p, tri_ray *r)
+{
+    r->kx = p->kx, r->ky = p->ky, r->kz = p->kz;
+    r->ox = _mm_set1_ps(p->org[p->kx]);
+    r->oy = _mm_set1_ps(p->org[p->ky]);
+    r->oz = _mm_set1_ps(p->org[p->kz]);
+    r->sx = _mm_set1_ps(p->sx);
+    r->sy = _mm_set1_ps(p->sy);
+    r->sz = _mm_set1_ps(p->sz);
+}
+
+/* Lanes of block b hit within [tmin, tmax] (bit mask), with t, u, v; the
+ * arithmetic is rtk_intersect_triangle's, lane by lane. Lanes the scalar
+ * test decides in double (on an edge in float, or a hit too near the
+ * origin for float) are left to it: *scalar receives them. */
+RTK_INLINE int tri_test4(const rtk_wide_tris *b, const tri_ray *r, float tmin, float tmax, __m128 *t_out,
+                         __m128 *u_out, __m128 *v_out, int *scalar)
+{
+    const __m128 zero = _mm_setzero_ps();
+    __m128 Az = _mm_sub_ps(_mm_loadu_ps(b->v[r->kz]), r->oz);
+    __m128 Bz = _mm_sub_ps(_mm_loadu_ps(b->v[3 + r->kz]), r->oz);
+    __m128 Cz = _mm_sub_ps(_mm_loadu_ps(b->v[6 + r->kz]), r->oz);
+    __m128 ax = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[r->kx]), r->ox), _mm_mul_ps(r->sx, Az));
+    __m128 ay = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[r->ky]), r->oy), _mm_mul_ps(r->sy, Az));
+    __m128 bx = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[3 + r->kx]), r->ox), _mm_mul_ps(r->sx, Bz));
+    __m128 by = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[3 + r->ky]), r->oy), _mm_mul_ps(r->sy, Bz));
+    __m128 cx = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[6 + r->kx]), r->ox), _mm_mul_ps(r->sx, Cz));
+    __m128 cy = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[6 + r->ky]), r->oy), _mm_mul_ps(r->sy, Cz));
+    __m128 U = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
+    __m128 V = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
+    __m128 W = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+    __m128 onedge = _mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(U, zero), _mm_cmpeq_ps(V, zero)), _mm_cmpeq_ps(W, zero));
+    __m128 neg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(U, zero), _mm_cmplt_ps(V, zero)), _mm_cmplt_ps(W, zero));
+    __m128 pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(U, zero), _mm_cmpgt_ps(V, zero)), _mm_cmpgt_ps(W, zero));
+    __m128 det = _mm_add_ps(_mm_add_ps(U, V), W);
+    __m128 miss = _mm_or_ps(_mm_or_ps(_mm_and_ps(neg, pos), _mm_cmpeq_ps(det, zero)), onedge);
+    *scalar = _mm_movemask_ps(onedge);
+    if (_mm_movemask_ps(miss) == 0xf)
+        return 0;
+    __m128 az = _mm_mul_ps(r->sz, Az), bz = _mm_mul_ps(r->sz, Bz), cz = _mm_mul_ps(r->sz, Cz);
+    __m128 T = _mm_add_ps(_mm_add_ps(_mm_mul_ps(U, az), _mm_mul_ps(V, bz)), _mm_mul_ps(W, cz));
+    __m128 rcp = _mm_div_ps(_mm_set1_ps(1.0f), det);
+    __m128 t = _mm_mul_ps(T, rcp);
+    __m128 inside = _mm_and_ps(_mm_cmpge_ps(t, _mm_set1_ps(tmin)), _mm_cmple_ps(t, _mm_set1_ps(tmax)));
+    int mask = _mm_movemask_ps(_mm_andnot_ps(miss, inside));
+    if (!mask)
+        return 0;
+    /* bvh.c's bound on the error of t (pbrt-v4), doubled: a hit inside it
+     * is re-decided by the scalar test. Rays here have tmin >= 0. */
+    const __m128 g2 = _mm_set1_ps(2.0f * 0.5f * FLT_EPSILON / (1.0f - 2.0f * 0.5f * FLT_EPSILON));
+    const __m128 g3 = _mm_set1_ps(3.0f * 0.5f * FLT_EPSILON / (1.0f - 3.0f * 0.5f * FLT_EPSILON));
+    const __m128 g5 = _mm_set1_ps(5.0f * 0.5f * FLT_EPSILON / (1.0f - 5.0f * 0.5f * FLT_EPSILON));
+    const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+#define RTK_ABS(x) _mm_and_ps(x, abs_mask)
+#define RTK_MAX3(a, b, c) _mm_max_ps(RTK_ABS(a), _mm_max_ps(RTK_ABS(b), RTK_ABS(c)))
+    __m128 max_z = RTK_MAX3(az, bz, cz), max_x = RTK_MAX3(ax, bx, cx), max_y = RTK_MAX3(ay, by, cy);
+    __m128 max_e = RTK_MAX3(U, V, W);
+#undef RTK_MAX3
+    __m128 dz = _mm_mul_ps(g3, max_z);
+    __m128 dx = _mm_mul_ps(g5, _mm_add_ps(max_x, max_z)), dy = _mm_mul_ps(g5, _mm_add_ps(max_y, max_z));
+    __m128 de = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(g2, max_x), max_y), _mm_mul_ps(dy, max_x)),
+                           _mm_mul_ps(dx, max_y));
+    de = _mm_add_ps(de, de);
+    __m128 bound = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(g3, max_e), max_z), _mm_mul_ps(de, max_z)),
+                              _mm_mul_ps(dz, max_e));
+    bound = _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(6.0f), bound), RTK_ABS(rcp));
+#undef RTK_ABS
+    int near = _mm_movemask_ps(_mm_cmple_ps(t, bound)) & mask;
+    *scalar |= near;
+    mask &= ~near;
+    *t_out = t;
+    *u_out = _mm_mul_ps(V, rcp);
+    *v_out = _mm_mul_ps(W, rcp);
+    return mask;
+}
+
+/* The scalar test on one lane, with the ray's tmax set to tmax. */
+RTK_INLINE int lane_scalar(const rtk_wide_tris *b, int lane, const rtk_ray *ray, float tmax, float *t, float *u,
+                           float *v)
+{
+    rtk_ray r = *ray;
+    r.tmax = tmax;
+    return scalar_lane(b, lane, &r, t, u, v);
+}
+
+/* Tests a leaf's blocks; for closest hit updates hit and returns 1 when
+ * it changed, for any hit returns 1 on the first hit. */
+RTK_INLINE int leaf_test(const rtk_wide_bvh *w, uint32_t ref, const tri_ray *r, const rtk_ray *ray, rtk_hit *hit,
+                         int any, rtk_trace_work *work)
+{
+    const rtk_wide_tris *b = &w->tris[(ref & ~RTK_WIDE_LEAF) >> RTK_WIDE_LEAF_SHIFT];
+    const rtk_wide_tris *end = b + (ref & (RTK_WIDE_LEAF_BLOCKS - 1)) + 1;
+    int changed = 0;
+    for (; b < end; b++) {
+        if (work) {
+            __m128i invalid = _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)b->prim), _mm_set1_epi32(-1));
+            work->triangles += 4 - (uint32_t)__builtin_popcount((unsigned)_mm_movemask_ps(_mm_castsi128_ps(invalid)));
+        }
+        __m128 t, u, v;
+        int scalar;
+        int mask = tri_test4(b, r, ray->tmin, any ? ray->tmax : hit->t, &t, &u, &v, &scalar);
+        if (any && mask)
+            return 1;
+        if (mask) {
+            float ft[4], fu[4], fv[4];
+            _mm_storeu_ps(ft, t), _mm_storeu_ps(fu, u), _mm_storeu_ps(fv, v);
+            for (; mask; mask &= mask - 1) {
+                int i = __builtin_ctz((unsigned)mask);
+                changed |= record_hit(hit, ft[i], fu[i], fv[i], b->prim[i]);
+            }
+        }
+        for (; scalar; scalar &= scalar - 1) {
+            int i = __builtin_ctz((unsigned)scalar);
+            float st, su, sv;
+            if (!lane_scalar(b, i, ray, any ? ray->tmax : hit->t, &st, &su, &sv))
+                continue;
+            if (any)
+                return 1;
+            changed |= record_hit(hit, st, su, sv, b->prim[i]);
+        }
+    }
+    return changed;
+}
+
+/* ---- SSE: the eight children as two groups of four ---- */
+
+RTK_INLINE __m128 sse_box4(const rtk_wide_node *n, int half, const wide_ray *p, __m128 ox, __m128 oy, __m128 oz,
+                           __m128 ix, __m128 iy, __m128 iz, __m128 fx, __m128 fy, __m128 fz, __m128 tmin4,
+                           __m128 tmax4, int *mask)
+{
+    const int o = 4 * half;
+    __m128 nx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->near[0]][o]), ox), ix);
+    __m128 ny = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->near[1]][o]), oy), iy);
+    __m128 nz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->near[2]][o]), oz), iz);
+    __m128 gx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->far[0]][o]), ox), fx);
+    __m128 gy = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->far[1]][o]), oy), fy);
+    __m128 gz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->far[2]][o]), oz), fz);
+    /* max(a, t) returns t when a is NaN: the NaN of 0 * inf is dropped. */
+    __m128 t0 = _mm_max_ps(nz, _mm_max_ps(ny, _mm_max_ps(nx, tmin4)));
+    __m128 t1 = _mm_min_ps(gz, _mm_min_ps(gy, _mm_min_ps(gx, tmax4)));
+    *mask = _mm_movemask_ps(_mm_cmple_ps(t0, t1));
+    return t0;
+}
+
+RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, int any, rtk_trace_work *work)
+{
+    const rtk_wide_bvh *w = s->wide;
+    wide_ray p;
+    wide_prepare(ray, &p);
+    tri_ray tr;
+    tri_prepare(&p, &tr);
+    const __m128 ox = _mm_set1_ps(p.org[0]), oy = _mm_set1_ps(p.org[1]), oz = _mm_set1_ps(p.org[2]);
+    const __m128 ix = _mm_set1_ps(p.inv[0]), iy = _mm_set1_ps(p.inv[1]), iz = _mm_set1_ps(p.inv[2]);
+    const __m128 fx = _mm_set1_ps(p.inv_far[0]), fy = _mm_set1_ps(p.inv_far[1]), fz = _mm_set1_ps(p.inv_far[2]);
+    const __m128 tmin4 = _mm_set1_ps(ray->tmin);
+    float tmax_w = widen(any ? ray->tmax : hit->t);
+    __m128 tmax4 = _mm_set1_ps(tmax_w);
+    stack_entry stack[RTK_WIDE_STACK];
+    int top = 0;
+    uint32_t cur = 0;
+    for (;;) {
+        while (!(cur & RTK_WIDE_LEAF)) {
+            const rtk_wide_node *n = &w->nodes[cur];
+            if (work)
+                work->nodes++;
+            int m0, m1;
+            float dist[RTK_WIDE];
+            _mm_storeu_ps(dist, sse_box4(n, 0, &p, ox, oy, oz, ix, iy, iz, fx, fy, fz, tmin4, tmax4, &m0));
+            _mm_storeu_ps(dist + 4, sse_box4(n, 1, &p, ox, oy, oz, ix, iy, iz, fx, fy, fz, tmin4, tmax4, &m1));
+            uint32_t mask = (uint32_t)(m0 | m1 << 4);
+            if (mask == 0)
+                goto pop;
+            if ((mask & (mask - 1)) == 0)
+                cur = n->child[__builtin_ctz(mask)];
+            else
+                cur = push_sorted(n, mask, dist, stack, &top);
+        }
+        if (leaf_test(w, cur, &tr, ray, hit, any, work)) {
+            if (any)
+                return 1;
+            tmax_w = widen(hit->t);
+            tmax4 = _mm_set1_ps(tmax_w);
+        }
+    pop:
+        do {
+            if (top == 0)
+                return any ? 0 : hit->prim != RTK_INVALID_ID;
+            --top;
+        } while (stack[top].t > tmax_w);
+        cur = stack[top].ref;
+    }
+}
+
+/* ---- AVX2: the eight children at once ---- */
+
+RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, int any,
+                                             rtk_trace_work *work)
+{
+    const rtk_wide_bvh *w = s->wide;
+    wide_ray p;
+    wide_prepare(ray, &p);
+    tri_ray tr;
+    tri_prepare(&p, &tr);
+    const __m256 ox = _mm256_set1_ps(p.org[0]), oy = _mm256_set1_ps(p.org[1]), oz = _mm256_set1_ps(p.org[2]);
+    const __m256 ix = _mm256_set1_ps(p.inv[0]), iy = _mm256_set1_ps(p.inv[1]), iz = _mm256_set1_ps(p.inv[2]);
+    const __m256 fx = _mm256_set1_ps(p.inv_far[0]), fy = _mm256_set1_ps(p.inv_far[1]),
+                 fz = _mm256_set1_ps(p.inv_far[2]);
+    const __m256 tmin8 = _mm256_set1_ps(ray->tmin);
+    const size_t nx = (size_t)p.near[0] * RTK_WIDE, ny = (size_t)p.near[1] * RTK_WIDE,
+                 nz = (size_t)p.near[2] * RTK_WIDE;
+    const size_t gx_ = (size_t)p.far[0] * RTK_WIDE, gy_ = (size_t)p.far[1] * RTK_WIDE,
+                 gz_ = (size_t)p.far[2] * RTK_WIDE;
+    float tmax_w = widen(any ? ray->tmax : hit->t);
+    __m256 tmax8 = _mm256_set1_ps(tmax_w);
+    stack_entry stack[RTK_WIDE_STACK];
+    int top = 0;
+    uint32_t cur = 0;
+    for (;;) {
+        while (!(cur & RTK_WIDE_LEAF)) {
+            const rtk_wide_node *n = &w->nodes[cur];
+            const float *bb = &n->bounds[0][0];
+            if (work)
+                work->nodes++;
+            __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + nx), ox), ix);
+            __m256 tny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + ny), oy), iy);
+            __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + nz), oz), iz);
+            __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + gx_), ox), fx);
+            __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + gy_), oy), fy);
+            __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + gz_), oz), fz);
+            /* max(a, t) returns t when a is NaN: the NaN of 0 * inf is dropped. */
+            __m256 t0 = _mm256_max_ps(tnz, _mm256_max_ps(tny, _mm256_max_ps(tnx, tmin8)));
+            __m256 t1 = _mm256_min_ps(tfz, _mm256_min_ps(tfy, _mm256_min_ps(tfx, tmax8)));
+            uint32_t mask = (uint32_t)_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
+            if (mask == 0)
+                goto pop;
+            if ((mask & (mask - 1)) == 0) {
+                cur = n->child[__builtin_ctz(mask)];
+            } else {
+                float dist[RTK_WIDE];
+                _mm256_storeu_ps(dist, t0);
+                cur = push_sorted(n, mask, dist, stack, &top);
+            }
+        }
+        if (leaf_test(w, cur, &tr, ray, hit, any, work)) {
+            if (any)
+                return 1;
+            tmax_w = widen(hit->t);
+            tmax8 = _mm256_set1_ps(tmax_w);
+        }
+    pop:
+        do {
+            if (top == 0)
+                return any ? 0 : hit->prim != RTK_INVALID_ID;
+            --top;
+        } while (stack[top].t > tmax_w);
+        cur = stack[top].ref;
+    }
+}
+
+static int sse_closest(const rtk_scene *s, const rtk_ray *r, rtk_hit *h)
+{
+    return sse_traverse(s, r, h, 0, NULL);
+}
+static int sse_any(const rtk_scene *s, const rtk_ray *r)
+{
+    return sse_traverse(s, r, NULL, 1, NULL);
+}
+static int sse_closest_work(const rtk_scene *s, const rtk_ray *r, rtk_hit *h, rtk_trace_work *wk)
+{
+    return sse_traverse(s, r, h, 0, wk);
+}
+static int sse_any_work(const rtk_scene *s, const rtk_ray *r, rtk_trace_work *wk)
+{
+    return sse_traverse(s, r, NULL, 1, wk);
+}
+static RTK_TARGET_AVX2 int avx2_closest(const rtk_scene *s, const rtk_ray *r, rtk_hit *h)
+{
+    return avx2_traverse(s, r, h, 0, NULL);
+}
+static RTK_TARGET_AVX2 int avx2_any(const rtk_scene *s, const rtk_ray *r)
+{
+    return avx2_traverse(s, r, NULL, 1, NULL);
+}
+static RTK_TARGET_AVX2 int avx2_closest_work(const rtk_scene *s, const rtk_ray *r, rtk_hit *h, rtk_trace_work *wk)
+{
+    return avx2_traverse(s, r, h, 0, wk);
+}
+static RTK_TARGET_AVX2 int avx2_any_work(const rtk_scene *s, const rtk_ray *r, rtk_trace_work *wk)
+{
+    return avx2_traverse(s, r, NULL, 1, wk);
+}
+
+#endif
+
+static int scalar_closest(const rtk_scene *s, const rtk_ray *r, rtk_hit *h, rtk_trace_work *wk)
+{
+    return scalar_traverse(s, r, h, 0, wk);
+}
+static int scalar_any(const rtk_scene *s, const rtk_ray *r, rtk_trace_work *wk)
+{
+    return scalar_traverse(s, r, NULL, 1, wk);
+}
+
+int rtk_wide_closest(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
+{
+    hit->prim = RTK_INVALID_ID;
+    hit->t = ray->tmax;
+    hit->u = hit->v = 0.0f;
+    switch (path) {
+#if RTK_HAVE_X86
+    case RTK_SIMD_AVX2:
+        return work ? avx2_closest_work(s, ray, hit, work) : avx2_closest(s, ray, hit);
+    case RTK_SIMD_SSE:
+        return work ? sse_closest_work(s, ray, hit, work) : sse_closest(s, ray, hit);
+#endif
+    default:
+        return scalar_closest(s, ray, hit, work);
+    }
+}
+
+int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_trace_work *work)
+{
+    switch (path) {
+#if RTK_HAVE_X86
+    case RTK_SIMD_AVX2:
+        return work ? avx2_any_work(s, ray, work) : avx2_any(s, ray);
+    case RTK_SIMD_SSE:
+        return work ? sse_any_work(s, ray, work) : sse_any(s, ray);
+#endif
+    default:
+        return scalar_any(s, ray, work);
+    }
+}

@@ -1,0 +1,92 @@
+/* The wide BVH: any builder's binary tree collapsed into 8-wide nodes with
+ * triangles packed four to a leaf block, traversed with AVX2, SSE4.1 or
+ * plain C, chosen at run time. Rules for callers:
+ * - rtk_wide_build runs after the binary tree, prim_ids and tri_verts are
+ *   final (end of rtk_bvh_build, or after loading them from a cache); it
+ *   replaces any previous wide tree. [main thread]
+ * - Traversal reads the scene only: any thread, concurrently.
+ * - Results are those of the binary traversal bit for bit: same triangle,
+ *   same t, u, v, equal distances resolved to the lowest triangle id. */
+#ifndef RTK_BVH_WIDE_H
+#define RTK_BVH_WIDE_H
+
+#include "internal.h"
+
+RTK_EXTERN_C_BEGIN
+
+/* Children per node. */
+#define RTK_WIDE 8
+/* Triangles per leaf block. */
+#define RTK_WIDE_TRIS 4
+
+/* Traversal implementations; RTK_SIMD=binary|scalar|sse|avx2 forces one. */
+typedef enum rtk_simd_path {
+    RTK_SIMD_BINARY = 0, /* the binary tree, one node at a time (bvh.c) */
+    RTK_SIMD_SCALAR = 1, /* the wide tree in plain C */
+    RTK_SIMD_SSE = 2,    /* the wide tree, SSE4.1 */
+    RTK_SIMD_AVX2 = 3    /* the wide tree, AVX2 */
+} rtk_simd_path;
+
+/* A child reference: an inner node's index, or with RTK_WIDE_LEAF set a
+ * leaf: first block << RTK_WIDE_LEAF_SHIFT | (block count - 1). */
+#define RTK_WIDE_LEAF 0x80000000u
+#define RTK_WIDE_LEAF_SHIFT 4
+#define RTK_WIDE_LEAF_BLOCKS 16
+
+/* One node, 256 bytes on a 64-byte boundary. bounds[2k] holds the lower
+ * and bounds[2k+1] the upper coordinate on axis k of each child; an empty
+ * slot has lower +inf and upper -inf, which every ray misses. */
+typedef struct rtk_wide_node {
+    float bounds[6][RTK_WIDE];
+    uint32_t child[RTK_WIDE];
+    uint32_t pad[RTK_WIDE];
+} rtk_wide_node;
+
+/* Four triangles, structure of arrays: v[3 * corner + axis][lane]. Unused
+ * lanes have prim RTK_INVALID_ID and are never reported. */
+typedef struct rtk_wide_tris {
+    float v[9][RTK_WIDE_TRIS];
+    uint32_t prim[RTK_WIDE_TRIS];
+} rtk_wide_tris;
+
+typedef struct rtk_wide_bvh {
+    rtk_wide_node *nodes;   /* root at 0 */
+    uint32_t node_count;
+    rtk_wide_tris *tris;
+    uint32_t tri_block_count;
+    uint32_t depth;         /* levels below the root, at most */
+    rtk_simd_path path;     /* what rtk_bvh_closest/any use */
+} rtk_wide_bvh;
+
+/* Collapses s's binary tree into s->wide and picks the traversal path:
+ * the best the CPU supports, or RTK_SIMD. RTK_ERR_NOMEM on failure (the
+ * scene then keeps the binary traversal). */
+rtk_status rtk_wide_build(rtk_scene *s);
+/* Frees s->wide and sets it to NULL. */
+void rtk_wide_free(rtk_scene *s);
+
+/* The best path this CPU supports. */
+rtk_simd_path rtk_simd_best(void);
+/* Whether this CPU can run path. */
+int rtk_simd_supported(rtk_simd_path path);
+/* The path RTK_SIMD asks for (clamped to what the CPU runs), else the
+ * best; unknown values are reported once. */
+rtk_simd_path rtk_simd_from_env(void);
+/* "binary", "scalar", "sse", "avx2". */
+const char *rtk_simd_name(rtk_simd_path path);
+
+/* Closest hit / any hit on s->wide with a given path (a supported wide
+ * path); ray must be valid. work, if not NULL, receives the counts. The
+ * hit is filled as rtk_bvh_closest fills it. [any thread] */
+int rtk_wide_closest(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_hit *hit,
+                     rtk_trace_work *work);
+int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_trace_work *work);
+
+/* rtk_bvh_closest / rtk_bvh_any (bvh.c) that also count the work done on
+ * the path the scene uses (zero counts for a plugin's own traversal). */
+int rtk_bvh_closest_measure(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work);
+int rtk_bvh_any_measure(const rtk_scene *s, const rtk_ray *ray, rtk_trace_work *work);
+
+RTK_EXTERN_C_END
+
+#endif
