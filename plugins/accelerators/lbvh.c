@@ -1,0 +1,526 @@
+/* lbvh: linear BVH. Primitives are sorted along a Morton curve through
+ * their centroids (quantised in the centroid bounds, LSD radix sort, equal
+ * codes kept in index order), then each node over a sorted range splits
+ * where its highest differing code bit changes, or in half by index when
+ * all its codes are equal. Optionally the tree is built down to single
+ * primitives and subtrees the SAH prefers as leaves are collapsed.
+ *
+ * Parameters:
+ *   morton    string 30|63       30     code bits: 10 or 21 per axis
+ *   max_leaf  int [1, 64]        4      primitives per leaf at most
+ *   collapse  bool               false  build to single primitives, then make leaves of
+ *                                       subtrees of <= max_leaf primitives where the SAH prefers
+ *   t_node    float [0.01, 100]  1.0    SAH cost of visiting an inner node (collapse)
+ *   t_tri     float [0.01, 100]  1.0    SAH cost of one ray/triangle test (collapse)
+ *
+ * Example: accelerator = { plugin = "lbvh"; morton = "63"; collapse = true; };
+ *
+ * Depth is at most the code bits plus 33 levels of halving. The tree does
+ * not depend on thread_count: a node over m primitives owns the 2m - 2
+ * slots after its children, subtrees are built in parallel into those,
+ * and a final pass closes the gaps while keeping the order.
+ */
+#include <rtk/rtk.h>
+
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Subtrees at most this large are built by one thread; larger ones are
+ * split first (only when several threads build). */
+#define LBVH_GRAIN 4096
+/* Inputs this small are built on one thread. */
+#define LBVH_PARALLEL_MIN 32768
+/* Bits of the radix sort's digits. */
+#define LBVH_DIGIT 11
+/* Most threads one build uses. */
+#define LBVH_MAX_THREADS 256
+/* Nodes the top-level planner keeps pending (> the depth bound, 96). */
+#define LBVH_PENDING 128
+
+typedef struct lbvh {
+    uint32_t bits, max_leaf;
+    int collapse;
+    float t_node, t_tri;
+} lbvh;
+
+/* A subtree to build: its slot, sorted primitives [begin, end) and the
+ * first of the 2 (end - begin) - 2 slots its descendants own. */
+typedef struct task {
+    uint32_t slot, begin, end, region;
+} task;
+
+/* One build, shared by its threads. */
+typedef struct build {
+    const lbvh *opt;
+    rtk_build_args *a;
+    uint32_t team;                 /* threads taking part */
+    pthread_barrier_t barrier;     /* between phases, when team > 1 */
+    pthread_mutex_t gate_lock;     /* holds the team until it is complete */
+    pthread_cond_t gate_wake;
+    int gate_open;
+    float (*cbounds)[6];           /* per thread: centroid bounds of its part */
+    uint64_t *codes, *codes_tmp;   /* Morton codes, sorted with ids */
+    uint32_t *ids_tmp;             /* ids of the other sort buffer */
+    uint32_t (*hist)[1 << LBVH_DIGIT]; /* per thread: digit counts */
+    task *tasks;                   /* subtrees for the threads */
+    uint32_t task_count;
+    atomic_uint next_task;
+    task *tops;                    /* inner nodes above the subtrees, parents first */
+    uint32_t top_count;
+} build;
+
+static rtk_status lbvh_create(const rtk_params *params, void **state)
+{
+    lbvh *l = malloc(sizeof *l);
+    if (!l)
+        return rtk_error(RTK_ERR_NOMEM, "lbvh: out of memory");
+    l->bits = strcmp(rtk_params_string(params, "morton"), "63") == 0 ? 63 : 30;
+    l->max_leaf = (uint32_t)rtk_params_int(params, "max_leaf");
+    l->collapse = rtk_params_bool(params, "collapse");
+    l->t_node = (float)rtk_params_float(params, "t_node");
+    l->t_tri = (float)rtk_params_float(params, "t_tri");
+    *state = l;
+    return RTK_OK;
+}
+
+/* Exact like fminf/fmaxf on the finite bounds the kernel passes, and a
+ * single instruction where fminf is a library call. */
+static inline float min_f(float a, float b)
+{
+    return a < b ? a : b;
+}
+
+static inline float max_f(float a, float b)
+{
+    return a > b ? a : b;
+}
+
+/* Spreads the low 10 bits of x to every third bit. */
+static uint32_t spread10(uint32_t x)
+{
+    x &= 0x3ffu;
+    x = (x | x << 16) & 0x030000ffu;
+    x = (x | x << 8) & 0x0300f00fu;
+    x = (x | x << 4) & 0x030c30c3u;
+    x = (x | x << 2) & 0x09249249u;
+    return x;
+}
+
+/* Spreads the low 21 bits of x to every third bit. */
+static uint64_t spread21(uint64_t x)
+{
+    x &= 0x1fffffu;
+    x = (x | x << 32) & 0x1f00000000ffffull;
+    x = (x | x << 16) & 0x1f0000ff0000ffull;
+    x = (x | x << 8) & 0x100f00f00f00f00full;
+    x = (x | x << 4) & 0x10c30c30c30c30c3ull;
+    x = (x | x << 2) & 0x1249249249249249ull;
+    return x;
+}
+
+/* Cell of v in [0, cells - 1]; NaN (0 * inf on a tiny extent) gives 0. */
+static inline uint32_t quantise(float v, float lo, float scale, float last)
+{
+    float f = (v - lo) * scale;
+    return f >= last ? (uint32_t)last : f > 0.0f ? (uint32_t)f : 0;
+}
+
+/* Waits for the whole team. */
+static void team_sync(build *b)
+{
+    if (b->team > 1)
+        pthread_barrier_wait(&b->barrier);
+}
+
+/* Part [begin, end) of n for thread t of team. */
+static void part(uint32_t n, uint32_t t, uint32_t team, uint32_t *begin, uint32_t *end)
+{
+    *begin = (uint32_t)((uint64_t)n * t / team);
+    *end = (uint32_t)((uint64_t)n * (t + 1) / team);
+}
+
+static void morton_codes(build *b, uint32_t t)
+{
+    const rtk_build_args *a = b->a;
+    uint32_t begin, end;
+    part(a->prim_count, t, b->team, &begin, &end);
+    float *cb = b->cbounds[t];
+    cb[0] = cb[1] = cb[2] = INFINITY;
+    cb[3] = cb[4] = cb[5] = -INFINITY;
+    for (uint32_t i = begin; i < end; i++) {
+        const rtk_vec3 *c = &a->centroids[i];
+        cb[0] = min_f(cb[0], c->x), cb[1] = min_f(cb[1], c->y), cb[2] = min_f(cb[2], c->z);
+        cb[3] = max_f(cb[3], c->x), cb[4] = max_f(cb[4], c->y), cb[5] = max_f(cb[5], c->z);
+    }
+    team_sync(b);
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t u = 0; u < b->team; u++) {
+        for (int k = 0; k < 3; k++) {
+            lo[k] = min_f(lo[k], b->cbounds[u][k]);
+            hi[k] = max_f(hi[k], b->cbounds[u][3 + k]);
+        }
+    }
+    const uint32_t per_axis = b->opt->bits / 3;
+    const float cells = (float)(1u << per_axis), last = cells - 1.0f;
+    float scale[3];
+    for (int k = 0; k < 3; k++) {
+        float extent = hi[k] - lo[k];
+        scale[k] = extent > 0.0f ? cells / extent : 0.0f;
+    }
+    uint64_t *codes = b->codes;
+    uint32_t *ids = a->prim_order;
+    for (uint32_t i = begin; i < end; i++) {
+        const rtk_vec3 *c = &a->centroids[i];
+        uint32_t x = quantise(c->x, lo[0], scale[0], last);
+        uint32_t y = quantise(c->y, lo[1], scale[1], last);
+        uint32_t z = quantise(c->z, lo[2], scale[2], last);
+        if (per_axis == 10)
+            codes[i] = spread10(x) << 2 | spread10(y) << 1 | spread10(z);
+        else
+            codes[i] = spread21(x) << 2 | spread21(y) << 1 | spread21(z);
+        ids[i] = i;
+    }
+    team_sync(b);
+}
+
+/* Stable LSD radix sort of (code, id) by code; every thread scatters its
+ * own part, after the others' digit counts. The result ends in codes and
+ * prim_order. */
+static void sort_codes(build *b, uint32_t t)
+{
+    const uint32_t n = b->a->prim_count, digits = 1u << LBVH_DIGIT;
+    uint32_t begin, end;
+    part(n, t, b->team, &begin, &end);
+    uint64_t *ks = b->codes, *kd = b->codes_tmp;
+    uint32_t *is = b->a->prim_order, *id = b->ids_tmp;
+    for (uint32_t shift = 0; shift < b->opt->bits; shift += LBVH_DIGIT) {
+        uint32_t *hist = b->hist[t];
+        memset(hist, 0, sizeof b->hist[0]);
+        for (uint32_t i = begin; i < end; i++)
+            hist[ks[i] >> shift & (digits - 1)]++;
+        team_sync(b);
+        /* This thread's first slot for each digit: all smaller digits,
+         * then this digit in the threads before. */
+        uint32_t offset[1 << LBVH_DIGIT], sum = 0;
+        int one_digit = 0;
+        for (uint32_t d = 0; d < digits; d++) {
+            uint32_t total = 0;
+            for (uint32_t u = 0; u < b->team; u++) {
+                if (u == t)
+                    offset[d] = sum + total;
+                total += b->hist[u][d];
+            }
+            one_digit |= total == n;
+            sum += total;
+        }
+        if (!one_digit) {
+            for (uint32_t i = begin; i < end; i++) {
+                uint32_t at = offset[ks[i] >> shift & (digits - 1)]++;
+                kd[at] = ks[i];
+                id[at] = is[i];
+            }
+            uint64_t *tk = ks;
+            ks = kd, kd = tk;
+            uint32_t *ti = is;
+            is = id, id = ti;
+        }
+        team_sync(b);
+    }
+    if (ks != b->codes) {
+        memcpy(b->codes + begin, ks + begin, sizeof *ks * (end - begin));
+        memcpy(b->a->prim_order + begin, is + begin, sizeof *is * (end - begin));
+        team_sync(b);
+    }
+}
+
+/* First slot of the right half of sorted codes [begin, end), count >= 2. */
+static uint32_t split_at(const uint64_t *codes, uint32_t begin, uint32_t end)
+{
+    uint64_t diff = codes[begin] ^ codes[end - 1];
+    if (diff == 0)
+        return begin + (end - begin) / 2;
+    /* All codes share the bits above the highest differing one: those with
+     * it clear come first. */
+    uint64_t bit = 1ull << (63 - __builtin_clzll(diff));
+    uint32_t lo = begin + 1, hi = end - 1;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (codes[mid] & bit)
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    return lo;
+}
+
+static float half_area(const rtk_bvh_node *n)
+{
+    float dx = n->upper[0] - n->lower[0], dy = n->upper[1] - n->lower[1], dz = n->upper[2] - n->lower[2];
+    return dx * dy + dy * dz + dz * dx;
+}
+
+static void node_union(rtk_bvh_node *n, const rtk_bvh_node *l, const rtk_bvh_node *r)
+{
+    for (int k = 0; k < 3; k++) {
+        n->lower[k] = min_f(l->lower[k], r->lower[k]);
+        n->upper[k] = max_f(l->upper[k], r->upper[k]);
+    }
+}
+
+/* Builds the subtree of t with its bounds; returns its SAH cost in
+ * units of area. */
+static float emit(const build *b, task t)
+{
+    const lbvh *o = b->opt;
+    rtk_build_args *a = b->a;
+    rtk_bvh_node *n = &a->nodes[t.slot];
+    const uint32_t count = t.end - t.begin;
+    if (count <= (o->collapse ? 1 : o->max_leaf)) {
+        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (uint32_t i = t.begin; i < t.end; i++) {
+            const rtk_bounds *pb = &a->prim_bounds[a->prim_order[i]];
+            lo[0] = min_f(lo[0], pb->lower.x), lo[1] = min_f(lo[1], pb->lower.y), lo[2] = min_f(lo[2], pb->lower.z);
+            hi[0] = max_f(hi[0], pb->upper.x), hi[1] = max_f(hi[1], pb->upper.y), hi[2] = max_f(hi[2], pb->upper.z);
+        }
+        memcpy(n->lower, lo, sizeof lo);
+        memcpy(n->upper, hi, sizeof hi);
+        n->offset = t.begin;
+        n->count = count;
+        return o->t_tri * (float)count * half_area(n);
+    }
+    uint32_t mid = split_at(b->codes, t.begin, t.end);
+    float cost = emit(b, (task){t.region, t.begin, mid, t.region + 2});
+    cost += emit(b, (task){t.region + 1, mid, t.end, t.region + 2 * (mid - t.begin)});
+    node_union(n, &a->nodes[t.region], &a->nodes[t.region + 1]);
+    float area = half_area(n), leaf = o->t_tri * (float)count * area;
+    cost += o->t_node * area;
+    if (o->collapse && count <= o->max_leaf && leaf <= cost) {
+        n->offset = t.begin;
+        n->count = count;
+        return leaf;
+    }
+    n->offset = t.region;
+    n->count = 0;
+    return cost;
+}
+
+/* Splits the top of the tree into subtrees of at most grain primitives;
+ * records the inner nodes above them, parents first. Capacity: a level
+ * of the tree holds at most prim_count / grain such inner nodes. */
+static void plan(build *b, uint32_t grain)
+{
+    task pending[LBVH_PENDING];
+    uint32_t top = 0;
+    b->task_count = 0;
+    b->top_count = 0;
+    pending[top++] = (task){0, 0, b->a->prim_count, 1};
+    while (top > 0) {
+        task t = pending[--top];
+        if (t.end - t.begin <= grain || top + 2 > LBVH_PENDING) {
+            b->tasks[b->task_count++] = t;
+            continue;
+        }
+        uint32_t mid = split_at(b->codes, t.begin, t.end);
+        b->tops[b->top_count++] = t;
+        pending[top++] = (task){t.region + 1, mid, t.end, t.region + 2 * (mid - t.begin)};
+        pending[top++] = (task){t.region, t.begin, mid, t.region + 2};
+    }
+}
+
+/* Thread t's share of the whole build. */
+static void run(build *b, uint32_t t)
+{
+    morton_codes(b, t);
+    sort_codes(b, t);
+    if (t == 0)
+        plan(b, b->team > 1 ? LBVH_GRAIN : UINT32_MAX);
+    team_sync(b);
+    for (;;) {
+        uint32_t k = atomic_fetch_add(&b->next_task, 1);
+        if (k >= b->task_count)
+            break;
+        emit(b, b->tasks[k]);
+    }
+}
+
+/* A thread of the team: waits until the team is complete, then runs. */
+typedef struct member {
+    build *b;
+    uint32_t index;
+} member;
+
+static void *member_main(void *arg)
+{
+    const member *m = arg;
+    build *b = m->b;
+    pthread_mutex_lock(&b->gate_lock);
+    while (!b->gate_open)
+        pthread_cond_wait(&b->gate_wake, &b->gate_lock);
+    pthread_mutex_unlock(&b->gate_lock);
+    if (m->index < b->team)
+        run(b, m->index);
+    return NULL;
+}
+
+/* Runs the build on up to threads threads, the caller's included. */
+static void run_team(build *b, uint32_t threads)
+{
+    pthread_t ids[LBVH_MAX_THREADS];
+    member members[LBVH_MAX_THREADS];
+    uint32_t started = 0;
+    pthread_mutex_init(&b->gate_lock, NULL);
+    pthread_cond_init(&b->gate_wake, NULL);
+    b->gate_open = 0;
+    /* Fewer threads than asked (none at all) only make it slower. */
+    while (started + 1 < threads) {
+        members[started] = (member){b, started + 1};
+        if (pthread_create(&ids[started], NULL, member_main, &members[started]) != 0)
+            break;
+        started++;
+    }
+    b->team = started + 1;
+    if (b->team > 1 && pthread_barrier_init(&b->barrier, NULL, b->team) != 0)
+        b->team = 1;
+    pthread_mutex_lock(&b->gate_lock);
+    b->gate_open = 1;
+    pthread_cond_broadcast(&b->gate_wake);
+    pthread_mutex_unlock(&b->gate_lock);
+    run(b, 0);
+    for (uint32_t i = 0; i < started; i++)
+        pthread_join(ids[i], NULL);
+    if (b->team > 1)
+        pthread_barrier_destroy(&b->barrier);
+    pthread_cond_destroy(&b->gate_wake);
+    pthread_mutex_destroy(&b->gate_lock);
+}
+
+/* Slots [0, span) hold the tree with gaps; moves the nodes reachable from
+ * the root down in slot order, so siblings stay adjacent, and renumbers
+ * the children. Sets node_count. */
+static rtk_status compact_nodes(rtk_build_args *a, uint32_t span)
+{
+    size_t words = ((size_t)span + 63) / 64;
+    uint64_t *used = calloc(words, sizeof *used);
+    uint32_t *before = malloc(sizeof *before * words);
+    if (!used || !before) {
+        free(used);
+        free(before);
+        return rtk_error(RTK_ERR_NOMEM, "lbvh: out of memory");
+    }
+    uint32_t stack[LBVH_PENDING * 4], top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        uint32_t id = stack[--top];
+        used[id / 64] |= 1ull << (id % 64);
+        const rtk_bvh_node *n = &a->nodes[id];
+        if (n->count == 0) {
+            stack[top++] = n->offset + 1;
+            stack[top++] = n->offset;
+        }
+    }
+    uint32_t total = 0;
+    for (size_t w = 0; w < words; w++) {
+        before[w] = total;
+        total += (uint32_t)__builtin_popcountll(used[w]);
+    }
+    for (uint32_t id = 0, next = 0; id < span; id++) {
+        if (!(used[id / 64] >> (id % 64) & 1))
+            continue;
+        rtk_bvh_node n = a->nodes[id];
+        if (n.count == 0) {
+            uint32_t c = n.offset;
+            n.offset = before[c / 64] + (uint32_t)__builtin_popcountll(used[c / 64] & ((1ull << (c % 64)) - 1));
+        }
+        a->nodes[next++] = n;
+    }
+    a->node_count = total;
+    free(used);
+    free(before);
+    return RTK_OK;
+}
+
+static rtk_status lbvh_build(void *state, rtk_build_args *a)
+{
+    const uint32_t n = a->prim_count;
+    uint32_t threads = a->thread_count < 1 ? 1 : a->thread_count;
+    if (threads > LBVH_MAX_THREADS)
+        threads = LBVH_MAX_THREADS;
+    if (n < LBVH_PARALLEL_MIN)
+        threads = 1;
+    build b = {.opt = state, .a = a};
+    /* Inner nodes above the subtrees: at most n / grain per level. */
+    size_t plan_cap = ((size_t)n / LBVH_GRAIN + 1) * (LBVH_PENDING + 2);
+    b.cbounds = malloc(sizeof *b.cbounds * threads);
+    b.hist = malloc(sizeof *b.hist * threads);
+    b.codes = malloc(sizeof *b.codes * n);
+    b.codes_tmp = malloc(sizeof *b.codes_tmp * n);
+    b.ids_tmp = malloc(sizeof *b.ids_tmp * n);
+    b.tasks = malloc(sizeof *b.tasks * plan_cap);
+    b.tops = malloc(sizeof *b.tops * plan_cap);
+    atomic_init(&b.next_task, 0);
+    rtk_status st = RTK_OK;
+    if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp || !b.tasks || !b.tops) {
+        st = rtk_error(RTK_ERR_NOMEM, "lbvh: out of memory");
+        goto done;
+    }
+    run_team(&b, threads);
+    /* Inner nodes above the subtrees, children before parents. */
+    for (uint32_t i = b.top_count; i-- > 0;) {
+        const task *t = &b.tops[i];
+        rtk_bvh_node *node = &a->nodes[t->slot];
+        node_union(node, &a->nodes[t->region], &a->nodes[t->region + 1]);
+        node->offset = t->region;
+        node->count = 0;
+    }
+    st = compact_nodes(a, a->max_nodes);
+done:
+    free(b.cbounds);
+    free(b.hist);
+    free(b.codes);
+    free(b.codes_tmp);
+    free(b.ids_tmp);
+    free(b.tasks);
+    free(b.tops);
+    return st;
+}
+
+static void lbvh_destroy(void *state)
+{
+    free(state);
+}
+
+static const rtk_param_desc lbvh_params[] = {
+    {.name = "morton", .type = RTK_PARAM_STRING, .def_string = "30", .choices = "30|63",
+     .doc = "Morton code bits: 30 (10 per axis) or 63 (21 per axis)"},
+    {.name = "max_leaf", .type = RTK_PARAM_INT, .def = 4, .min = 1, .max = 64,
+     .doc = "largest number of primitives in a leaf"},
+    {.name = "collapse", .type = RTK_PARAM_BOOL, .def = 0,
+     .doc = "build down to single primitives, then make leaves of subtrees (<= max_leaf) the SAH prefers"},
+    {.name = "t_node", .type = RTK_PARAM_FLOAT, .def = 1.0, .min = 0.01, .max = 100.0,
+     .doc = "SAH cost of visiting an inner node (collapse)"},
+    {.name = "t_tri", .type = RTK_PARAM_FLOAT, .def = 1.0, .min = 0.01, .max = 100.0,
+     .doc = "SAH cost of one ray/triangle test (collapse)"},
+};
+
+static const rtk_accelerator_fns lbvh_fns = {
+    .size = sizeof(rtk_accelerator_fns),
+    .create = lbvh_create,
+    .build = lbvh_build,
+    .destroy = lbvh_destroy,
+};
+
+static const rtk_plugin lbvh_plugin = {
+    RTK_PLUGIN_HEADER,
+    .kind = RTK_KIND_ACCELERATOR,
+    .name = "lbvh",
+    .version = "1.0",
+    .summary = "linear BVH on Morton codes (radix sort, top-down bit splits, optional SAH collapse)",
+    .params = lbvh_params,
+    .param_count = RTK_COUNTOF(lbvh_params),
+    .functions = &lbvh_fns,
+};
+
+RTK_PLUGIN_ENTRY(lbvh_plugin)

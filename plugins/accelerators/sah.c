@@ -1,0 +1,809 @@
+/* sah: top-down BVH build minimising the surface area heuristic. Each node
+ * is split where t_node + t_tri * (A_left N_left + A_right N_right) / A is
+ * least, or becomes a leaf when t_tri * N costs no more and N <= max_leaf.
+ * binned mode bins centroids along each axis (O(n) per node); sweep mode
+ * tries every split of the centroids sorted along each axis (exact SAH).
+ *
+ * Parameters:
+ *   bins      int [4, 256]         16      bins per axis (binned mode)
+ *   mode      string binned|sweep  binned  binned: bin boundaries; sweep: every object split
+ *   t_node    float [0.01, 100]    1.0     cost of visiting an inner node
+ *   t_tri     float [0.01, 100]    1.0     cost of one ray/triangle test
+ *   max_leaf  int [1, 64]          8       primitives per leaf at most
+ *
+ * Example: accelerator = { plugin = "sah"; bins = 32; max_leaf = 4; };
+ *
+ * The tree does not depend on thread_count: every node's children and
+ * descendants get slots fixed by the node alone (a node over m primitives
+ * owns 2m - 2 slots after its children), subtrees are built in parallel
+ * into those, and a final pass closes the gaps while keeping the order.
+ */
+#include <rtk/rtk.h>
+
+#include <math.h>
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Beyond this depth nodes are halved by count, which bounds the depth of
+ * any input by this plus 33 levels, within the kernel's 256. */
+#define SAH_HALVING_DEPTH 200
+/* Largest number of pending nodes one worker holds (>= the depth bound). */
+#define SAH_STACK 264
+/* Subtrees of at least this many primitives go to the shared queue. */
+#define SAH_SPAWN_MIN 4096
+/* Nodes of at most this many primitives try every object split. */
+#define SAH_SMALL 16
+
+typedef struct sah {
+    int sweep;
+    uint32_t bins, max_leaf;
+    float t_node, t_tri;
+} sah;
+
+/* A primitive's bounds and index, 32 bytes, moved while partitioning. */
+typedef struct ref {
+    float lo[3];
+    uint32_t id;
+    float hi[3];
+    uint32_t pad;
+} ref;
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+
+/* Four floats; lanes 0-2 are x, y, z. */
+typedef __m128 v4;
+
+static inline v4 v4_load(const float *p) { return _mm_loadu_ps(p); }
+static inline void v4_store(float *p, v4 a) { _mm_storeu_ps(p, a); }
+static inline v4 v4_set1(float f) { return _mm_set1_ps(f); }
+static inline v4 v4_add(v4 a, v4 b) { return _mm_add_ps(a, b); }
+static inline v4 v4_sub(v4 a, v4 b) { return _mm_sub_ps(a, b); }
+static inline v4 v4_mul(v4 a, v4 b) { return _mm_mul_ps(a, b); }
+/* a < b ? a : b per lane: exact like fminf on the kernel's finite bounds,
+ * and NaN in a gives b. */
+static inline v4 v4_min(v4 a, v4 b) { return _mm_min_ps(a, b); }
+static inline v4 v4_max(v4 a, v4 b) { return _mm_max_ps(a, b); }
+/* Truncates each lane (lanes 0-2 hold values in [0, 255]). */
+static inline void v4_to_u32(v4 a, uint32_t out[4]) { _mm_storeu_si128((__m128i *)out, _mm_cvttps_epi32(a)); }
+#else
+typedef struct v4 {
+    float f[4];
+} v4;
+
+static inline v4 v4_load(const float *p) { v4 r; memcpy(r.f, p, sizeof r.f); return r; }
+static inline void v4_store(float *p, v4 a) { memcpy(p, a.f, sizeof a.f); }
+static inline v4 v4_set1(float f) { return (v4){{f, f, f, f}}; }
+#define V4_LANES(expr) v4 r; for (int k = 0; k < 4; k++) r.f[k] = (expr); return r
+static inline v4 v4_add(v4 a, v4 b) { V4_LANES(a.f[k] + b.f[k]); }
+static inline v4 v4_sub(v4 a, v4 b) { V4_LANES(a.f[k] - b.f[k]); }
+static inline v4 v4_mul(v4 a, v4 b) { V4_LANES(a.f[k] * b.f[k]); }
+static inline v4 v4_min(v4 a, v4 b) { V4_LANES(a.f[k] < b.f[k] ? a.f[k] : b.f[k]); }
+static inline v4 v4_max(v4 a, v4 b) { V4_LANES(a.f[k] > b.f[k] ? a.f[k] : b.f[k]); }
+static inline void v4_to_u32(v4 a, uint32_t out[4]) { for (int k = 0; k < 4; k++) out[k] = a.f[k] >= 0.0f && a.f[k] < 256.0f ? (uint32_t)a.f[k] : 0; }
+#undef V4_LANES
+#endif
+
+/* A box; lane 3 is ignored. */
+typedef struct vbox {
+    v4 lo, hi;
+} vbox;
+
+/* A node to build: its slot, primitives [begin, end), the first of the
+ * 2 (end - begin) - 2 slots its descendants own, its depth (root 1), its
+ * bounds and the bounds of its centroids (doubled: lower + upper). */
+typedef struct job {
+    vbox geom, cent;
+    uint32_t slot, begin, end, region, depth;
+} job;
+
+/* Jobs shared between workers; pending counts queued and running ones. */
+typedef struct queue {
+    pthread_mutex_t lock;
+    pthread_cond_t wake;
+    job *jobs;
+    uint32_t count, pending;
+} queue;
+
+/* One build: options, arguments, scratch arrays and the queue. */
+typedef struct build {
+    const sah *opt;
+    rtk_build_args *a;
+    ref *refs;        /* binned: primitives in slot order */
+    uint32_t *ord[3]; /* sweep: primitives sorted by centroid, per axis */
+    uint32_t *tmp;    /* sweep: partition scratch */
+    float *area;      /* sweep: areas of suffix bounds */
+    uint8_t *left;    /* sweep: side of each primitive */
+    queue *q;         /* NULL when building on one thread */
+} build;
+
+static rtk_status sah_create(const rtk_params *params, void **state)
+{
+    sah *s = malloc(sizeof *s);
+    if (!s)
+        return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+    s->sweep = strcmp(rtk_params_string(params, "mode"), "sweep") == 0;
+    s->bins = (uint32_t)rtk_params_int(params, "bins");
+    s->max_leaf = (uint32_t)rtk_params_int(params, "max_leaf");
+    s->t_node = (float)rtk_params_float(params, "t_node");
+    s->t_tri = (float)rtk_params_float(params, "t_tri");
+    *state = s;
+    return RTK_OK;
+}
+
+static inline void box_empty(vbox *b)
+{
+    b->lo = v4_set1(INFINITY);
+    b->hi = v4_set1(-INFINITY);
+}
+
+static inline void box_grow(vbox *b, v4 lo, v4 hi)
+{
+    b->lo = v4_min(b->lo, lo);
+    b->hi = v4_max(b->hi, hi);
+}
+
+static inline void box_add_point(vbox *b, v4 p)
+{
+    box_grow(b, p, p);
+}
+
+/* Half the surface area of a non-empty box. */
+static inline float half_area(const vbox *b)
+{
+    float d[4];
+    v4_store(d, v4_sub(b->hi, b->lo));
+    return d[0] * d[1] + d[1] * d[2] + d[2] * d[0];
+}
+
+static v4 bounds_lower(const rtk_bounds *b)
+{
+    const float f[4] = {b->lower.x, b->lower.y, b->lower.z, 0.0f};
+    return v4_load(f);
+}
+
+static v4 bounds_upper(const rtk_bounds *b)
+{
+    const float f[4] = {b->upper.x, b->upper.y, b->upper.z, 0.0f};
+    return v4_load(f);
+}
+
+/* Bins of a doubled centroid c on each axis: (c - lo) * scale clamped to
+ * [0, bins - 1]; NaN (0 * inf on a tiny extent) goes to bin 0. */
+static inline void bins_of(v4 c, v4 lo, v4 scale, v4 last, uint32_t out[4])
+{
+    v4_to_u32(v4_min(v4_max(v4_mul(v4_sub(c, lo), scale), v4_set1(0.0f)), last), out);
+}
+
+/* Cost of a split over a node of half area parent holding count
+ * primitives, from the sum of area times count of both sides. A flat
+ * node (area 0) counts its children as large as itself. */
+static float split_cost(const sah *o, float weighted, float parent, uint32_t count)
+{
+    float ratio = parent > 0.0f ? weighted / parent : (float)count;
+    return o->t_node + o->t_tri * ratio;
+}
+
+static void write_node(rtk_bvh_node *n, const vbox *b, uint32_t offset, uint32_t count)
+{
+    float lo[4], hi[4];
+    v4_store(lo, b->lo);
+    v4_store(hi, b->hi);
+    memcpy(n->lower, lo, sizeof n->lower);
+    memcpy(n->upper, hi, sizeof n->upper);
+    n->offset = offset;
+    n->count = count;
+}
+
+/* Chosen split: the axis and the first bin (binned) or the first slot
+ * (sweep) of the right side; axis -1 when none separates the primitives. */
+typedef struct split {
+    int axis;
+    uint32_t at;
+    float cost;
+} split;
+
+/* Per-axis binning parameters of a node: scale 0 on a flat axis. */
+static void bin_setup(const sah *o, const job *j, v4 *scale, v4 *last)
+{
+    float lo[4], hi[4], s[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+    v4_store(lo, j->cent.lo);
+    v4_store(hi, j->cent.hi);
+    for (int k = 0; k < 3; k++) {
+        float extent = hi[k] - lo[k];
+        s[k] = extent > 0.0f ? (float)o->bins / extent : 0.0f;
+    }
+    *scale = v4_load(s);
+    *last = v4_set1((float)(o->bins - 1));
+}
+
+/* Bins of one node: a box and a count per bin and axis. */
+typedef struct binning {
+    vbox box[3][256];
+    uint32_t count[3][256];
+} binning;
+
+static void binning_clear(binning *bn, uint32_t nb)
+{
+    for (int k = 0; k < 3; k++) {
+        for (uint32_t i = 0; i < nb; i++)
+            box_empty(&bn->box[k][i]);
+        memset(bn->count[k], 0, sizeof bn->count[k][0] * nb);
+    }
+}
+
+static inline void binning_add(binning *bn, const ref *r, v4 clo, v4 scale, v4 last)
+{
+    v4 lo = v4_load(r->lo), hi = v4_load(r->hi);
+    uint32_t bi[4];
+    bins_of(v4_add(lo, hi), clo, scale, last, bi);
+    for (int k = 0; k < 3; k++) {
+        box_grow(&bn->box[k][bi[k]], lo, hi);
+        bn->count[k][bi[k]]++;
+    }
+}
+
+static split find_binned(const build *b, const job *j)
+{
+    const sah *o = b->opt;
+    const uint32_t nb = o->bins, count = j->end - j->begin;
+    binning bn[2];
+    float rweight[256];
+    uint32_t rcount[256];
+    v4 scale, last;
+    bin_setup(o, j, &scale, &last);
+    const v4 clo = j->cent.lo;
+    /* Neighbouring primitives often share a bin: two sets of bins, even
+     * and odd slots, halve the chains of loads and stores on one bin. */
+    int sets = count >= 64 ? 2 : 1;
+    binning_clear(&bn[0], nb);
+    uint32_t i = j->begin;
+    if (sets == 2) {
+        binning_clear(&bn[1], nb);
+        for (; i + 1 < j->end; i += 2) {
+            binning_add(&bn[0], &b->refs[i], clo, scale, last);
+            binning_add(&bn[1], &b->refs[i + 1], clo, scale, last);
+        }
+        for (int k = 0; k < 3; k++) {
+            for (uint32_t c = 0; c < nb; c++) {
+                box_grow(&bn[0].box[k][c], bn[1].box[k][c].lo, bn[1].box[k][c].hi);
+                bn[0].count[k][c] += bn[1].count[k][c];
+            }
+        }
+    }
+    for (; i < j->end; i++)
+        binning_add(&bn[0], &b->refs[i], clo, scale, last);
+    float sc[4];
+    v4_store(sc, scale);
+    split best = {-1, 0, INFINITY};
+    float best_weight = INFINITY;
+    for (int k = 0; k < 3; k++) {
+        if (sc[k] == 0.0f)
+            continue;
+        const vbox *box = bn[0].box[k];
+        const uint32_t *cnt = bn[0].count[k];
+        vbox acc;
+        box_empty(&acc);
+        uint32_t n = 0;
+        for (uint32_t c = nb - 1; c > 0; c--) {
+            box_grow(&acc, box[c].lo, box[c].hi);
+            n += cnt[c];
+            rweight[c] = n ? half_area(&acc) * (float)n : 0.0f;
+            rcount[c] = n;
+        }
+        box_empty(&acc);
+        n = 0;
+        for (uint32_t c = 1; c < nb; c++) {
+            box_grow(&acc, box[c - 1].lo, box[c - 1].hi);
+            n += cnt[c - 1];
+            if (n == 0 || rcount[c] == 0)
+                continue;
+            float weight = half_area(&acc) * (float)n + rweight[c];
+            if (weight < best_weight) {
+                best_weight = weight;
+                best.axis = k;
+                best.at = c;
+            }
+        }
+    }
+    if (best.axis >= 0)
+        best.cost = split_cost(o, best_weight, half_area(&j->geom), count);
+    return best;
+}
+
+static inline void ref_grow(job *j, const ref *r)
+{
+    v4 lo = v4_load(r->lo), hi = v4_load(r->hi);
+    box_grow(&j->geom, lo, hi);
+    box_add_point(&j->cent, v4_add(lo, hi));
+}
+
+/* Moves the primitives of bins below s.at to the front, as find_binned
+ * binned them; fills both children's bounds. Returns the first slot of
+ * the right side. */
+static uint32_t partition_binned(const build *b, const job *j, split s, job *l, job *r)
+{
+    v4 scale, last;
+    bin_setup(b->opt, j, &scale, &last);
+    float lo[4], sc[4];
+    v4_store(lo, j->cent.lo);
+    v4_store(sc, scale);
+    /* bins_of(c) < at exactly when !((c - lo) * scale >= at), NaN included:
+     * one lane of the same float operations. */
+    const int k = s.axis;
+    const float clo = lo[k], scl = sc[k], at = (float)s.at;
+#define SAH_LEFT(rf) (!(((rf).lo[k] + (rf).hi[k] - clo) * scl >= at))
+    ref *refs = b->refs;
+    box_empty(&l->geom), box_empty(&l->cent), box_empty(&r->geom), box_empty(&r->cent);
+    uint32_t i = j->begin, e = j->end;
+    for (;;) {
+        while (i < e && SAH_LEFT(refs[i]))
+            ref_grow(l, &refs[i++]);
+        while (i < e && !SAH_LEFT(refs[e - 1]))
+            ref_grow(r, &refs[--e]);
+        if (i >= e)
+            break;
+        ref t = refs[i];
+        refs[i] = refs[e - 1];
+        refs[e - 1] = t;
+        ref_grow(l, &refs[i++]);
+        ref_grow(r, &refs[--e]);
+    }
+#undef SAH_LEFT
+    return i;
+}
+
+/* Sorts the refs of j along axis k into ord (slots relative to begin),
+ * by doubled centroid, ties by primitive index. */
+static void sort_small(const build *b, const job *j, int k, uint8_t ord[SAH_SMALL])
+{
+    const ref *refs = b->refs + j->begin;
+    const uint32_t m = j->end - j->begin;
+    float key[SAH_SMALL];
+    for (uint32_t i = 0; i < m; i++) {
+        float c = refs[i].lo[k] + refs[i].hi[k];
+        uint32_t at = i;
+        while (at > 0) {
+            const ref *p = &refs[ord[at - 1]];
+            if (key[at - 1] < c || (key[at - 1] == c && p->id < refs[i].id))
+                break;
+            key[at] = key[at - 1];
+            ord[at] = ord[at - 1];
+            at--;
+        }
+        key[at] = c;
+        ord[at] = (uint8_t)i;
+    }
+}
+
+/* Exact SAH over every object split of a small node: cheaper there than
+ * binning, and better. Equal costs go to the split nearest the middle. */
+static split find_small(const build *b, const job *j)
+{
+    const sah *o = b->opt;
+    const ref *refs = b->refs + j->begin;
+    const uint32_t m = j->end - j->begin;
+    split best = {-1, 0, INFINITY};
+    float best_weight = INFINITY, rweight[SAH_SMALL];
+    uint32_t best_skew = UINT32_MAX;
+    for (int k = 0; k < 3; k++) {
+        uint8_t ord[SAH_SMALL];
+        sort_small(b, j, k, ord);
+        vbox acc;
+        box_empty(&acc);
+        for (uint32_t i = m - 1; i > 0; i--) {
+            box_grow(&acc, v4_load(refs[ord[i]].lo), v4_load(refs[ord[i]].hi));
+            rweight[i] = half_area(&acc) * (float)(m - i);
+        }
+        box_empty(&acc);
+        for (uint32_t i = 1; i < m; i++) {
+            box_grow(&acc, v4_load(refs[ord[i - 1]].lo), v4_load(refs[ord[i - 1]].hi));
+            float weight = half_area(&acc) * (float)i + rweight[i];
+            uint32_t skew = 2 * i > m ? 2 * i - m : m - 2 * i;
+            if (weight < best_weight || (weight == best_weight && skew < best_skew)) {
+                best_weight = weight;
+                best_skew = skew;
+                best.axis = k;
+                best.at = i;
+            }
+        }
+    }
+    best.cost = split_cost(o, best_weight, half_area(&j->geom), m);
+    return best;
+}
+
+/* Reorders the refs of j along s.axis and fills both children's bounds.
+ * Returns the first slot of the right side. */
+static uint32_t partition_small(const build *b, const job *j, split s, job *l, job *r)
+{
+    ref *refs = b->refs + j->begin, tmp[SAH_SMALL];
+    const uint32_t m = j->end - j->begin;
+    uint8_t ord[SAH_SMALL];
+    sort_small(b, j, s.axis, ord);
+    for (uint32_t i = 0; i < m; i++)
+        tmp[i] = refs[ord[i]];
+    memcpy(refs, tmp, sizeof *refs * m);
+    box_empty(&l->geom), box_empty(&l->cent), box_empty(&r->geom), box_empty(&r->cent);
+    for (uint32_t i = 0; i < m; i++)
+        ref_grow(i < s.at ? l : r, &refs[i]);
+    return j->begin + s.at;
+}
+
+/* Bounds of refs [begin, end) into j. */
+static void bounds_of_refs(const build *b, uint32_t begin, uint32_t end, job *j)
+{
+    box_empty(&j->geom), box_empty(&j->cent);
+    for (uint32_t i = begin; i < end; i++)
+        ref_grow(j, &b->refs[i]);
+}
+
+static void bounds_of_ids(const build *b, const uint32_t *ids, uint32_t begin, uint32_t end, vbox *geom)
+{
+    box_empty(geom);
+    for (uint32_t i = begin; i < end; i++) {
+        const rtk_bounds *pb = &b->a->prim_bounds[ids[i]];
+        box_grow(geom, bounds_lower(pb), bounds_upper(pb));
+    }
+}
+
+/* Best object split of the sorted orders; equal costs go to the split
+ * nearest the middle, so identical primitives give a balanced tree. */
+static split find_sweep(const build *b, const job *j)
+{
+    const sah *o = b->opt;
+    const uint32_t begin = j->begin, end = j->end, count = end - begin;
+    const float parent = half_area(&j->geom);
+    split best = {-1, 0, INFINITY};
+    uint32_t best_skew = UINT32_MAX;
+    for (int k = 0; k < 3; k++) {
+        const uint32_t *ids = b->ord[k];
+        vbox acc;
+        box_empty(&acc);
+        for (uint32_t i = end - 1; i > begin; i--) {
+            const rtk_bounds *pb = &b->a->prim_bounds[ids[i]];
+            box_grow(&acc, bounds_lower(pb), bounds_upper(pb));
+            b->area[i] = half_area(&acc);
+        }
+        box_empty(&acc);
+        for (uint32_t i = begin + 1; i < end; i++) {
+            const rtk_bounds *pb = &b->a->prim_bounds[ids[i - 1]];
+            box_grow(&acc, bounds_lower(pb), bounds_upper(pb));
+            float cost = split_cost(o, half_area(&acc) * (float)(i - begin) + b->area[i] * (float)(end - i), parent, count);
+            uint32_t skew = 2 * i > begin + end ? 2 * i - begin - end : begin + end - 2 * i;
+            if (cost < best.cost || (cost == best.cost && skew < best_skew)) {
+                best = (split){k, i, cost};
+                best_skew = skew;
+            }
+        }
+    }
+    return best;
+}
+
+/* Splits the sorted orders at s: the chosen axis is already split; the
+ * others are partitioned stably so each side stays sorted. */
+static void partition_sweep(const build *b, const job *j, split s)
+{
+    const uint32_t begin = j->begin, end = j->end;
+    const uint32_t *axis = b->ord[s.axis];
+    for (uint32_t i = begin; i < end; i++)
+        b->left[axis[i]] = i < s.at;
+    for (int k = 0; k < 3; k++) {
+        if (k == s.axis)
+            continue;
+        uint32_t *ids = b->ord[k];
+        uint32_t l = begin, r = begin;
+        for (uint32_t i = begin; i < end; i++) {
+            uint32_t id = ids[i];
+            if (b->left[id])
+                ids[l++] = id;
+            else
+                b->tmp[r++] = id;
+        }
+        memcpy(ids + l, b->tmp + begin, sizeof *ids * (r - begin));
+    }
+}
+
+static void queue_push(queue *q, const job *j)
+{
+    pthread_mutex_lock(&q->lock);
+    q->jobs[q->count++] = *j;
+    q->pending++;
+    pthread_cond_signal(&q->wake);
+    pthread_mutex_unlock(&q->lock);
+}
+
+/* Builds the subtree of root, handing large subtrees to the queue. */
+static void build_subtree(const build *b, const job *root)
+{
+    const sah *o = b->opt;
+    rtk_build_args *a = b->a;
+    job stack[SAH_STACK];
+    uint32_t top = 0;
+    stack[top++] = *root;
+    while (top > 0) {
+        job j = stack[--top];
+        const uint32_t count = j.end - j.begin;
+        if (o->sweep)
+            bounds_of_ids(b, b->ord[0], j.begin, j.end, &j.geom);
+        split s = {-1, 0, INFINITY};
+        if (count > 1 && j.depth < SAH_HALVING_DEPTH)
+            s = o->sweep ? find_sweep(b, &j) : count <= SAH_SMALL ? find_small(b, &j) : find_binned(b, &j);
+        if (count == 1 || (count <= o->max_leaf && (s.axis < 0 || o->t_tri * (float)count <= s.cost))) {
+            write_node(&a->nodes[j.slot], &j.geom, j.begin, count);
+            if (!o->sweep)
+                for (uint32_t i = j.begin; i < j.end; i++)
+                    a->prim_order[i] = b->refs[i].id;
+            continue;
+        }
+        job l = {.slot = j.region, .begin = j.begin, .region = j.region + 2, .depth = j.depth + 1};
+        job r = {.slot = j.region + 1, .end = j.end, .depth = j.depth + 1};
+        uint32_t mid;
+        if (s.axis < 0) {
+            /* Nothing separates the centroids, or too deep: halve. */
+            mid = j.begin + count / 2;
+            if (o->sweep) {
+                partition_sweep(b, &j, (split){0, mid, 0.0f});
+            } else {
+                bounds_of_refs(b, j.begin, mid, &l);
+                bounds_of_refs(b, mid, j.end, &r);
+            }
+        } else if (o->sweep) {
+            mid = s.at;
+            partition_sweep(b, &j, s);
+        } else if (count <= SAH_SMALL) {
+            mid = partition_small(b, &j, s, &l, &r);
+        } else {
+            mid = partition_binned(b, &j, s, &l, &r);
+        }
+        l.end = r.begin = mid;
+        r.region = j.region + 2 * (mid - j.begin);
+        write_node(&a->nodes[j.slot], &j.geom, j.region, 0);
+        if (b->q && r.end - r.begin >= SAH_SPAWN_MIN)
+            queue_push(b->q, &r);
+        else
+            stack[top++] = r;
+        stack[top++] = l;
+    }
+}
+
+/* Takes jobs from the queue until every job is done. */
+static void *work(void *arg)
+{
+    const build *b = arg;
+    queue *q = b->q;
+    for (;;) {
+        pthread_mutex_lock(&q->lock);
+        while (q->count == 0 && q->pending > 0)
+            pthread_cond_wait(&q->wake, &q->lock);
+        if (q->count == 0) {
+            pthread_mutex_unlock(&q->lock);
+            return NULL;
+        }
+        job j = q->jobs[--q->count];
+        pthread_mutex_unlock(&q->lock);
+        build_subtree(b, &j);
+        pthread_mutex_lock(&q->lock);
+        if (--q->pending == 0)
+            pthread_cond_broadcast(&q->wake);
+        pthread_mutex_unlock(&q->lock);
+    }
+}
+
+/* Builds from root on up to threads threads (the caller's included). */
+static rtk_status run_build(build *b, const job *root, uint32_t threads)
+{
+    uint32_t n = b->a->prim_count;
+    if (threads <= 1 || n < 2 * SAH_SPAWN_MIN) {
+        build_subtree(b, root);
+        return RTK_OK;
+    }
+    queue q;
+    /* Queued jobs cover disjoint ranges of at least SAH_SPAWN_MIN. */
+    q.jobs = malloc(sizeof *q.jobs * (n / SAH_SPAWN_MIN + 2));
+    if (!q.jobs)
+        return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+    pthread_mutex_init(&q.lock, NULL);
+    pthread_cond_init(&q.wake, NULL);
+    q.count = 0;
+    q.pending = 0;
+    b->q = &q;
+    queue_push(&q, root);
+    pthread_t *ids = malloc(sizeof *ids * threads);
+    uint32_t started = 0;
+    /* Fewer threads than asked (none at all) only make it slower. */
+    while (ids && started + 1 < threads && pthread_create(&ids[started], NULL, work, b) == 0)
+        started++;
+    work(b);
+    for (uint32_t i = 0; i < started; i++)
+        pthread_join(ids[i], NULL);
+    free(ids);
+    pthread_cond_destroy(&q.wake);
+    pthread_mutex_destroy(&q.lock);
+    free(q.jobs);
+    b->q = NULL;
+    return RTK_OK;
+}
+
+/* Slots [0, span) hold the tree with gaps; moves the nodes reachable from
+ * the root down in slot order, so siblings stay adjacent, and renumbers
+ * the children. Sets node_count. */
+static rtk_status compact_nodes(rtk_build_args *a, uint32_t span)
+{
+    size_t words = ((size_t)span + 63) / 64;
+    uint64_t *used = calloc(words, sizeof *used);
+    uint32_t *before = malloc(sizeof *before * words);
+    if (!used || !before) {
+        free(used);
+        free(before);
+        return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+    }
+    uint32_t stack[SAH_STACK + 2], top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        uint32_t id = stack[--top];
+        used[id / 64] |= 1ull << (id % 64);
+        const rtk_bvh_node *n = &a->nodes[id];
+        if (n->count == 0) {
+            stack[top++] = n->offset + 1;
+            stack[top++] = n->offset;
+        }
+    }
+    uint32_t total = 0;
+    for (size_t w = 0; w < words; w++) {
+        before[w] = total;
+        total += (uint32_t)__builtin_popcountll(used[w]);
+    }
+    for (uint32_t id = 0, next = 0; id < span; id++) {
+        if (!(used[id / 64] >> (id % 64) & 1))
+            continue;
+        rtk_bvh_node n = a->nodes[id];
+        if (n.count == 0) {
+            uint32_t c = n.offset;
+            n.offset = before[c / 64] + (uint32_t)__builtin_popcountll(used[c / 64] & ((1ull << (c % 64)) - 1));
+        }
+        a->nodes[next++] = n;
+    }
+    a->node_count = total;
+    free(used);
+    free(before);
+    return RTK_OK;
+}
+
+/* Order-preserving map of a float's bits to an unsigned key. */
+static uint32_t float_key(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    return u >> 31 ? ~u : u | 0x80000000u;
+}
+
+/* Sorts ids[0, n) by keys, stably (LSD radix, 11 bits a pass); tmp_keys
+ * and tmp_ids are scratch of n entries. */
+static void radix_sort(uint32_t *keys, uint32_t *ids, uint32_t *tmp_keys, uint32_t *tmp_ids, uint32_t n)
+{
+    uint32_t *ks = keys, *is = ids, *kd = tmp_keys, *id = tmp_ids;
+    for (int shift = 0; shift < 32; shift += 11) {
+        uint32_t hist[2048] = {0};
+        for (uint32_t i = 0; i < n; i++)
+            hist[ks[i] >> shift & 2047]++;
+        for (uint32_t d = 0, sum = 0; d < 2048; d++) {
+            uint32_t c = hist[d];
+            hist[d] = sum;
+            sum += c;
+        }
+        for (uint32_t i = 0; i < n; i++) {
+            uint32_t at = hist[ks[i] >> shift & 2047]++;
+            kd[at] = ks[i];
+            id[at] = is[i];
+        }
+        uint32_t *t = ks;
+        ks = kd, kd = t;
+        t = is;
+        is = id, id = t;
+    }
+    if (is != ids)
+        memcpy(ids, is, sizeof *ids * n);
+}
+
+static rtk_status build_binned(build *b, job *root)
+{
+    rtk_build_args *a = b->a;
+    const uint32_t n = a->prim_count;
+    b->refs = malloc(sizeof *b->refs * n);
+    if (!b->refs)
+        return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+    for (uint32_t i = 0; i < n; i++) {
+        const rtk_bounds *pb = &a->prim_bounds[i];
+        b->refs[i] = (ref){{pb->lower.x, pb->lower.y, pb->lower.z}, i, {pb->upper.x, pb->upper.y, pb->upper.z}, 0};
+    }
+    bounds_of_refs(b, 0, n, root);
+    rtk_status st = run_build(b, root, a->thread_count);
+    free(b->refs);
+    return st;
+}
+
+static rtk_status build_sweep(build *b, job *root)
+{
+    rtk_build_args *a = b->a;
+    const uint32_t n = a->prim_count;
+    b->ord[0] = a->prim_order;
+    b->ord[1] = malloc(sizeof(uint32_t) * n);
+    b->ord[2] = malloc(sizeof(uint32_t) * n);
+    b->tmp = malloc(sizeof(uint32_t) * n);
+    b->area = malloc(sizeof(float) * n);
+    b->left = malloc(n);
+    uint32_t *keys = malloc(sizeof(uint32_t) * n), *tmp_keys = malloc(sizeof(uint32_t) * n);
+    rtk_status st = RTK_OK;
+    if (!b->ord[1] || !b->ord[2] || !b->tmp || !b->area || !b->left || !keys || !tmp_keys) {
+        st = rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+        goto done;
+    }
+    for (int k = 0; k < 3; k++) {
+        for (uint32_t i = 0; i < n; i++) {
+            const rtk_bounds *pb = &a->prim_bounds[i];
+            float c = k == 0 ? pb->lower.x + pb->upper.x : k == 1 ? pb->lower.y + pb->upper.y : pb->lower.z + pb->upper.z;
+            keys[i] = float_key(c);
+            b->ord[k][i] = i;
+        }
+        radix_sort(keys, b->ord[k], tmp_keys, b->tmp, n);
+    }
+    st = run_build(b, root, a->thread_count);
+done:
+    free(b->ord[1]);
+    free(b->ord[2]);
+    free(b->tmp);
+    free(b->area);
+    free(b->left);
+    free(keys);
+    free(tmp_keys);
+    return st;
+}
+
+static rtk_status sah_build(void *state, rtk_build_args *a)
+{
+    build b = {.opt = state, .a = a};
+    job root = {.slot = 0, .begin = 0, .end = a->prim_count, .region = 1, .depth = 1};
+    rtk_status st = b.opt->sweep ? build_sweep(&b, &root) : build_binned(&b, &root);
+    if (st != RTK_OK)
+        return st;
+    return compact_nodes(a, a->max_nodes);
+}
+
+static void sah_destroy(void *state)
+{
+    free(state);
+}
+
+static const rtk_param_desc sah_params[] = {
+    {.name = "bins", .type = RTK_PARAM_INT, .def = 16, .min = 4, .max = 256,
+     .doc = "bins per axis in binned mode"},
+    {.name = "mode", .type = RTK_PARAM_STRING, .def_string = "binned", .choices = "binned|sweep",
+     .doc = "binned: best bin boundary, O(n) per node; sweep: best of every object split (exact SAH)"},
+    {.name = "t_node", .type = RTK_PARAM_FLOAT, .def = 1.0, .min = 0.01, .max = 100.0,
+     .doc = "SAH cost of visiting an inner node"},
+    {.name = "t_tri", .type = RTK_PARAM_FLOAT, .def = 1.0, .min = 0.01, .max = 100.0,
+     .doc = "SAH cost of one ray/triangle test"},
+    {.name = "max_leaf", .type = RTK_PARAM_INT, .def = 8, .min = 1, .max = 64,
+     .doc = "largest number of primitives in a leaf"},
+};
+
+static const rtk_accelerator_fns sah_fns = {
+    .size = sizeof(rtk_accelerator_fns),
+    .create = sah_create,
+    .build = sah_build,
+    .destroy = sah_destroy,
+};
+
+static const rtk_plugin sah_plugin = {
+    RTK_PLUGIN_HEADER,
+    .kind = RTK_KIND_ACCELERATOR,
+    .name = "sah",
+    .version = "1.0",
+    .summary = "surface area heuristic BVH (binned or full sweep), parallel and deterministic",
+    .params = sah_params,
+    .param_count = RTK_COUNTOF(sah_params),
+    .functions = &sah_fns,
+};
+
+RTK_PLUGIN_ENTRY(sah_plugin)
