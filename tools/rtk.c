@@ -1,4 +1,4 @@
-/* rtk: the command-line front end. render, plugins, conform. */
+/* rtk: the command-line front end. render, plugins, conform, bench. */
 #include <rtk/host.h>
 
 #include <stdio.h>
@@ -10,6 +10,8 @@ static const char usage_text[] =
     "usage: rtk render CONFIG [options]   render the scene a config describes\n"
     "       rtk plugins [NAME]            list plugins, or show one plugin's parameters\n"
     "       rtk conform PLUGIN            run the conformance checks on a plugin (.so path or name)\n"
+    "       rtk bench MESH.obj|CONFIG.cfg [options]\n"
+    "                                     time accelerators on BENCH.md's standard recipe\n"
     "\n"
     "render options:\n"
     "  --set KEY=VALUE          override a config setting, e.g. --set integrator.rays=64\n"
@@ -18,6 +20,14 @@ static const char usage_text[] =
     "  --no-cache               neither load nor save a cached BVH (--set cache=off)\n"
     "  --allow-config-plugins   trust the config's plugin_path and plugins given as paths\n"
     "  -q, --quiet              no progress bar and no report\n"
+    "bench options:\n"
+    "  --accel A,B,...          accelerators to compare, NAME or NAME:KEY=VALUE:...\n"
+    "                           (default: the config's, or every accelerator found)\n"
+    "  --threads N,M,...        thread counts (default: 1 and every core)\n"
+    "  --width W --height H     image size (default: the config's, or 1024x768)\n"
+    "  --camera EX,EY,EZ,LX,LY,LZ,FOV  eye, look-at, vertical fov (default: the recipe's)\n"
+    "  --runs N                 builds and timed passes, median reported (default 5)\n"
+    "  --csv FILE               also write one row per accelerator x threads\n"
     "options for every command:\n"
     "  --plugin-path DIR        also search DIR for plugins (may repeat)\n"
     "  -v, --verbose            print debug messages\n"
@@ -114,6 +124,111 @@ static int cmd_plugins(rtk_registry *reg, const char *name)
     return 0;
 }
 
+/* Splits a comma-separated list in place into items (at most cap). */
+static size_t split_list(char *list, char **items, size_t cap)
+{
+    size_t n = 0;
+    for (char *tok = strtok(list, ","); tok && n < cap; tok = strtok(NULL, ","))
+        items[n++] = tok;
+    return n;
+}
+
+/* Parses an unsigned decimal in [lo, hi]; 0 on failure. */
+static int parse_uint(const char *s, unsigned long lo, unsigned long hi, uint32_t *out)
+{
+    char *end;
+    unsigned long v = strtoul(s, &end, 10);
+    if (end == s || *end || s[0] == '-' || v < lo || v > hi)
+        return 0;
+    *out = (uint32_t)v;
+    return 1;
+}
+
+/* rtk bench: args are everything after the word "bench". */
+static int cmd_bench(rtk_registry *reg, int argc, char **argv, int quiet)
+{
+    const char *path = NULL;
+    char *accel_items[64], *thread_items[64];
+    const char *accels[64];
+    uint32_t threads[64];
+    rtk_bench_options o;
+    memset(&o, 0, sizeof o);
+    o.size = sizeof o;
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        int takes_value = strcmp(a, "--accel") == 0 || strcmp(a, "--threads") == 0 || strcmp(a, "--width") == 0 ||
+                          strcmp(a, "--height") == 0 || strcmp(a, "--camera") == 0 || strcmp(a, "--runs") == 0 ||
+                          strcmp(a, "--csv") == 0 || strcmp(a, "--plugin-path") == 0;
+        if (takes_value && i + 1 >= argc)
+            return usage_error("%s needs a value", a);
+        char *v = takes_value ? argv[++i] : NULL;
+        if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
+            fputs(usage_text, stdout);
+            return 0;
+        } else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
+            quiet = 1;
+        } else if (strcmp(a, "-v") == 0 || strcmp(a, "--verbose") == 0) {
+            rtk_log_set_level(RTK_LOG_DEBUG);
+        } else if (strcmp(a, "--allow-config-plugins") == 0) {
+            o.allow_config_plugins = 1;
+        } else if (strcmp(a, "--plugin-path") == 0) {
+            rtk_registry_add_dir(reg, v, "--plugin-path");
+        } else if (strcmp(a, "--accel") == 0) {
+            o.accelerator_count = split_list(v, accel_items, 64);
+            for (size_t k = 0; k < o.accelerator_count; k++)
+                accels[k] = accel_items[k];
+            o.accelerators = accels;
+        } else if (strcmp(a, "--threads") == 0) {
+            o.threads_count = split_list(v, thread_items, 64);
+            for (size_t k = 0; k < o.threads_count; k++)
+                if (!parse_uint(thread_items[k], 1, 1024, &threads[k]))
+                    return usage_error("--threads: '%s' is not a thread count in [1, 1024]", thread_items[k]);
+            o.threads = threads;
+        } else if (strcmp(a, "--width") == 0 || strcmp(a, "--height") == 0) {
+            if (!parse_uint(v, 1, 16384, a[2] == 'w' ? &o.width : &o.height))
+                return usage_error("%s needs a size in [1, 16384]", a);
+        } else if (strcmp(a, "--runs") == 0) {
+            if (!parse_uint(v, 1, 1000, &o.runs))
+                return usage_error("%s needs a count in [1, 1000]", a);
+        } else if (strcmp(a, "--csv") == 0) {
+            o.csv = v;
+        } else if (strcmp(a, "--camera") == 0) {
+            double c[7];
+            int n = 0;
+            const char *p = v;
+            for (; n < 7; n++) {
+                char *end;
+                c[n] = strtod(p, &end);
+                if (end == p || (*end != ',' && *end != '\0'))
+                    break;
+                p = *end ? end + 1 : end;
+            }
+            if (n != 7 || *p)
+                return usage_error("--camera needs 7 numbers EX,EY,EZ,LX,LY,LZ,FOV, not '%s'", v);
+            memcpy(o.eye, c, sizeof o.eye);
+            memcpy(o.look_at, c + 3, sizeof o.look_at);
+            o.fov_deg = c[6];
+            o.has_camera = 1;
+        } else if (a[0] == '-' && a[1] != '\0') {
+            return usage_error("unknown bench option '%s'", a);
+        } else if (!path) {
+            path = a;
+        } else {
+            return usage_error("unexpected argument '%s'", a);
+        }
+    }
+    if (!path)
+        return usage_error("%s needs a mesh (.obj) or a config (.cfg)", "bench");
+    if ((o.width == 0) != (o.height == 0))
+        return usage_error("%s: give both --width and --height", "bench");
+    o.progress = !quiet && isatty(STDERR_FILENO);
+    if (rtk_bench(path, reg, &o, stdout) != RTK_OK) {
+        fprintf(stderr, "rtk: error: %s\n", rtk_error_message());
+        return 1;
+    }
+    return 0;
+}
+
 static int cmd_conform(rtk_registry *reg, const char *what)
 {
     const char *path = what;
@@ -205,6 +320,11 @@ int main(int argc, char **argv)
             goto out;
         } else if (!command) {
             command = a;
+            if (strcmp(a, "bench") == 0) {
+                /* bench has options of its own (--threads takes a list). */
+                status = cmd_bench(reg, argc - i - 1, argv + i + 1, quiet);
+                goto out;
+            }
         } else if (!target) {
             target = a;
         } else {

@@ -105,6 +105,30 @@ RTK_API void rtk_render_report_print(const rtk_render_report *report, FILE *f);
  * then "N passed, N failed". Returns RTK_OK only when every check passed. */
 RTK_API rtk_status rtk_conform(const char *path, FILE *out, int *passed, int *failed);
 
+/* What `rtk bench` measures; zero fields mean the defaults. */
+typedef struct rtk_bench_options {
+    uint32_t size;                    /* sizeof(rtk_bench_options) */
+    const char *const *accelerators;  /* "sah", "embree:quality=low"; NULL: the config's, or every one found */
+    size_t accelerator_count;
+    const uint32_t *threads;          /* thread counts to run; NULL: 1 and every core */
+    size_t threads_count;
+    uint32_t width, height;           /* 0: the config's film, else 1024 x 768 */
+    int has_camera;                   /* 1: the camera below, else the config's or the recipe's */
+    double eye[3], look_at[3];        /* world up is +y */
+    double fov_deg;                   /* vertical */
+    uint32_t runs;                    /* builds and timed passes, the median reported; 0: 5 */
+    const char *csv;                  /* also write one row per accelerator x threads here */
+    int progress;                     /* progress on stderr (the caller checks isatty) */
+    int allow_config_plugins;         /* as in rtk_config_options */
+} rtk_bench_options;
+
+/* Benchmarks accelerators on a mesh (.obj, read as BENCH.md's standard
+ * recipe says) or a config's scene (.cfg) with the recipe's primary and
+ * AO rays: builds each through the kernel, traces on each thread count,
+ * prints a table (and ratios to embree when it is among them) to out. */
+RTK_API rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk_bench_options *options,
+                             FILE *out);
+
 RTK_EXTERN_C_END
 
 #endif

@@ -1,0 +1,879 @@
+/* `rtk bench`: accelerators compared on BENCH.md's standard recipe. The
+ * mesh, camera, primary and AO rays are made exactly as the recipe says
+ * (double precision, no FMA contraction: this file is compiled with
+ * -ffp-contract=off), so every tracer traces bit-identical primary rays
+ * and its counts can be checked against any other's. Each accelerator is
+ * built through the kernel (rtk_bvh_build) and traced through the kernel's
+ * path (rtk_bvh_closest / rtk_bvh_any), which hands the rays to a plugin's
+ * own traversal when it has one (embree). */
+#include "bench.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#define BENCH_AO_RAYS 8u
+#define BENCH_SEED 1u
+
+/* ---- the recipe ---- */
+
+static const char *skip_blank(const char *p)
+{
+    while (*p == ' ' || *p == '\t' || *p == '\r')
+        p++;
+    return p;
+}
+
+static int at_end(const char *p)
+{
+    return *p == '\0' || *p == '\n' || *p == '#';
+}
+
+/* Adds the fan of one face whose corners are idx[0 .. n). */
+static rtk_status add_fan(rtk_scene *s, const uint32_t *idx, size_t n)
+{
+    for (size_t i = 1; i + 1 < n; i++) {
+        rtk_status st = rtk_scene_add_triangle(s, idx[0], idx[i], idx[i + 1], NULL, NULL, RTK_INVALID_ID);
+        if (st != RTK_OK)
+            return st;
+    }
+    return RTK_OK;
+}
+
+rtk_status rtk_bench_read_obj(const char *path, rtk_scene **out)
+{
+    *out = NULL;
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return rtk_error(RTK_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    rtk_scene *s = rtk_scene_new(path, 0);
+    char *line = NULL;
+    size_t line_cap = 0, corner_cap = 0;
+    uint32_t *corners = NULL;
+    unsigned long lineno = 0;
+    rtk_status st = s ? RTK_OK : RTK_ERR_NOMEM;
+    while (st == RTK_OK && getline(&line, &line_cap, f) >= 0) {
+        lineno++;
+        const char *p = skip_blank(line);
+        if (p[0] == 'v' && (p[1] == ' ' || p[1] == '\t')) {
+            float c[3];
+            p += 2;
+            for (int k = 0; k < 3; k++) {
+                char *end;
+                c[k] = strtof(p, &end);
+                if (end == p) {
+                    st = rtk_error(RTK_ERR_PARSE, "%s:%lu: vertex needs three coordinates", path, lineno);
+                    break;
+                }
+                if (!isfinite(c[k])) {
+                    st = rtk_error(RTK_ERR_PARSE, "%s:%lu: vertex coordinate is not finite", path, lineno);
+                    break;
+                }
+                p = end;
+            }
+            if (st == RTK_OK)
+                st = rtk_scene_add_vertex(s, c[0], c[1], c[2], NULL);
+        } else if (p[0] == 'f' && (p[1] == ' ' || p[1] == '\t')) {
+            size_t n = 0;
+            p = skip_blank(p + 2);
+            while (st == RTK_OK && !at_end(p)) {
+                char *end;
+                errno = 0;
+                long v = strtol(p, &end, 10);
+                if (end == p || (*end != '/' && *end != '\0' && !isspace((unsigned char)*end))) {
+                    st = rtk_error(RTK_ERR_PARSE, "%s:%lu: bad vertex reference '%.*s'", path, lineno,
+                                   (int)strcspn(p, " \t\r\n"), p);
+                    break;
+                }
+                long count = (long)s->vertex_count;
+                long idx = v > 0 ? v - 1 : count + v;
+                if (v == 0 || errno == ERANGE || idx < 0 || idx >= count) {
+                    st = rtk_error(RTK_ERR_PARSE, "%s:%lu: vertex index %ld is out of range (%ld vertices so far)",
+                                   path, lineno, v, count);
+                    break;
+                }
+                if (n == corner_cap) {
+                    size_t cap = corner_cap ? 2 * corner_cap : 16;
+                    uint32_t *grown = rtk_realloc_array(corners, cap, sizeof *corners);
+                    if (!grown) {
+                        st = RTK_ERR_NOMEM;
+                        break;
+                    }
+                    corners = grown, corner_cap = cap;
+                }
+                corners[n++] = (uint32_t)idx;
+                /* The texture and normal references are not used. */
+                while (*end && !isspace((unsigned char)*end))
+                    end++;
+                p = skip_blank(end);
+            }
+            if (st == RTK_OK && n < 3)
+                st = rtk_error(RTK_ERR_PARSE, "%s:%lu: a face needs at least 3 vertices, this one has %zu", path,
+                               lineno, n);
+            if (st == RTK_OK)
+                st = add_fan(s, corners, n);
+        }
+    }
+    if (st == RTK_OK && ferror(f))
+        st = rtk_error(RTK_ERR_IO, "%s: read error", path);
+    if (st == RTK_OK && s->triangle_count == 0)
+        st = rtk_error(RTK_ERR_PARSE, "%s: no faces", path);
+    free(line);
+    free(corners);
+    fclose(f);
+    if (st != RTK_OK) {
+        rtk_scene_free(s);
+        return st;
+    }
+    rtk_bounds b = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    for (uint32_t i = 0; i < s->vertex_count; i++) {
+        const float *v = s->positions + 3 * (size_t)i;
+        b.lower = rtk_vec3_make(fminf(b.lower.x, v[0]), fminf(b.lower.y, v[1]), fminf(b.lower.z, v[2]));
+        b.upper = rtk_vec3_make(fmaxf(b.upper.x, v[0]), fmaxf(b.upper.y, v[1]), fmaxf(b.upper.z, v[2]));
+    }
+    s->bounds = b;
+    *out = s;
+    return RTK_OK;
+}
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void cross3(const double a[3], const double b[3], double out[3])
+{
+    double c[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+    memcpy(out, c, sizeof c);
+}
+
+/* v / |v|; returns |v|. */
+static double normalize3(double v[3])
+{
+    double len = sqrt(dot3(v, v));
+    v[0] = v[0] / len, v[1] = v[1] / len, v[2] = v[2] / len;
+    return len;
+}
+
+double rtk_bench_diag(rtk_bounds b)
+{
+    double d[3] = {(double)b.upper.x - b.lower.x, (double)b.upper.y - b.lower.y, (double)b.upper.z - b.lower.z};
+    return sqrt(dot3(d, d));
+}
+
+/* Right and up from fwd and the world up; 0 when they are parallel. */
+static int camera_basis(rtk_bench_camera *cam, const double world_up[3], double fov_deg)
+{
+    cross3(cam->fwd, world_up, cam->right);
+    if (normalize3(cam->right) == 0.0 || !isfinite(cam->right[0]))
+        return 0;
+    cross3(cam->right, cam->fwd, cam->up);
+    cam->th = tan(0.5 * fov_deg * M_PI / 180.0);
+    return 1;
+}
+
+void rtk_bench_camera_recipe(rtk_bounds b, rtk_bench_camera *cam)
+{
+    const double lo[3] = {b.lower.x, b.lower.y, b.lower.z}, hi[3] = {b.upper.x, b.upper.y, b.upper.z};
+    const double world_up[3] = {0.0, 1.0, 0.0};
+    double diag = rtk_bench_diag(b);
+    double d[3] = {1.0, 0.6, 1.4};
+    normalize3(d);
+    for (int k = 0; k < 3; k++) {
+        double c = (lo[k] + hi[k]) * 0.5;
+        cam->eye[k] = c + 1.6 * diag * d[k];
+        cam->fwd[k] = -d[k];
+    }
+    camera_basis(cam, world_up, 45.0);
+}
+
+rtk_status rtk_bench_camera_look(const double eye[3], const double look_at[3], const double up[3], double fov_deg,
+                                 rtk_bench_camera *cam)
+{
+    for (int k = 0; k < 3; k++) {
+        if (!isfinite(eye[k]) || !isfinite(look_at[k]) || !isfinite(up[k]))
+            return rtk_error(RTK_ERR_INVALID, "camera: eye, look-at and up must be finite");
+        cam->eye[k] = eye[k];
+        cam->fwd[k] = look_at[k] - eye[k];
+    }
+    if (!(fov_deg > 0.0 && fov_deg < 180.0))
+        return rtk_error(RTK_ERR_INVALID, "camera: field of view %g is not in (0, 180) degrees", fov_deg);
+    if (normalize3(cam->fwd) == 0.0)
+        return rtk_error(RTK_ERR_INVALID, "camera: eye and look-at are the same point");
+    if (!camera_basis(cam, up, fov_deg))
+        return rtk_error(RTK_ERR_INVALID, "camera: the view direction is parallel to up (%g, %g, %g)", up[0], up[1],
+                         up[2]);
+    return RTK_OK;
+}
+
+void rtk_bench_primary_rays(const rtk_bench_camera *cam, uint32_t width, uint32_t height, rtk_ray *rays)
+{
+    double aspect = (double)width / (double)height;
+    rtk_vec3 org = rtk_vec3_make((float)cam->eye[0], (float)cam->eye[1], (float)cam->eye[2]);
+    for (uint32_t y = 0; y < height; y++) {
+        double sy = (1.0 - 2.0 * (y + 0.5) / height) * cam->th;
+        for (uint32_t x = 0; x < width; x++) {
+            double sx = (2.0 * (x + 0.5) / width - 1.0) * cam->th * aspect;
+            double d[3];
+            for (int k = 0; k < 3; k++)
+                d[k] = cam->fwd[k] + sx * cam->right[k] + sy * cam->up[k];
+            normalize3(d);
+            rtk_ray *r = &rays[(size_t)y * width + x];
+            r->org = org;
+            r->dir = rtk_vec3_make((float)d[0], (float)d[1], (float)d[2]);
+            r->tmin = 0.0f;
+            r->tmax = INFINITY;
+        }
+    }
+}
+
+uint64_t rtk_bench_ray_hash(const rtk_ray *rays, size_t count)
+{
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (size_t i = 0; i < count; i++) {
+        const float f[6] = {rays[i].org.x, rays[i].org.y, rays[i].org.z, rays[i].dir.x, rays[i].dir.y, rays[i].dir.z};
+        for (int k = 0; k < 6; k++) {
+            uint32_t bits;
+            memcpy(&bits, &f[k], sizeof bits);
+            for (int b = 0; b < 4; b++) {
+                h ^= (bits >> (8 * b)) & 0xffu; /* little-endian byte order */
+                h *= 0x100000001b3ull;
+            }
+        }
+    }
+    return h;
+}
+
+void rtk_bench_ao_rays(const rtk_scene *s, const rtk_ray *primary, const rtk_hit *hit, uint64_t pixel, double diag,
+                       uint32_t k, rtk_ray *out)
+{
+    const double org[3] = {primary->org.x, primary->org.y, primary->org.z};
+    const double dir[3] = {primary->dir.x, primary->dir.y, primary->dir.z};
+    double t = hit->t, p[3], e1[3], e2[3], n[3];
+    rtk_vec3 v0, v1, v2;
+    rtk_scene_triangle(s, hit->prim, &v0, &v1, &v2);
+    const double a0[3] = {v0.x, v0.y, v0.z}, a1[3] = {v1.x, v1.y, v1.z}, a2[3] = {v2.x, v2.y, v2.z};
+    for (int i = 0; i < 3; i++) {
+        p[i] = org[i] + t * dir[i];
+        e1[i] = a1[i] - a0[i];
+        e2[i] = a2[i] - a0[i];
+    }
+    cross3(e1, e2, n);
+    if (sqrt(dot3(n, n)) == 0.0)
+        n[0] = -dir[0], n[1] = -dir[1], n[2] = -dir[2];
+    else
+        normalize3(n);
+    if (dot3(n, dir) > 0.0)
+        n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
+    /* Duff et al. 2017, "Building an orthonormal basis, revisited". */
+    double sign = copysign(1.0, n[2]);
+    double a = -1.0 / (sign + n[2]);
+    double b = n[0] * n[1] * a;
+    const double b1[3] = {1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]};
+    const double b2[3] = {b, sign + n[1] * n[1] * a, -n[1]};
+    double offset = 1e-4 * diag;
+    rtk_vec3 o = rtk_vec3_make((float)(p[0] + offset * n[0]), (float)(p[1] + offset * n[1]),
+                               (float)(p[2] + offset * n[2]));
+    float tfar = (float)(0.1 * diag);
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, BENCH_SEED, pixel);
+    for (uint32_t j = 0; j < k; j++) {
+        double u1 = (double)(rtk_pcg32_next(&rng) >> 8) * 0x1p-24;
+        double u2 = (double)(rtk_pcg32_next(&rng) >> 8) * 0x1p-24;
+        double r = sqrt(u1), phi = 2.0 * M_PI * u2, h = sqrt(1.0 - u1);
+        double d[3];
+        for (int i = 0; i < 3; i++)
+            d[i] = r * cos(phi) * b1[i] + r * sin(phi) * b2[i] + h * n[i];
+        out[j].org = o;
+        out[j].dir = rtk_vec3_make((float)d[0], (float)d[1], (float)d[2]);
+        out[j].tmin = 0.0f;
+        out[j].tmax = tfar;
+    }
+}
+
+/* ---- tracing passes ---- */
+
+/* One pass over rows of rays; threads take rows from next_row. */
+typedef struct bench_pass {
+    const rtk_scene *scene;
+    const rtk_ray *rays;
+    const size_t *row_start; /* row y holds rays [row_start[y], row_start[y + 1]) */
+    uint32_t rows;
+    int closest;             /* 1: closest hit into hits; 0: occlusion */
+    rtk_hit *hits;
+    uint64_t *row_count;     /* per row: hits (closest) or unoccluded rays (any) */
+    atomic_uint next_row;
+} bench_pass;
+
+static void *pass_worker(void *arg)
+{
+    bench_pass *p = arg;
+    for (;;) {
+        uint32_t y = atomic_fetch_add(&p->next_row, 1u);
+        if (y >= p->rows)
+            break;
+        uint64_t count = 0;
+        if (p->closest) {
+            for (size_t i = p->row_start[y]; i < p->row_start[y + 1]; i++)
+                count += (uint64_t)rtk_bvh_closest(p->scene, &p->rays[i], &p->hits[i]);
+        } else {
+            for (size_t i = p->row_start[y]; i < p->row_start[y + 1]; i++)
+                count += (uint64_t)!rtk_bvh_any(p->scene, &p->rays[i]);
+        }
+        p->row_count[y] = count;
+    }
+    return NULL;
+}
+
+/* Runs the pass on threads (the calling thread is one of them); returns
+ * its wall-clock seconds and the summed count in *count, or -1. */
+static double run_pass(bench_pass *p, uint32_t threads, uint64_t *count)
+{
+    pthread_t ids[1024];
+    uint32_t started = 0;
+    atomic_store(&p->next_row, 0u);
+    double t0 = rtk_now();
+    for (uint32_t i = 1; i < threads; i++) {
+        if (pthread_create(&ids[started], NULL, pass_worker, p) != 0)
+            break;
+        started++;
+    }
+    pass_worker(p);
+    for (uint32_t i = 0; i < started; i++)
+        pthread_join(ids[i], NULL);
+    double seconds = rtk_now() - t0;
+    if (started + 1 < threads) {
+        rtk_error(RTK_ERR_NOMEM, "bench: could start only %u of %u threads", started + 1, threads);
+        return -1.0;
+    }
+    uint64_t sum = 0;
+    for (uint32_t y = 0; y < p->rows; y++)
+        sum += p->row_count[y];
+    *count = sum;
+    return seconds;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static double median(double *v, uint32_t n)
+{
+    qsort(v, n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/* ---- the benchmark ---- */
+
+/* One accelerator to measure. */
+typedef struct bench_accel {
+    char label[128];          /* as asked for: "embree:quality=low" */
+    const rtk_plugin *plugin;
+    rtk_params *params;       /* owned unless borrowed */
+    int borrowed;             /* params belong to the config */
+} bench_accel;
+
+/* Measurements of one accelerator at one thread count. */
+typedef struct bench_row {
+    const bench_accel *accel;
+    uint32_t threads;
+    double build_ms, primary_ms, ao_ms;
+    uint64_t primary_hits, ao_rays, ao_unoccluded;
+    int has_tree;             /* kernel nodes exist: the statistics below are valid */
+    uint32_t nodes, leaves, depth;
+    double sah_cost;
+    size_t memory;            /* bytes of nodes, leaf-ordered triangles and ids */
+} bench_row;
+
+/* Everything one run needs, freed by bench_free. */
+typedef struct bench {
+    rtk_bench_options opt;
+    rtk_config *config;
+    rtk_scene *scene;
+    bench_accel *accels;
+    size_t accel_count;
+    uint32_t *threads;
+    size_t thread_count;
+    uint32_t width, height;
+    rtk_bench_camera cam;
+    double diag;
+    rtk_ray *primary, *ao;
+    rtk_hit *hits;
+    size_t *primary_rows, *ao_rows;
+    uint64_t *row_count;
+    double *times;
+    bench_row *rows;
+    size_t row_count_done;
+    uint64_t hash;
+} bench;
+
+static void bench_free(bench *b)
+{
+    for (size_t i = 0; i < b->accel_count; i++)
+        if (!b->accels[i].borrowed)
+            rtk_params_destroy(b->accels[i].params);
+    free(b->accels);
+    free(b->threads);
+    free(b->primary);
+    free(b->ao);
+    free(b->hits);
+    free(b->primary_rows);
+    free(b->ao_rows);
+    free(b->row_count);
+    free(b->times);
+    free(b->rows);
+    rtk_scene_free(b->scene);
+    rtk_config_destroy(b->config);
+}
+
+static int has_suffix(const char *s, const char *suffix)
+{
+    size_t n = strlen(s), m = strlen(suffix);
+    return n >= m && strcasecmp(s + n - m, suffix) == 0;
+}
+
+/* Parses "name[:key=value]..." into a, with the plugin's defaults for the rest. */
+static rtk_status parse_accel(rtk_registry *reg, const char *spec, bench_accel *a)
+{
+    char name[128];
+    size_t len = strcspn(spec, ":");
+    if (len == 0 || len >= sizeof name || strlen(spec) >= sizeof a->label)
+        return rtk_error(RTK_ERR_INVALID, "bench: bad accelerator '%s' (expected NAME or NAME:KEY=VALUE:...)", spec);
+    memcpy(name, spec, len);
+    name[len] = '\0';
+    snprintf(a->label, sizeof a->label, "%s", spec);
+    rtk_status st = rtk_registry_find(reg, RTK_KIND_ACCELERATOR, name, &a->plugin);
+    if (st != RTK_OK)
+        return st;
+    a->params = rtk_params_defaults(a->plugin);
+    if (!a->params)
+        return RTK_ERR_NOMEM;
+    const char *p = spec + len;
+    while (*p == ':') {
+        p++;
+        size_t n = strcspn(p, ":");
+        char setting[256], *eq;
+        snprintf(setting, sizeof setting, "%.*s", (int)n, p);
+        eq = strchr(setting, '=');
+        if (!eq)
+            return rtk_error(RTK_ERR_INVALID, "bench: accelerator '%s': '%s' is not KEY=VALUE", spec, setting);
+        *eq = '\0';
+        st = rtk_params_set_text(a->params, setting, eq + 1);
+        if (st != RTK_OK) {
+            char msg[1024];
+            snprintf(msg, sizeof msg, "%s", rtk_error_message());
+            return rtk_error(st, "bench: accelerator '%s': %s", spec, msg);
+        }
+        p += n;
+    }
+    return RTK_OK;
+}
+
+static rtk_status choose_accels(bench *b, rtk_registry *reg)
+{
+    const rtk_bench_options *o = &b->opt;
+    size_t n = o->accelerator_count;
+    if (o->accelerators && n > 0) {
+        b->accels = rtk_calloc(n, sizeof *b->accels);
+        if (!b->accels)
+            return RTK_ERR_NOMEM;
+        for (size_t i = 0; i < n; i++) {
+            rtk_status st = parse_accel(reg, o->accelerators[i], &b->accels[b->accel_count]);
+            b->accel_count++;
+            if (st != RTK_OK)
+                return st;
+        }
+        return RTK_OK;
+    }
+    if (b->config) {
+        b->accels = rtk_calloc(1, sizeof *b->accels);
+        if (!b->accels)
+            return RTK_ERR_NOMEM;
+        bench_accel *a = &b->accels[b->accel_count++];
+        a->plugin = b->config->accelerator.plugin;
+        a->params = b->config->accelerator.params;
+        a->borrowed = 1;
+        snprintf(a->label, sizeof a->label, "%s", a->plugin->name);
+        return RTK_OK;
+    }
+    size_t total = rtk_registry_count(reg);
+    b->accels = rtk_calloc(total ? total : 1, sizeof *b->accels);
+    if (!b->accels)
+        return RTK_ERR_NOMEM;
+    for (size_t i = 0; i < total; i++) {
+        const rtk_plugin_info *info = rtk_registry_at(reg, i);
+        if (!info->plugin || info->problem || info->plugin->kind != RTK_KIND_ACCELERATOR)
+            continue;
+        rtk_status st = parse_accel(reg, info->plugin->name, &b->accels[b->accel_count]);
+        b->accel_count++;
+        if (st != RTK_OK)
+            return st;
+    }
+    if (b->accel_count == 0)
+        return rtk_error(RTK_ERR_PLUGIN, "bench: no accelerator plugins found (see `rtk plugins`)");
+    return RTK_OK;
+}
+
+static rtk_status choose_threads(bench *b)
+{
+    const rtk_bench_options *o = &b->opt;
+    if (o->threads && o->threads_count > 0) {
+        b->threads = rtk_calloc(o->threads_count, sizeof *b->threads);
+        if (!b->threads)
+            return RTK_ERR_NOMEM;
+        for (size_t i = 0; i < o->threads_count; i++) {
+            if (o->threads[i] < 1 || o->threads[i] > 1024)
+                return rtk_error(RTK_ERR_INVALID, "bench: %u threads is not in [1, 1024]", o->threads[i]);
+            b->threads[b->thread_count++] = o->threads[i];
+        }
+        return RTK_OK;
+    }
+    uint32_t cores = rtk_core_count();
+    if (b->config && b->config->threads)
+        cores = b->config->threads;
+    b->threads = rtk_calloc(2, sizeof *b->threads);
+    if (!b->threads)
+        return RTK_ERR_NOMEM;
+    b->threads[b->thread_count++] = 1;
+    if (cores > 1)
+        b->threads[b->thread_count++] = cores > 1024 ? 1024 : cores;
+    return RTK_OK;
+}
+
+static rtk_status load_scene(bench *b, const char *path, rtk_registry *reg)
+{
+    const char *mesh = path;
+    if (has_suffix(path, ".cfg")) {
+        rtk_config_options co;
+        memset(&co, 0, sizeof co);
+        co.size = sizeof co;
+        co.allow_config_plugins = b->opt.allow_config_plugins;
+        rtk_status st = rtk_config_load(path, reg, &co, &b->config);
+        if (st != RTK_OK)
+            return st;
+        mesh = b->config->scene_path;
+    }
+    rtk_status st;
+    if (has_suffix(mesh, ".obj")) {
+        st = rtk_bench_read_obj(mesh, &b->scene);
+    } else {
+        /* glTF: the kernel's loader, which drops zero-area triangles. */
+        st = rtk_scene_load(mesh, 0, &b->scene);
+    }
+    if (st != RTK_OK)
+        return st;
+    if (b->scene->triangle_count == 0)
+        return rtk_error(RTK_ERR_INVALID, "%s: no triangles", mesh);
+    return RTK_OK;
+}
+
+static rtk_status setup_camera(bench *b)
+{
+    const rtk_bench_options *o = &b->opt;
+    const double world_up[3] = {0.0, 1.0, 0.0};
+    if (o->has_camera)
+        return rtk_bench_camera_look(o->eye, o->look_at, world_up, o->fov_deg, &b->cam);
+    if (b->config && b->config->has_camera) {
+        const rtk_camera_desc *c = &b->config->camera;
+        const double eye[3] = {c->position.x, c->position.y, c->position.z};
+        const double at[3] = {c->look_at.x, c->look_at.y, c->look_at.z};
+        const double up[3] = {c->up.x, c->up.y, c->up.z};
+        return rtk_bench_camera_look(eye, at, up, c->fov_deg, &b->cam);
+    }
+    rtk_bench_camera_recipe(b->scene->bounds, &b->cam);
+    return RTK_OK;
+}
+
+static void progress(const bench *b, const bench_accel *a, uint32_t threads, const char *what, uint32_t i,
+                     uint32_t n)
+{
+    if (!b->opt.progress)
+        return;
+    fprintf(stderr, "\r\033[Kbench: %s, %u thread%s: %s %u/%u", a->label, threads, threads == 1 ? "" : "s", what, i,
+            n);
+    fflush(stderr);
+}
+
+/* Node, leaf, depth, SAH cost (c_node = c_tri = 1, relative to the root's
+ * area) and memory of the kernel tree the scene holds. */
+static void tree_stats(const rtk_scene *s, bench_row *row)
+{
+    row->has_tree = s->node_count > 0;
+    if (!row->has_tree)
+        return;
+    double root = 0.0, cost = 0.0;
+    uint32_t leaves = 0;
+    for (uint32_t i = 0; i < s->node_count; i++) {
+        const rtk_bvh_node *n = &s->nodes[i];
+        double dx = (double)n->upper[0] - n->lower[0], dy = (double)n->upper[1] - n->lower[1],
+               dz = (double)n->upper[2] - n->lower[2];
+        double area = 2.0 * (dx * dy + dy * dz + dz * dx);
+        if (i == 0)
+            root = area;
+        if (n->count > 0) {
+            leaves++;
+            cost += area * n->count;
+        } else {
+            cost += area;
+        }
+    }
+    row->nodes = s->node_count;
+    row->leaves = leaves;
+    row->depth = s->bvh_depth;
+    row->sah_cost = root > 0.0 ? cost / root : NAN;
+    row->memory = (size_t)s->node_count * sizeof(rtk_bvh_node) +
+                  (size_t)s->triangle_count * (9 * sizeof(float) + sizeof(uint32_t));
+}
+
+/* Builds with a on threads (median of the runs) and traces both passes. */
+static rtk_status measure(bench *b, const bench_accel *a, uint32_t threads, bench_row *row)
+{
+    rtk_scene *s = b->scene;
+    uint32_t runs = b->opt.runs;
+    memset(row, 0, sizeof *row);
+    row->accel = a;
+    row->threads = threads;
+    for (uint32_t i = 0; i < runs; i++) {
+        progress(b, a, threads, "build", i + 1, runs);
+        /* The previous instance is torn down outside the timed span. */
+        rtk_bvh_release(s);
+        double t0 = rtk_now();
+        rtk_status st = rtk_bvh_build(s, a->plugin, a->params, threads);
+        b->times[i] = rtk_now() - t0;
+        if (st != RTK_OK)
+            return st;
+    }
+    row->build_ms = 1e3 * median(b->times, runs);
+    tree_stats(s, row);
+
+    size_t pixels = (size_t)b->width * b->height;
+    bench_pass pp = {.scene = s, .rays = b->primary, .row_start = b->primary_rows, .rows = b->height,
+                     .closest = 1, .hits = b->hits, .row_count = b->row_count};
+    progress(b, a, threads, "primary warm-up", 1, 1);
+    uint64_t hits = 0, count = 0;
+    if (run_pass(&pp, threads, &hits) < 0.0)
+        return RTK_ERR_NOMEM;
+    row->primary_hits = hits;
+
+    /* AO rays from this tracer's own hits, generated before any timing. */
+    size_t n_ao = 0;
+    for (uint32_t y = 0; y < b->height; y++) {
+        b->ao_rows[y] = n_ao;
+        for (uint32_t x = 0; x < b->width; x++) {
+            size_t i = (size_t)y * b->width + x;
+            if (b->hits[i].prim == RTK_INVALID_ID)
+                continue;
+            rtk_bench_ao_rays(s, &b->primary[i], &b->hits[i], i, b->diag, BENCH_AO_RAYS, &b->ao[n_ao]);
+            n_ao += BENCH_AO_RAYS;
+        }
+    }
+    b->ao_rows[b->height] = n_ao;
+    row->ao_rays = n_ao;
+    bench_pass ap = {.scene = s, .rays = b->ao, .row_start = b->ao_rows, .rows = b->height, .closest = 0,
+                     .row_count = b->row_count};
+    progress(b, a, threads, "AO warm-up", 1, 1);
+    if (run_pass(&ap, threads, &row->ao_unoccluded) < 0.0)
+        return RTK_ERR_NOMEM;
+
+    for (uint32_t i = 0; i < runs; i++) {
+        progress(b, a, threads, "primary pass", i + 1, runs);
+        b->times[i] = run_pass(&pp, threads, &count);
+        if (b->times[i] < 0.0)
+            return RTK_ERR_NOMEM;
+        if (count != row->primary_hits)
+            return rtk_error(RTK_ERR_PLUGIN, "bench: %s: primary hits changed between passes (%llu, then %llu)",
+                             a->label, (unsigned long long)row->primary_hits, (unsigned long long)count);
+    }
+    row->primary_ms = 1e3 * median(b->times, runs);
+    for (uint32_t i = 0; i < runs; i++) {
+        progress(b, a, threads, "AO pass", i + 1, runs);
+        b->times[i] = run_pass(&ap, threads, &count);
+        if (b->times[i] < 0.0)
+            return RTK_ERR_NOMEM;
+        if (count != row->ao_unoccluded)
+            return rtk_error(RTK_ERR_PLUGIN, "bench: %s: unoccluded AO rays changed between passes (%llu, then %llu)",
+                             a->label, (unsigned long long)row->ao_unoccluded, (unsigned long long)count);
+    }
+    row->ao_ms = 1e3 * median(b->times, runs);
+    (void)pixels;
+    rtk_bvh_release(s);
+    return RTK_OK;
+}
+
+static double mrays(uint64_t rays, double ms)
+{
+    return ms > 0.0 ? (double)rays / (ms * 1e3) : 0.0;
+}
+
+static double mean_ao(const bench_row *r)
+{
+    return r->ao_rays ? (double)r->ao_unoccluded / (double)r->ao_rays : 0.0;
+}
+
+static void print_report(const bench *b, const char *path, FILE *out)
+{
+    const rtk_scene *s = b->scene;
+    const rtk_bench_camera *c = &b->cam;
+    fprintf(out, "rtk bench: %s\n", path);
+    fprintf(out, "triangles %u, vertices %u, bounds diagonal %.6g\n", s->triangle_count, s->vertex_count, b->diag);
+    fprintf(out, "image %ux%u, camera eye (%.6g, %.6g, %.6g) forward (%.6g, %.6g, %.6g), vertical fov %.6g\n",
+            b->width, b->height, c->eye[0], c->eye[1], c->eye[2], c->fwd[0], c->fwd[1], c->fwd[2],
+            2.0 * atan(c->th) * 180.0 / M_PI);
+    fprintf(out, "AO: %u rays per hit, tfar %.6g; median of %u builds and %u timed passes (after one warm-up)\n",
+            BENCH_AO_RAYS, (double)(float)(0.1 * b->diag), b->opt.runs, b->opt.runs);
+    fprintf(out, "primary_ray_hash 0x%016llx\n\n", (unsigned long long)b->hash);
+    int w = 11;
+    for (size_t i = 0; i < b->accel_count; i++)
+        if ((int)strlen(b->accels[i].label) > w)
+            w = (int)strlen(b->accels[i].label);
+    fprintf(out, "%-*s %7s %9s %13s %9s %12s %9s %13s %9s %9s %9s %5s %8s %10s %9s\n", w, "accelerator", "threads",
+            "build_ms", "primary_mrays", "ao_mrays", "primary_hits", "ao_rays", "ao_unoccluded", "mean_ao", "nodes",
+            "leaves", "depth", "sah_cost", "memory_MB", "total_ms");
+    for (size_t i = 0; i < b->row_count_done; i++) {
+        const bench_row *r = &b->rows[i];
+        fprintf(out, "%-*s %7u %9.2f %13.3f %9.3f %12llu %9llu %13llu %9.6f", w, r->accel->label, r->threads,
+                r->build_ms, mrays((uint64_t)b->width * b->height, r->primary_ms), mrays(r->ao_rays, r->ao_ms),
+                (unsigned long long)r->primary_hits, (unsigned long long)r->ao_rays,
+                (unsigned long long)r->ao_unoccluded, mean_ao(r));
+        if (r->has_tree)
+            fprintf(out, " %9u %9u %5u %8.2f %10.2f", r->nodes, r->leaves, r->depth, r->sah_cost,
+                    (double)r->memory / (1024.0 * 1024.0));
+        else
+            fprintf(out, " %9s %9s %5s %8s %10s", "-", "-", "-", "-", "-");
+        fprintf(out, " %9.2f\n", r->build_ms + r->primary_ms + r->ao_ms);
+    }
+    /* Each accelerator against the first embree row with the same threads. */
+    int header = 0;
+    for (size_t i = 0; i < b->row_count_done; i++) {
+        const bench_row *r = &b->rows[i], *e = NULL;
+        if (strcmp(r->accel->plugin->name, "embree") == 0)
+            continue;
+        for (size_t j = 0; j < b->row_count_done && !e; j++)
+            if (strcmp(b->rows[j].accel->plugin->name, "embree") == 0 && b->rows[j].threads == r->threads)
+                e = &b->rows[j];
+        if (!e)
+            continue;
+        if (!header) {
+            fprintf(out, "\nagainst embree at the same threads (speed: >1 is faster than embree; time: <1 is "
+                         "faster)\n");
+            fprintf(out, "%-*s %7s %12s %13s %9s %10s   %s\n", w, "accelerator", "threads", "build_time",
+                    "primary_speed", "ao_speed", "total_time", "versus");
+            header = 1;
+        }
+        fprintf(out, "%-*s %7u %11.3fx %12.3fx %8.3fx %9.3fx   %s\n", w, r->accel->label, r->threads,
+                r->build_ms / e->build_ms, e->primary_ms / r->primary_ms, e->ao_ms / r->ao_ms,
+                (r->build_ms + r->primary_ms + r->ao_ms) / (e->build_ms + e->primary_ms + e->ao_ms), e->accel->label);
+    }
+}
+
+static rtk_status write_csv(const bench *b, const char *path)
+{
+    FILE *f = fopen(b->opt.csv, "w");
+    if (!f)
+        return rtk_error(RTK_ERR_IO, "bench: cannot write %s: %s", b->opt.csv, strerror(errno));
+    fprintf(f, "mesh,accelerator,threads,width,height,triangles,build_ms,primary_ms,ao_ms,primary_mrays,ao_mrays,"
+               "primary_hits,ao_rays,ao_unoccluded,mean_ao,primary_ray_hash,nodes,leaves,depth,sah_cost,"
+               "memory_bytes,total_ms\n");
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    for (size_t i = 0; i < b->row_count_done; i++) {
+        const bench_row *r = &b->rows[i];
+        fprintf(f, "%s,%s,%u,%u,%u,%u,%.4f,%.4f,%.4f,%.4f,%.4f,%llu,%llu,%llu,%.6f,0x%016llx,", base, r->accel->label,
+                r->threads, b->width, b->height, b->scene->triangle_count, r->build_ms, r->primary_ms, r->ao_ms,
+                mrays((uint64_t)b->width * b->height, r->primary_ms), mrays(r->ao_rays, r->ao_ms),
+                (unsigned long long)r->primary_hits, (unsigned long long)r->ao_rays,
+                (unsigned long long)r->ao_unoccluded, mean_ao(r), (unsigned long long)b->hash);
+        if (r->has_tree)
+            fprintf(f, "%u,%u,%u,%.4f,%zu,", r->nodes, r->leaves, r->depth, r->sah_cost, r->memory);
+        else
+            fprintf(f, ",,,,,");
+        fprintf(f, "%.4f\n", r->build_ms + r->primary_ms + r->ao_ms);
+    }
+    int bad = ferror(f);
+    if (fclose(f) != 0 || bad)
+        return rtk_error(RTK_ERR_IO, "bench: error writing %s", b->opt.csv);
+    return RTK_OK;
+}
+
+RTK_API rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk_bench_options *options, FILE *out)
+{
+    bench b;
+    memset(&b, 0, sizeof b);
+    if (options)
+        memcpy(&b.opt, options, options->size < sizeof b.opt ? options->size : sizeof b.opt);
+    b.opt.size = sizeof b.opt;
+    if (b.opt.runs == 0)
+        b.opt.runs = 5;
+    if (b.opt.runs > 1000)
+        return rtk_error(RTK_ERR_INVALID, "bench: %u runs is more than 1000", b.opt.runs);
+    rtk_status st = load_scene(&b, path, registry);
+    if (st == RTK_OK)
+        st = choose_accels(&b, registry);
+    if (st == RTK_OK)
+        st = choose_threads(&b);
+    if (st != RTK_OK) {
+        bench_free(&b);
+        return st;
+    }
+    b.width = b.opt.width ? b.opt.width : b.config ? b.config->width : 1024;
+    b.height = b.opt.height ? b.opt.height : b.config ? b.config->height : 768;
+    if (b.width > 16384 || b.height > 16384 || (!b.opt.width) != (!b.opt.height)) {
+        bench_free(&b);
+        return rtk_error(RTK_ERR_INVALID, "bench: image %ux%u: give both width and height, at most 16384 each",
+                         b.width, b.height);
+    }
+    b.diag = rtk_bench_diag(b.scene->bounds);
+    st = setup_camera(&b);
+    size_t pixels = (size_t)b.width * b.height;
+    if (st == RTK_OK) {
+        b.primary = rtk_alloc(sizeof *b.primary * pixels);
+        b.hits = rtk_alloc(sizeof *b.hits * pixels);
+        b.ao = rtk_alloc(sizeof *b.ao * pixels * BENCH_AO_RAYS);
+        b.primary_rows = rtk_alloc(sizeof *b.primary_rows * (b.height + 1));
+        b.ao_rows = rtk_alloc(sizeof *b.ao_rows * (b.height + 1));
+        b.row_count = rtk_alloc(sizeof *b.row_count * b.height);
+        b.times = rtk_alloc(sizeof *b.times * b.opt.runs);
+        b.rows = rtk_calloc(b.accel_count * b.thread_count, sizeof *b.rows);
+        if (!b.primary || !b.hits || !b.ao || !b.primary_rows || !b.ao_rows || !b.row_count || !b.times || !b.rows)
+            st = RTK_ERR_NOMEM;
+    }
+    if (st != RTK_OK) {
+        bench_free(&b);
+        return st;
+    }
+    rtk_bench_primary_rays(&b.cam, b.width, b.height, b.primary);
+    b.hash = rtk_bench_ray_hash(b.primary, pixels);
+    for (uint32_t y = 0; y <= b.height; y++)
+        b.primary_rows[y] = (size_t)y * b.width;
+    for (size_t i = 0; i < b.accel_count && st == RTK_OK; i++) {
+        for (size_t t = 0; t < b.thread_count && st == RTK_OK; t++) {
+            st = measure(&b, &b.accels[i], b.threads[t], &b.rows[b.row_count_done]);
+            if (st == RTK_OK)
+                b.row_count_done++;
+        }
+    }
+    if (b.opt.progress)
+        fprintf(stderr, "\r\033[K");
+    if (st != RTK_OK) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", rtk_error_message());
+        st = rtk_error(st, "bench: %s: %s", b.accels[b.row_count_done / b.thread_count].label, msg);
+    }
+    if (b.row_count_done > 0)
+        print_report(&b, path, out);
+    if (b.row_count_done > 0 && b.opt.csv) {
+        rtk_status cst = write_csv(&b, path);
+        if (st == RTK_OK)
+            st = cst;
+    }
+    bench_free(&b);
+    return st;
+}
