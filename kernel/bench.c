@@ -7,6 +7,7 @@
  * path (rtk_bvh_closest / rtk_bvh_any), which hands the rays to a plugin's
  * own traversal when it has one (embree). */
 #include "bench.h"
+#include "bvh_wide.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -391,6 +392,8 @@ typedef struct bench_row {
     uint32_t nodes, leaves, depth;
     double sah_cost;
     size_t memory;            /* bytes of nodes, leaf-ordered triangles and ids */
+    size_t wide_memory;       /* bytes of the 8-wide tree the kernel traverses, 0 if none */
+    const char *traversal;    /* "avx2", "sse", "scalar", "binary" or "own" */
 } bench_row;
 
 /* Everything one run needs, freed by bench_free. */
@@ -606,6 +609,12 @@ static void progress(const bench *b, const bench_accel *a, uint32_t threads, con
  * area) and memory of the kernel tree the scene holds. */
 static void tree_stats(const rtk_scene *s, bench_row *row)
 {
+    row->traversal = s->own_traversal                                 ? "own"
+                     : s->wide && s->wide->path != RTK_SIMD_BINARY ? rtk_simd_name(s->wide->path)
+                                                                    : "binary";
+    if (s->wide)
+        row->wide_memory = (size_t)s->wide->node_count * sizeof(rtk_wide_node) +
+                           (size_t)s->wide->tri_block_count * sizeof(rtk_wide_tris);
     row->has_tree = s->node_count > 0;
     if (!row->has_tree)
         return;
@@ -654,7 +663,6 @@ static rtk_status measure(bench *b, const bench_accel *a, uint32_t threads, benc
     row->build_ms = 1e3 * median(b->times, runs);
     tree_stats(s, row);
 
-    size_t pixels = (size_t)b->width * b->height;
     bench_pass pp = {.scene = s, .rays = b->primary, .row_start = b->primary_rows, .rows = b->height,
                      .closest = 1, .hits = b->hits, .row_count = b->row_count};
     progress(b, a, threads, "primary warm-up", 1, 1);
@@ -703,7 +711,6 @@ static rtk_status measure(bench *b, const bench_accel *a, uint32_t threads, benc
                              a->label, (unsigned long long)row->ao_unoccluded, (unsigned long long)count);
     }
     row->ao_ms = 1e3 * median(b->times, runs);
-    (void)pixels;
     rtk_bvh_release(s);
     return RTK_OK;
 }
@@ -734,9 +741,9 @@ static void print_report(const bench *b, const char *path, FILE *out)
     for (size_t i = 0; i < b->accel_count; i++)
         if ((int)strlen(b->accels[i].label) > w)
             w = (int)strlen(b->accels[i].label);
-    fprintf(out, "%-*s %7s %9s %13s %9s %12s %9s %13s %9s %9s %9s %5s %8s %10s %9s\n", w, "accelerator", "threads",
-            "build_ms", "primary_mrays", "ao_mrays", "primary_hits", "ao_rays", "ao_unoccluded", "mean_ao", "nodes",
-            "leaves", "depth", "sah_cost", "memory_MB", "total_ms");
+    fprintf(out, "%-*s %7s %9s %13s %9s %12s %9s %13s %9s %9s %9s %5s %8s %9s %7s %9s %9s\n", w, "accelerator",
+            "threads", "build_ms", "primary_mrays", "ao_mrays", "primary_hits", "ao_rays", "ao_unoccluded", "mean_ao",
+            "nodes", "leaves", "depth", "sah_cost", "memory_MB", "wide_MB", "traversal", "total_ms");
     for (size_t i = 0; i < b->row_count_done; i++) {
         const bench_row *r = &b->rows[i];
         fprintf(out, "%-*s %7u %9.2f %13.3f %9.3f %12llu %9llu %13llu %9.6f", w, r->accel->label, r->threads,
@@ -744,11 +751,15 @@ static void print_report(const bench *b, const char *path, FILE *out)
                 (unsigned long long)r->primary_hits, (unsigned long long)r->ao_rays,
                 (unsigned long long)r->ao_unoccluded, mean_ao(r));
         if (r->has_tree)
-            fprintf(out, " %9u %9u %5u %8.2f %10.2f", r->nodes, r->leaves, r->depth, r->sah_cost,
+            fprintf(out, " %9u %9u %5u %8.2f %9.2f", r->nodes, r->leaves, r->depth, r->sah_cost,
                     (double)r->memory / (1024.0 * 1024.0));
         else
-            fprintf(out, " %9s %9s %5s %8s %10s", "-", "-", "-", "-", "-");
-        fprintf(out, " %9.2f\n", r->build_ms + r->primary_ms + r->ao_ms);
+            fprintf(out, " %9s %9s %5s %8s %9s", "-", "-", "-", "-", "-");
+        if (r->wide_memory)
+            fprintf(out, " %7.2f", (double)r->wide_memory / (1024.0 * 1024.0));
+        else
+            fprintf(out, " %7s", "-");
+        fprintf(out, " %9s %9.2f\n", r->traversal, r->build_ms + r->primary_ms + r->ao_ms);
     }
     /* Each accelerator against the first embree row with the same threads. */
     int header = 0;
@@ -781,7 +792,7 @@ static rtk_status write_csv(const bench *b, const char *path)
         return rtk_error(RTK_ERR_IO, "bench: cannot write %s: %s", b->opt.csv, strerror(errno));
     fprintf(f, "mesh,accelerator,threads,width,height,triangles,build_ms,primary_ms,ao_ms,primary_mrays,ao_mrays,"
                "primary_hits,ao_rays,ao_unoccluded,mean_ao,primary_ray_hash,nodes,leaves,depth,sah_cost,"
-               "memory_bytes,total_ms\n");
+               "memory_bytes,wide_memory_bytes,traversal,total_ms\n");
     const char *base = strrchr(path, '/');
     base = base ? base + 1 : path;
     for (size_t i = 0; i < b->row_count_done; i++) {
@@ -795,7 +806,9 @@ static rtk_status write_csv(const bench *b, const char *path)
             fprintf(f, "%u,%u,%u,%.4f,%zu,", r->nodes, r->leaves, r->depth, r->sah_cost, r->memory);
         else
             fprintf(f, ",,,,,");
-        fprintf(f, "%.4f\n", r->build_ms + r->primary_ms + r->ao_ms);
+        if (r->wide_memory)
+            fprintf(f, "%zu", r->wide_memory);
+        fprintf(f, ",%s,%.4f\n", r->traversal, r->build_ms + r->primary_ms + r->ao_ms);
     }
     int bad = ferror(f);
     if (fclose(f) != 0 || bad)
