@@ -1,10 +1,10 @@
 /* The on-disk BVH cache (format in bvh_cache.h). A file is trusted only
  * after every check passed; any doubt means one warning and a rebuild. */
 #include "bvh_cache.h"
+#include "bvh_wide.h"
 
 #include <errno.h>
 #include <fcntl.h>
-#include <math.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -244,18 +244,28 @@ static uint64_t checksum(const unsigned char *header, const rtk_bvh_node *nodes,
     return rtk_hash64(prim_ids, sizeof *prim_ids * (size_t)prim_count, h);
 }
 
-/* Each primitive's bounds, exactly as rtk_bvh_build computes them. */
+static float min2(float a, float b)
+{
+    return b < a ? b : a;
+}
+
+static float max2(float a, float b)
+{
+    return b > a ? b : a;
+}
+
+/* Each primitive's bounds, as rtk_bvh_build computes them. Vertices are
+ * finite (rtk_scene_finish), so these equal fminf/fmaxf up to the sign of
+ * a zero, which no enclosing test (<=) can see; they compile to minss. */
 static void triangle_bounds(const rtk_scene *s, rtk_bounds *bounds)
 {
     for (uint32_t i = 0; i < s->triangle_count; i++) {
-        rtk_vec3 v[3];
-        rtk_scene_triangle(s, i, &v[0], &v[1], &v[2]);
-        rtk_bounds b = {v[0], v[0]};
-        for (int k = 1; k < 3; k++) {
-            b.lower = rtk_vec3_make(fminf(b.lower.x, v[k].x), fminf(b.lower.y, v[k].y), fminf(b.lower.z, v[k].z));
-            b.upper = rtk_vec3_make(fmaxf(b.upper.x, v[k].x), fmaxf(b.upper.y, v[k].y), fmaxf(b.upper.z, v[k].z));
-        }
-        bounds[i] = b;
+        rtk_vec3 a, b, c;
+        rtk_scene_triangle(s, i, &a, &b, &c);
+        bounds[i].lower =
+            rtk_vec3_make(min2(min2(a.x, b.x), c.x), min2(min2(a.y, b.y), c.y), min2(min2(a.z, b.z), c.z));
+        bounds[i].upper =
+            rtk_vec3_make(max2(max2(a.x, b.x), c.x), max2(max2(a.y, b.y), c.y), max2(max2(a.z, b.z), c.z));
     }
 }
 
@@ -309,7 +319,8 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
         return 0;
     }
     if (h.geometry != geometry || h.prim_count != n) {
-        snprintf(why, why_size, "stale: built for other geometry (%u triangles, hash %016llx; the scene has %u, %016llx)",
+        snprintf(why, why_size,
+                 "stale: built for other geometry (%u triangles, hash %016llx; the scene has %u, %016llx)",
                  h.prim_count, (unsigned long long)h.geometry, n, (unsigned long long)geometry);
         return 0;
     }
@@ -349,6 +360,7 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
         goto done;
     }
     const size_t node_bytes = sizeof *nodes * (size_t)h.node_count, prim_bytes = sizeof *prims * (size_t)n;
+    double t0 = rtk_now();
     ssize_t a = read_all(fd, nodes, node_bytes);
     ssize_t b = a == (ssize_t)node_bytes ? read_all(fd, prims, prim_bytes) : 0;
     ssize_t c = b == (ssize_t)prim_bytes ? read_all(fd, &stored, sizeof stored) : 0;
@@ -360,10 +372,12 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
         snprintf(why, why_size, "truncated while reading (the file changed)");
         goto done;
     }
+    double t1 = rtk_now();
     if (checksum(hb, nodes, h.node_count, prims, n) != stored) {
         snprintf(why, why_size, "checksum mismatch");
         goto done;
     }
+    double t2 = rtk_now();
     triangle_bounds(s, bounds);
     rtk_build_args args;
     memset(&args, 0, sizeof args);
@@ -383,6 +397,7 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
         snprintf(why, why_size, "invalid tree: %s", msg);
         goto done;
     }
+    double t3 = rtk_now();
     if (depth != h.depth) {
         snprintf(why, why_size, "header says depth %u, the tree has %u", h.depth, depth);
         goto done;
@@ -394,11 +409,17 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
         for (int k = 0; k < 3; k++)
             dst[3 * k] = v[k].x, dst[3 * k + 1] = v[k].y, dst[3 * k + 2] = v[k].z;
     }
+    double t4 = rtk_now();
     s->nodes = nodes, s->node_count = h.node_count, s->bvh_depth = depth;
     s->prim_ids = prims, s->tri_verts = tri_verts;
     nodes = NULL, prims = NULL, tri_verts = NULL;
+    if (rtk_wide_build(s) != RTK_OK)
+        rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
     ok = 1;
-    rtk_log(RTK_LOG_DEBUG, "BVH cache %s: loaded %u nodes, depth %u", path, s->node_count, depth);
+    rtk_log(RTK_LOG_DEBUG,
+            "BVH cache %s: loaded %u nodes, depth %u (read %.3f s, checksum %.3f s, validation %.3f s, "
+            "layout %.3f s, wide tree %.3f s)",
+            path, s->node_count, depth, t1 - t0, t2 - t1, t3 - t2, t4 - t3, rtk_now() - t4);
 done:
     free(nodes);
     free(prims);
