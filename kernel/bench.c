@@ -18,6 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <time.h>
 
 #define BENCH_AO_RAYS 8u
 #define BENCH_SEED 1u
@@ -312,9 +313,24 @@ typedef struct bench_pass {
     atomic_uint next_row;
 } bench_pass;
 
+/* One worker of a pass and the CPU time it used. */
+typedef struct pass_thread {
+    bench_pass *pass;
+    double cpu_seconds;
+} pass_thread;
+
+static double cpu_now(clockid_t clock)
+{
+    struct timespec ts;
+    clock_gettime(clock, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
 static void *pass_worker(void *arg)
 {
-    bench_pass *p = arg;
+    pass_thread *t = arg;
+    bench_pass *p = t->pass;
+    double c0 = cpu_now(CLOCK_THREAD_CPUTIME_ID);
     for (;;) {
         uint32_t y = atomic_fetch_add(&p->next_row, 1u);
         if (y >= p->rows)
@@ -329,26 +345,35 @@ static void *pass_worker(void *arg)
         }
         p->row_count[y] = count;
     }
+    t->cpu_seconds = cpu_now(CLOCK_THREAD_CPUTIME_ID) - c0;
     return NULL;
 }
 
 /* Runs the pass on threads (the calling thread is one of them); returns
- * its wall-clock seconds and the summed count in *count, or -1. */
-static double run_pass(bench_pass *p, uint32_t threads, uint64_t *count)
+ * its wall-clock seconds, the CPU seconds its threads used in *cpu (which
+ * time-sharing with other processes does not inflate) and the summed
+ * count in *count, or -1. */
+static double run_pass(bench_pass *p, uint32_t threads, uint64_t *count, double *cpu)
 {
     pthread_t ids[1024];
+    pass_thread work[1024];
     uint32_t started = 0;
     atomic_store(&p->next_row, 0u);
+    for (uint32_t i = 0; i < threads; i++)
+        work[i] = (pass_thread){p, 0.0};
     double t0 = rtk_now();
     for (uint32_t i = 1; i < threads; i++) {
-        if (pthread_create(&ids[started], NULL, pass_worker, p) != 0)
+        if (pthread_create(&ids[started], NULL, pass_worker, &work[i]) != 0)
             break;
         started++;
     }
-    pass_worker(p);
+    pass_worker(&work[0]);
     for (uint32_t i = 0; i < started; i++)
         pthread_join(ids[i], NULL);
     double seconds = rtk_now() - t0;
+    *cpu = 0.0;
+    for (uint32_t i = 0; i <= started; i++)
+        *cpu += work[i].cpu_seconds;
     if (started + 1 < threads) {
         rtk_error(RTK_ERR_NOMEM, "bench: could start only %u of %u threads", started + 1, threads);
         return -1.0;
@@ -386,7 +411,9 @@ typedef struct bench_accel {
 typedef struct bench_row {
     const bench_accel *accel;
     uint32_t threads;
-    double build_ms, primary_ms, ao_ms;
+    double build_ms, primary_ms, ao_ms;    /* wall clock */
+    double build_cpu_ms;                   /* CPU time of the whole process during the build */
+    double primary_cpu_ms, ao_cpu_ms;      /* CPU time of the tracing threads */
     uint64_t primary_hits, ao_rays, ao_unoccluded;
     int has_tree;             /* kernel nodes exist: the statistics below are valid */
     uint32_t nodes, leaves, depth;
@@ -412,7 +439,7 @@ typedef struct bench {
     rtk_hit *hits;
     size_t *primary_rows, *ao_rows;
     uint64_t *row_count;
-    double *times;
+    double *times, *cpu_times;
     bench_row *rows;
     size_t row_count_done;
     uint64_t hash;
@@ -432,6 +459,7 @@ static void bench_free(bench *b)
     free(b->ao_rows);
     free(b->row_count);
     free(b->times);
+    free(b->cpu_times);
     free(b->rows);
     rtk_scene_free(b->scene);
     rtk_config_destroy(b->config);
@@ -654,20 +682,23 @@ static rtk_status measure(bench *b, const bench_accel *a, uint32_t threads, benc
         progress(b, a, threads, "build", i + 1, runs);
         /* The previous instance is torn down outside the timed span. */
         rtk_bvh_release(s);
-        double t0 = rtk_now();
+        double c0 = cpu_now(CLOCK_PROCESS_CPUTIME_ID), t0 = rtk_now();
         rtk_status st = rtk_bvh_build(s, a->plugin, a->params, threads);
         b->times[i] = rtk_now() - t0;
+        b->cpu_times[i] = cpu_now(CLOCK_PROCESS_CPUTIME_ID) - c0;
         if (st != RTK_OK)
             return st;
     }
     row->build_ms = 1e3 * median(b->times, runs);
+    row->build_cpu_ms = 1e3 * median(b->cpu_times, runs);
     tree_stats(s, row);
 
     bench_pass pp = {.scene = s, .rays = b->primary, .row_start = b->primary_rows, .rows = b->height,
                      .closest = 1, .hits = b->hits, .row_count = b->row_count};
     progress(b, a, threads, "primary warm-up", 1, 1);
     uint64_t hits = 0, count = 0;
-    if (run_pass(&pp, threads, &hits) < 0.0)
+    double cpu;
+    if (run_pass(&pp, threads, &hits, &cpu) < 0.0)
         return RTK_ERR_NOMEM;
     row->primary_hits = hits;
 
@@ -688,12 +719,12 @@ static rtk_status measure(bench *b, const bench_accel *a, uint32_t threads, benc
     bench_pass ap = {.scene = s, .rays = b->ao, .row_start = b->ao_rows, .rows = b->height, .closest = 0,
                      .row_count = b->row_count};
     progress(b, a, threads, "AO warm-up", 1, 1);
-    if (run_pass(&ap, threads, &row->ao_unoccluded) < 0.0)
+    if (run_pass(&ap, threads, &row->ao_unoccluded, &cpu) < 0.0)
         return RTK_ERR_NOMEM;
 
     for (uint32_t i = 0; i < runs; i++) {
         progress(b, a, threads, "primary pass", i + 1, runs);
-        b->times[i] = run_pass(&pp, threads, &count);
+        b->times[i] = run_pass(&pp, threads, &count, &b->cpu_times[i]);
         if (b->times[i] < 0.0)
             return RTK_ERR_NOMEM;
         if (count != row->primary_hits)
@@ -701,9 +732,10 @@ static rtk_status measure(bench *b, const bench_accel *a, uint32_t threads, benc
                              a->label, (unsigned long long)row->primary_hits, (unsigned long long)count);
     }
     row->primary_ms = 1e3 * median(b->times, runs);
+    row->primary_cpu_ms = 1e3 * median(b->cpu_times, runs);
     for (uint32_t i = 0; i < runs; i++) {
         progress(b, a, threads, "AO pass", i + 1, runs);
-        b->times[i] = run_pass(&ap, threads, &count);
+        b->times[i] = run_pass(&ap, threads, &count, &b->cpu_times[i]);
         if (b->times[i] < 0.0)
             return RTK_ERR_NOMEM;
         if (count != row->ao_unoccluded)
@@ -711,6 +743,7 @@ static rtk_status measure(bench *b, const bench_accel *a, uint32_t threads, benc
                              a->label, (unsigned long long)row->ao_unoccluded, (unsigned long long)count);
     }
     row->ao_ms = 1e3 * median(b->times, runs);
+    row->ao_cpu_ms = 1e3 * median(b->cpu_times, runs);
     rtk_bvh_release(s);
     return RTK_OK;
 }
@@ -729,6 +762,7 @@ static void print_report(const bench *b, const char *path, FILE *out)
 {
     const rtk_scene *s = b->scene;
     const rtk_bench_camera *c = &b->cam;
+    uint64_t pixels = (uint64_t)b->width * b->height;
     fprintf(out, "rtk bench: %s\n", path);
     fprintf(out, "triangles %u, vertices %u, bounds diagonal %.6g\n", s->triangle_count, s->vertex_count, b->diag);
     fprintf(out, "image %ux%u, camera eye (%.6g, %.6g, %.6g) forward (%.6g, %.6g, %.6g), vertical fov %.6g\n",
@@ -741,15 +775,23 @@ static void print_report(const bench *b, const char *path, FILE *out)
     for (size_t i = 0; i < b->accel_count; i++)
         if ((int)strlen(b->accels[i].label) > w)
             w = (int)strlen(b->accels[i].label);
-    fprintf(out, "%-*s %7s %9s %13s %9s %12s %9s %13s %9s %9s %9s %5s %8s %9s %7s %9s %9s\n", w, "accelerator",
-            "threads", "build_ms", "primary_mrays", "ao_mrays", "primary_hits", "ao_rays", "ao_unoccluded", "mean_ao",
-            "nodes", "leaves", "depth", "sah_cost", "memory_MB", "wide_MB", "traversal", "total_ms");
+    fprintf(out, "%-*s %7s %9s %13s %9s %12s %9s %13s %9s %9s\n", w, "accelerator", "threads", "build_ms",
+            "primary_mrays", "ao_mrays", "primary_hits", "ao_rays", "ao_unoccluded", "mean_ao", "total_ms");
     for (size_t i = 0; i < b->row_count_done; i++) {
         const bench_row *r = &b->rows[i];
-        fprintf(out, "%-*s %7u %9.2f %13.3f %9.3f %12llu %9llu %13llu %9.6f", w, r->accel->label, r->threads,
-                r->build_ms, mrays((uint64_t)b->width * b->height, r->primary_ms), mrays(r->ao_rays, r->ao_ms),
+        fprintf(out, "%-*s %7u %9.2f %13.3f %9.3f %12llu %9llu %13llu %9.6f %9.2f\n", w, r->accel->label,
+                r->threads, r->build_ms, mrays(pixels, r->primary_ms), mrays(r->ao_rays, r->ao_ms),
                 (unsigned long long)r->primary_hits, (unsigned long long)r->ao_rays,
-                (unsigned long long)r->ao_unoccluded, mean_ao(r));
+                (unsigned long long)r->ao_unoccluded, mean_ao(r), r->build_ms + r->primary_ms + r->ao_ms);
+    }
+    /* CPU time is what the machine's other load does not inflate: tracing
+     * rates per CPU-second of the tracing threads, build in process CPU. */
+    fprintf(out, "\n%-*s %7s %9s %9s %5s %8s %9s %7s %9s %12s %14s %11s\n", w, "accelerator", "threads", "nodes",
+            "leaves", "depth", "sah_cost", "memory_MB", "wide_MB", "traversal", "build_cpu_ms", "primary_cpu_mr",
+            "ao_cpu_mr");
+    for (size_t i = 0; i < b->row_count_done; i++) {
+        const bench_row *r = &b->rows[i];
+        fprintf(out, "%-*s %7u", w, r->accel->label, r->threads);
         if (r->has_tree)
             fprintf(out, " %9u %9u %5u %8.2f %9.2f", r->nodes, r->leaves, r->depth, r->sah_cost,
                     (double)r->memory / (1024.0 * 1024.0));
@@ -759,7 +801,8 @@ static void print_report(const bench *b, const char *path, FILE *out)
             fprintf(out, " %7.2f", (double)r->wide_memory / (1024.0 * 1024.0));
         else
             fprintf(out, " %7s", "-");
-        fprintf(out, " %9s %9.2f\n", r->traversal, r->build_ms + r->primary_ms + r->ao_ms);
+        fprintf(out, " %9s %12.2f %14.3f %11.3f\n", r->traversal, r->build_cpu_ms, mrays(pixels, r->primary_cpu_ms),
+                mrays(r->ao_rays, r->ao_cpu_ms));
     }
     /* Each accelerator against the first embree row with the same threads. */
     int header = 0;
@@ -774,14 +817,15 @@ static void print_report(const bench *b, const char *path, FILE *out)
             continue;
         if (!header) {
             fprintf(out, "\nagainst embree at the same threads (speed: >1 is faster than embree; time: <1 is "
-                         "faster)\n");
-            fprintf(out, "%-*s %7s %12s %13s %9s %10s   %s\n", w, "accelerator", "threads", "build_time",
-                    "primary_speed", "ao_speed", "total_time", "versus");
+                         "faster; cpu: per CPU-second)\n");
+            fprintf(out, "%-*s %7s %10s %13s %9s %10s %11s %7s   %s\n", w, "accelerator", "threads", "build_time",
+                    "primary_speed", "ao_speed", "total_time", "primary_cpu", "ao_cpu", "versus");
             header = 1;
         }
-        fprintf(out, "%-*s %7u %11.3fx %12.3fx %8.3fx %9.3fx   %s\n", w, r->accel->label, r->threads,
+        fprintf(out, "%-*s %7u %9.3fx %12.3fx %8.3fx %9.3fx %10.3fx %6.3fx   %s\n", w, r->accel->label, r->threads,
                 r->build_ms / e->build_ms, e->primary_ms / r->primary_ms, e->ao_ms / r->ao_ms,
-                (r->build_ms + r->primary_ms + r->ao_ms) / (e->build_ms + e->primary_ms + e->ao_ms), e->accel->label);
+                (r->build_ms + r->primary_ms + r->ao_ms) / (e->build_ms + e->primary_ms + e->ao_ms),
+                e->primary_cpu_ms / r->primary_cpu_ms, e->ao_cpu_ms / r->ao_cpu_ms, e->accel->label);
     }
 }
 
@@ -792,23 +836,27 @@ static rtk_status write_csv(const bench *b, const char *path)
         return rtk_error(RTK_ERR_IO, "bench: cannot write %s: %s", b->opt.csv, strerror(errno));
     fprintf(f, "mesh,accelerator,threads,width,height,triangles,build_ms,primary_ms,ao_ms,primary_mrays,ao_mrays,"
                "primary_hits,ao_rays,ao_unoccluded,mean_ao,primary_ray_hash,nodes,leaves,depth,sah_cost,"
-               "memory_bytes,wide_memory_bytes,traversal,total_ms\n");
+               "memory_bytes,wide_memory_bytes,traversal,total_ms,build_cpu_ms,primary_cpu_ms,ao_cpu_ms,"
+               "primary_cpu_mrays,ao_cpu_mrays\n");
     const char *base = strrchr(path, '/');
     base = base ? base + 1 : path;
+    uint64_t pixels = (uint64_t)b->width * b->height;
     for (size_t i = 0; i < b->row_count_done; i++) {
         const bench_row *r = &b->rows[i];
         fprintf(f, "%s,%s,%u,%u,%u,%u,%.4f,%.4f,%.4f,%.4f,%.4f,%llu,%llu,%llu,%.6f,0x%016llx,", base, r->accel->label,
                 r->threads, b->width, b->height, b->scene->triangle_count, r->build_ms, r->primary_ms, r->ao_ms,
-                mrays((uint64_t)b->width * b->height, r->primary_ms), mrays(r->ao_rays, r->ao_ms),
-                (unsigned long long)r->primary_hits, (unsigned long long)r->ao_rays,
-                (unsigned long long)r->ao_unoccluded, mean_ao(r), (unsigned long long)b->hash);
+                mrays(pixels, r->primary_ms), mrays(r->ao_rays, r->ao_ms), (unsigned long long)r->primary_hits,
+                (unsigned long long)r->ao_rays, (unsigned long long)r->ao_unoccluded, mean_ao(r),
+                (unsigned long long)b->hash);
         if (r->has_tree)
             fprintf(f, "%u,%u,%u,%.4f,%zu,", r->nodes, r->leaves, r->depth, r->sah_cost, r->memory);
         else
             fprintf(f, ",,,,,");
         if (r->wide_memory)
             fprintf(f, "%zu", r->wide_memory);
-        fprintf(f, ",%s,%.4f\n", r->traversal, r->build_ms + r->primary_ms + r->ao_ms);
+        fprintf(f, ",%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n", r->traversal, r->build_ms + r->primary_ms + r->ao_ms,
+                r->build_cpu_ms, r->primary_cpu_ms, r->ao_cpu_ms, mrays(pixels, r->primary_cpu_ms),
+                mrays(r->ao_rays, r->ao_cpu_ms));
     }
     int bad = ferror(f);
     if (fclose(f) != 0 || bad)
@@ -854,8 +902,10 @@ RTK_API rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk
         b.ao_rows = rtk_alloc(sizeof *b.ao_rows * (b.height + 1));
         b.row_count = rtk_alloc(sizeof *b.row_count * b.height);
         b.times = rtk_alloc(sizeof *b.times * b.opt.runs);
+        b.cpu_times = rtk_alloc(sizeof *b.cpu_times * b.opt.runs);
         b.rows = rtk_calloc(b.accel_count * b.thread_count, sizeof *b.rows);
-        if (!b.primary || !b.hits || !b.ao || !b.primary_rows || !b.ao_rows || !b.row_count || !b.times || !b.rows)
+        if (!b.primary || !b.hits || !b.ao || !b.primary_rows || !b.ao_rows || !b.row_count || !b.times || !b.cpu_times ||
+            !b.rows)
             st = RTK_ERR_NOMEM;
     }
     if (st != RTK_OK) {
