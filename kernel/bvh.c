@@ -82,10 +82,15 @@ RTK_API int rtk_intersect_triangle(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, r
     float cx = axis(C, kx) - sx * axis(C, kz), cy = axis(C, ky) - sy * axis(C, kz);
     float U = cx * by - cy * bx, V = ax * cy - ay * cx, W = bx * ay - by * ax;
     if (U == 0.0f || V == 0.0f || W == 0.0f) {
-        /* On an edge in float: decide in double so neighbours agree. */
-        U = (float)((double)cx * by - (double)cy * bx);
-        V = (float)((double)ax * cy - (double)ay * cx);
-        W = (float)((double)bx * ay - (double)by * ax);
+        /* On an edge in float: decide in double so neighbours agree. The
+         * signs come from the doubles: their float roundings may underflow
+         * to 0 (origins a denormal away from a vertex's coordinate). */
+        double Ud = (double)cx * by - (double)cy * bx;
+        double Vd = (double)ax * cy - (double)ay * cx;
+        double Wd = (double)bx * ay - (double)by * ax;
+        if ((Ud < 0.0 || Vd < 0.0 || Wd < 0.0) && (Ud > 0.0 || Vd > 0.0 || Wd > 0.0))
+            return 0;
+        U = (float)Ud, V = (float)Vd, W = (float)Wd;
     }
     if ((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f))
         return 0;
@@ -96,16 +101,19 @@ RTK_API int rtk_intersect_triangle(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, r
     float T = U * az + V * bz + W * cz;
     float rcp = 1.0f / det;
     float t = T * rcp;
-    if (!(t >= ray->tmin && t <= ray->tmax))
-        return 0;
-    if (ray->tmin >= 0.0f && t <= t_error_bound(U, V, W, ax, ay, bx, by, cx, cy, az, bz, cz, rcp)) {
-        /* Too close to the origin for float to tell the sign: decide in
-         * double (a ray leaving a large triangle would otherwise meet it or
-         * its coplanar neighbours again). */
+    if (!(t_error_bound(U, V, W, ax, ay, bx, by, cx, cy, az, bz, cz, rcp) < RTK_T_TOLERANCE * fabsf(t))) {
+        /* The float t may be off by more than traversal allows (grazing or
+         * thin triangles), or too close to the origin for float to tell
+         * its sign (a ray leaving a large triangle would otherwise meet it
+         * or its coplanar neighbours again; t = 0, or a bound that
+         * underflowed): decide in double, range check included, so that
+         * the answer does not depend on a tmax another triangle set. */
         double td = exact_distance(ray, a, b, c, kx, ky, kz);
-        if (!(td > 0.0 && td >= ray->tmin && td <= ray->tmax))
-            return 0;
         t = (float)td;
+        if (!(t >= ray->tmin && t <= ray->tmax) || (ray->tmin >= 0.0f && !(td > 0.0)))
+            return 0;
+    } else if (!(t >= ray->tmin && t <= ray->tmax)) {
+        return 0;
     }
     *t_out = t;
     *u_out = V * rcp;
@@ -167,13 +175,14 @@ static void prepare(const rtk_ray *r, ray_prep *p)
 static const float slab_slack = 1.0f + 2.0f * (3.0f * 0.5f * FLT_EPSILON) / (1.0f - 3.0f * 0.5f * FLT_EPSILON);
 
 /* Entry distance into the node's box, or +inf when the ray misses it. The
- * far end, including the ray's tmax (a hit found so far), is widened by
- * slab_slack so that rounding never culls a box holding a hit at or before
- * tmax. NaN from 0 * inf fails both comparisons and is dropped, which
+ * far end is widened by slab_slack so that rounding never culls a box the
+ * ray crosses, and the ray's tmax (a hit found so far) by
+ * rtk_cull_distance, so that no triangle whose float t ties with that hit
+ * is culled. NaN from 0 * inf fails both comparisons and is dropped, which
  * only widens the interval. */
 static float box_entry(const rtk_bvh_node *n, const ray_prep *p, float tmin, float tmax)
 {
-    float t0 = tmin, t1 = tmax;
+    float t0 = tmin, t1 = INFINITY;
     for (int k = 0; k < 3; k++) {
         float lo = p->neg[k] ? n->upper[k] : n->lower[k];
         float hi = p->neg[k] ? n->lower[k] : n->upper[k];
@@ -183,6 +192,8 @@ static float box_entry(const rtk_bvh_node *n, const ray_prep *p, float tmin, flo
         t1 = b < t1 ? b : t1;
     }
     t1 = t1 >= 0.0f ? t1 * slab_slack : t1 / slab_slack;
+    float cull = rtk_cull_distance(tmax);
+    t1 = cull < t1 ? cull : t1;
     return t0 <= t1 ? t0 : INFINITY;
 }
 

@@ -4,7 +4,8 @@
  *
  * Every path computes the same numbers: the box test is the binary
  * traversal's (differences, products by the reciprocal, NaN of 0 * inf
- * dropped, far distances and tmax widened by 1 + 2 gamma(3)); the triangle
+ * dropped, far distances widened by 1 + 2 gamma(3), tmax by
+ * rtk_cull_distance); the triangle
  * test is rtk_intersect_triangle's arithmetic, operation for operation, on
  * four triangles at once. Nothing here may contract a * b + c into an FMA,
  * which is why the AVX2 target does not include FMA. */
@@ -376,10 +377,10 @@ RTK_INLINE void wide_prepare(const rtk_ray *r, wide_ray *p)
     p->sx = d[kx] / dz, p->sy = d[ky] / dz, p->sz = 1.0f / dz;
 }
 
-/* The widened tmax of the box test. */
+/* The widened tmax of the box test (bvh.c's). */
 RTK_INLINE float widen(float tmax)
 {
-    return tmax * slab_slack;
+    return rtk_cull_distance(tmax);
 }
 
 /* A pending subtree and its entry distance. */
@@ -570,7 +571,9 @@ RTK_INLINE int tri_test4(const rtk_wide_tris *b, const tri_ray *r, float tmin, f
     __m128 neg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(U, zero), _mm_cmplt_ps(V, zero)), _mm_cmplt_ps(W, zero));
     __m128 pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(U, zero), _mm_cmpgt_ps(V, zero)), _mm_cmpgt_ps(W, zero));
     __m128 det = _mm_add_ps(_mm_add_ps(U, V), W);
-    __m128 miss = _mm_or_ps(_mm_or_ps(_mm_and_ps(neg, pos), _mm_cmpeq_ps(det, zero)), onedge);
+    /* det is NaN in unused lanes. */
+    __m128 miss = _mm_or_ps(_mm_or_ps(_mm_and_ps(neg, pos), _mm_cmpeq_ps(det, zero)),
+                            _mm_or_ps(onedge, _mm_cmpunord_ps(det, det)));
     *scalar = _mm_movemask_ps(onedge);
     if (_mm_movemask_ps(miss) == 0xf)
         return 0;
@@ -578,12 +581,10 @@ RTK_INLINE int tri_test4(const rtk_wide_tris *b, const tri_ray *r, float tmin, f
     __m128 T = _mm_add_ps(_mm_add_ps(_mm_mul_ps(U, az), _mm_mul_ps(V, bz)), _mm_mul_ps(W, cz));
     __m128 rcp = _mm_div_ps(_mm_set1_ps(1.0f), det);
     __m128 t = _mm_mul_ps(T, rcp);
-    __m128 inside = _mm_and_ps(_mm_cmpge_ps(t, _mm_set1_ps(tmin)), _mm_cmple_ps(t, _mm_set1_ps(tmax)));
-    int mask = _mm_movemask_ps(_mm_andnot_ps(miss, inside));
-    if (!mask)
-        return 0;
-    /* bvh.c's bound on the error of t (pbrt-v4), doubled: a hit inside it
-     * is re-decided by the scalar test. Rays here have tmin >= 0. */
+    int cand = ~_mm_movemask_ps(miss) & 0xf;
+    /* bvh.c's bound on the error of t (pbrt-v4): where it may exceed
+     * RTK_T_TOLERANCE * t (checked with a factor 2 to spare), the scalar
+     * test decides in double. */
     const __m128 g2 = _mm_set1_ps(2.0f * 0.5f * FLT_EPSILON / (1.0f - 2.0f * 0.5f * FLT_EPSILON));
     const __m128 g3 = _mm_set1_ps(3.0f * 0.5f * FLT_EPSILON / (1.0f - 3.0f * 0.5f * FLT_EPSILON));
     const __m128 g5 = _mm_set1_ps(5.0f * 0.5f * FLT_EPSILON / (1.0f - 5.0f * 0.5f * FLT_EPSILON));
@@ -601,10 +602,14 @@ RTK_INLINE int tri_test4(const rtk_wide_tris *b, const tri_ray *r, float tmin, f
     __m128 bound = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(g3, max_e), max_z), _mm_mul_ps(de, max_z)),
                               _mm_mul_ps(dz, max_e));
     bound = _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(6.0f), bound), RTK_ABS(rcp));
+    __m128 allowed = _mm_mul_ps(_mm_set1_ps(RTK_T_TOLERANCE), RTK_ABS(t));
 #undef RTK_ABS
-    int near = _mm_movemask_ps(_mm_cmple_ps(t, bound)) & mask;
+    int near = _mm_movemask_ps(_mm_cmpnlt_ps(bound, allowed)) & cand;
     *scalar |= near;
-    mask &= ~near;
+    __m128 inside = _mm_and_ps(_mm_cmpge_ps(t, _mm_set1_ps(tmin)), _mm_cmple_ps(t, _mm_set1_ps(tmax)));
+    int mask = _mm_movemask_ps(inside) & cand & ~near;
+    if (!mask)
+        return 0;
     *t_out = t;
     *u_out = _mm_mul_ps(V, rcp);
     *v_out = _mm_mul_ps(W, rcp);

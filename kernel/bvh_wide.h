@@ -12,12 +12,29 @@
 
 #include "internal.h"
 
+#include <float.h>
+#include <math.h>
+
 RTK_EXTERN_C_BEGIN
 
 /* Children per node. */
 #define RTK_WIDE 8
 /* Triangles per leaf block. */
 #define RTK_WIDE_TRIS 4
+
+/* A reported hit distance t is within RTK_T_TOLERANCE * |t| of the exact
+ * one: rtk_intersect_triangle recomputes t in double when its float error
+ * bound is larger. */
+#define RTK_T_TOLERANCE (16.0f * FLT_EPSILON)
+
+/* Boxes entered after a hit at tmax (or up to the ray's tmax) are those
+ * entered at or before this distance: tmax widened by four tolerances, so
+ * that a triangle whose float t ties with or undercuts tmax is never culled
+ * by rounding, and equal distances still resolve to the lowest id. */
+static inline float rtk_cull_distance(float tmax)
+{
+    return tmax + fabsf(tmax) * (4.0f * RTK_T_TOLERANCE);
+}
 
 /* Traversal implementations; RTK_SIMD=binary|scalar|sse|avx2 forces one. */
 typedef enum rtk_simd_path {

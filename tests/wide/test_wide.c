@@ -1,0 +1,444 @@
+/* Tests for kernel/bvh_wide.c: on every traversal path this CPU runs
+ * (plain C, SSE, AVX2), the wide BVH answers exactly as the binary
+ * traversal and as brute force: same triangle, bit-identical t, u, v,
+ * same any-hit answer; on several meshes and builders, for random rays,
+ * rays with every combination of +-0 direction components, origins on
+ * and next to box faces, and rays with tmin > 0 or < 0. Work counts are
+ * the same on every wide path. */
+#include "bvh_wide.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int passed, failed;
+
+static void check(int ok, const char *fmt, ...) RTK_PRINTF(2, 3);
+static void check(int ok, const char *fmt, ...)
+{
+    char what[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(what, sizeof what, fmt, ap);
+    va_end(ap);
+    printf("%s  %s\n", ok ? "ok  " : "FAIL", what);
+    ok ? passed++ : failed++;
+}
+
+static float frand(rtk_pcg32 *rng, float lo, float hi)
+{
+    return lo + (hi - lo) * rtk_pcg32_float(rng);
+}
+
+static void add_tri(rtk_scene *s, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c)
+{
+    uint32_t i0, i1, i2;
+    rtk_scene_add_vertex(s, a.x, a.y, a.z, &i0);
+    rtk_scene_add_vertex(s, b.x, b.y, b.z, &i1);
+    rtk_scene_add_vertex(s, c.x, c.y, c.z, &i2);
+    rtk_scene_add_triangle(s, i0, i1, i2, NULL, NULL, RTK_INVALID_ID);
+}
+
+/* Axis-aligned box [lo, hi] as 12 triangles. */
+static void add_box(rtk_scene *s, rtk_vec3 lo, rtk_vec3 hi)
+{
+    rtk_vec3 p[8];
+    for (int i = 0; i < 8; i++)
+        p[i] = rtk_vec3_make(i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z);
+    static const int quads[6][4] = {{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1}, {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}};
+    for (int q = 0; q < 6; q++) {
+        add_tri(s, p[quads[q][0]], p[quads[q][1]], p[quads[q][2]]);
+        add_tri(s, p[quads[q][0]], p[quads[q][2]], p[quads[q][3]]);
+    }
+}
+
+enum { MESH_SOUP, MESH_DEGENERATE, MESH_SPHERE, MESH_SPHERE_FAR, MESH_BOXES, MESH_BUNNY, MESH_COUNT };
+
+/* Test meshes, raw (no rtk_scene_finish) so that degenerate and duplicate
+ * triangles reach the builder; NULL when the mesh is not available. */
+static rtk_scene *make_mesh(int which, const char **name)
+{
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 77u + (uint64_t)which, 3u);
+    if (which == MESH_BUNNY) {
+        *name = "bunny";
+        rtk_scene *s = NULL;
+        if (rtk_scene_load(RTK_SOURCE_ROOT "/../shared/data/meshes/bunny.obj", 0, &s) != RTK_OK)
+            return NULL;
+        return s;
+    }
+    rtk_scene *s = rtk_scene_new("wide", 0);
+    switch (which) {
+    case MESH_SOUP:
+        *name = "3000 random triangles";
+        for (int i = 0; i < 3000; i++) {
+            rtk_vec3 c = rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1));
+            rtk_vec3 v[3];
+            for (int k = 0; k < 3; k++)
+                v[k] = rtk_vec3_add(c, rtk_vec3_make(frand(&rng, -.1f, .1f), frand(&rng, -.1f, .1f),
+                                                     frand(&rng, -.1f, .1f)));
+            add_tri(s, v[0], v[1], v[2]);
+        }
+        break;
+    case MESH_DEGENERATE:
+        *name = "degenerate, duplicate and coplanar triangles";
+        for (int i = 0; i < 600; i++) {
+            rtk_vec3 a = rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1));
+            rtk_vec3 b = rtk_vec3_add(a, rtk_vec3_make(frand(&rng, -.2f, .2f), frand(&rng, -.2f, .2f), 0.1f));
+            if (i % 4 == 0)
+                add_tri(s, a, a, a);
+            else if (i % 4 == 1)
+                add_tri(s, a, b, rtk_vec3_scale(rtk_vec3_add(a, b), 0.5f));
+            else
+                add_tri(s, a, b, rtk_vec3_add(a, rtk_vec3_make(0.1f, -0.05f, 0.2f)));
+        }
+        for (int i = 0; i < 300; i++)
+            add_tri(s, rtk_vec3_make(-1, -1, 0), rtk_vec3_make(1, -1, 0), rtk_vec3_make(0, 1, 0));
+        for (int i = 0; i < 100; i++)
+            add_tri(s, rtk_vec3_make(frand(&rng, -1, 0), -1, 0), rtk_vec3_make(1, frand(&rng, -1, 0), 0),
+                    rtk_vec3_make(0, 1, 0));
+        break;
+    case MESH_SPHERE:
+    case MESH_SPHERE_FAR: {
+        *name = which == MESH_SPHERE ? "closed sphere" : "closed sphere at (1e5, 1e5, 1e5)";
+        double off = which == MESH_SPHERE ? 0.0 : 1e5;
+        const int nu = 64, nv = 32;
+        for (int j = 0; j < nv; j++) {
+            for (int i = 0; i < nu; i++) {
+                rtk_vec3 p[4];
+                for (int k = 0; k < 4; k++) {
+                    int ii = i + (k == 1 || k == 2), jj = j + (k >= 2);
+                    double th = M_PI * jj / nv, ph = 2.0 * M_PI * (ii % nu) / nu;
+                    p[k] = rtk_vec3_make((float)(off + sin(th) * cos(ph)), (float)(off + cos(th)),
+                                         (float)(off + sin(th) * sin(ph)));
+                }
+                add_tri(s, p[0], p[1], p[2]);
+                add_tri(s, p[0], p[2], p[3]);
+            }
+        }
+        break;
+    }
+    default:
+        *name = "grid of unit boxes";
+        for (int x = -2; x < 2; x++)
+            for (int y = -2; y < 2; y++)
+                for (int z = -2; z < 2; z++)
+                    if ((x + y + z) & 1)
+                        add_box(s, rtk_vec3_make((float)x, (float)y, (float)z),
+                                rtk_vec3_make(x + 1.0f, y + 1.0f, z + 1.0f));
+        break;
+    }
+    return s;
+}
+
+static int brute_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
+{
+    hit->prim = RTK_INVALID_ID;
+    hit->t = ray->tmax;
+    hit->u = hit->v = 0.0f;
+    for (uint32_t i = 0; i < s->triangle_count; i++) {
+        rtk_vec3 a, b, c;
+        rtk_scene_triangle(s, i, &a, &b, &c);
+        float t, u, v;
+        if (rtk_intersect_triangle(ray, a, b, c, &t, &u, &v) && (t < hit->t || (t == hit->t && i < hit->prim)))
+            hit->t = t, hit->u = u, hit->v = v, hit->prim = i;
+    }
+    return hit->prim != RTK_INVALID_ID;
+}
+
+static int same_hit(int a, const rtk_hit *h1, int b, const rtk_hit *h2)
+{
+    if (a != b)
+        return 0;
+    if (!a)
+        return 1;
+    return h1->prim == h2->prim && memcmp(&h1->t, &h2->t, sizeof(float)) == 0 &&
+           memcmp(&h1->u, &h2->u, sizeof(float)) == 0 && memcmp(&h1->v, &h2->v, sizeof(float)) == 0;
+}
+
+/* Ray i of a mesh's set: aimed at triangles (a quarter on edges), random,
+ * axis-aligned with +-0 components from box faces, some with tmin > 0
+ * or < 0 and finite tmax. */
+static rtk_ray make_ray(const rtk_scene *s, rtk_pcg32 *rng, int i)
+{
+    rtk_bounds b = s->bounds;
+    rtk_vec3 lo = b.lower, hi = b.upper;
+    if (s->triangle_count > 0 && !(lo.x <= hi.x)) {
+        rtk_vec3 a, bb, c;
+        rtk_scene_triangle(s, 0, &a, &bb, &c);
+        lo = hi = a;
+    }
+    rtk_vec3 mid = rtk_vec3_scale(rtk_vec3_add(lo, hi), 0.5f);
+    rtk_vec3 ext = rtk_vec3_sub(hi, lo);
+    float size = fmaxf(ext.x, fmaxf(ext.y, ext.z)) + 1e-3f;
+    rtk_ray r;
+    r.org = rtk_vec3_make(mid.x + frand(rng, -size, size), mid.y + frand(rng, -size, size),
+                          mid.z + frand(rng, -size, size));
+    r.tmin = 0.0f;
+    r.tmax = INFINITY;
+    int kind = i % 8;
+    if (kind <= 3 && s->triangle_count > 0) {
+        rtk_vec3 a, bb, c;
+        rtk_scene_triangle(s, rtk_pcg32_next(rng) % s->triangle_count, &a, &bb, &c);
+        float u = rtk_pcg32_float(rng), v = rtk_pcg32_float(rng);
+        if (kind == 0)
+            v = 0.0f;
+        if (u + v > 1.0f)
+            u = 1.0f - u, v = 1.0f - v;
+        rtk_vec3 target =
+            rtk_vec3_add(a, rtk_vec3_add(rtk_vec3_scale(rtk_vec3_sub(bb, a), u), rtk_vec3_scale(rtk_vec3_sub(c, a), v)));
+        r.dir = rtk_vec3_sub(target, r.org);
+        if (kind == 3)
+            r.dir = rtk_vec3_normalize(r.dir);
+    } else if (kind <= 5) {
+        /* Every component one of +1, -1, +0, -0 (not all zero); the origin
+         * on a grid plane (box faces of the boxes mesh) or next to it. */
+        static const float comp[4] = {1.0f, -1.0f, 0.0f, -0.0f};
+        float d[3];
+        do {
+            for (int k = 0; k < 3; k++)
+                d[k] = comp[rtk_pcg32_next(rng) % 4];
+        } while (d[0] == 0.0f && d[1] == 0.0f && d[2] == 0.0f);
+        r.dir = rtk_vec3_make(d[0], d[1], d[2]);
+        float o[3] = {roundf(r.org.x * 2.0f) * 0.5f, roundf(r.org.y * 2.0f) * 0.5f, roundf(r.org.z * 2.0f) * 0.5f};
+        for (int k = 0; k < 3; k++) {
+            uint32_t m = rtk_pcg32_next(rng) % 4;
+            if (m == 1)
+                o[k] = nextafterf(o[k], INFINITY);
+            else if (m == 2)
+                o[k] = nextafterf(o[k], -INFINITY);
+        }
+        r.org = rtk_vec3_make(o[0], o[1], o[2]);
+    } else {
+        r.dir = rtk_vec3_make(frand(rng, -1, 1), frand(rng, -1, 1), frand(rng, -1, 1));
+        if (r.dir.x == 0.0f && r.dir.y == 0.0f && r.dir.z == 0.0f)
+            r.dir.x = 1.0f;
+    }
+    uint32_t range = rtk_pcg32_next(rng) % 6;
+    if (range == 1)
+        r.tmax = frand(rng, 0.1f, 2.0f) * size;
+    else if (range == 2)
+        r.tmin = frand(rng, 0.0f, 0.5f) * size;
+    else if (range == 3)
+        r.tmin = -frand(rng, 0.0f, 0.5f) * size;
+    return r;
+}
+
+/* A builder that puts every primitive in one leaf: leaves larger than a
+ * wide leaf reference can hold. */
+static rtk_status one_leaf_build(void *state, rtk_build_args *a)
+{
+    (void)state;
+    rtk_bounds b = a->prim_bounds[0];
+    for (uint32_t i = 1; i < a->prim_count; i++) {
+        const rtk_bounds *p = &a->prim_bounds[i];
+        b.lower = rtk_vec3_make(fminf(b.lower.x, p->lower.x), fminf(b.lower.y, p->lower.y), fminf(b.lower.z, p->lower.z));
+        b.upper = rtk_vec3_make(fmaxf(b.upper.x, p->upper.x), fmaxf(b.upper.y, p->upper.y), fmaxf(b.upper.z, p->upper.z));
+    }
+    rtk_bvh_node *n = &a->nodes[0];
+    n->lower[0] = b.lower.x, n->lower[1] = b.lower.y, n->lower[2] = b.lower.z;
+    n->upper[0] = b.upper.x, n->upper[1] = b.upper.y, n->upper[2] = b.upper.z;
+    n->offset = 0, n->count = a->prim_count;
+    for (uint32_t i = 0; i < a->prim_count; i++)
+        a->prim_order[i] = i;
+    a->node_count = 1;
+    return RTK_OK;
+}
+
+static rtk_status no_state(const rtk_params *params, void **state)
+{
+    (void)params;
+    *state = NULL;
+    return RTK_OK;
+}
+
+static void no_destroy(void *state)
+{
+    (void)state;
+}
+
+static const rtk_accelerator_fns one_leaf_fns = {
+    .size = sizeof(rtk_accelerator_fns), .create = no_state, .build = one_leaf_build, .destroy = no_destroy};
+static const rtk_plugin one_leaf = {RTK_PLUGIN_HEADER, .kind = RTK_KIND_ACCELERATOR, .name = "one_leaf",
+                                    .version = "1", .summary = "one leaf", .functions = &one_leaf_fns};
+
+/* Compares every wide path with the binary traversal and brute force on
+ * count rays of scene s built by plugin. */
+static void compare_paths(rtk_scene *s, const char *mesh, const char *builder, int count)
+{
+    rtk_simd_path paths[3];
+    int npaths = 0;
+    for (int p = RTK_SIMD_SCALAR; p <= RTK_SIMD_AVX2; p++)
+        if (rtk_simd_supported((rtk_simd_path)p))
+            paths[npaths++] = (rtk_simd_path)p;
+    check(s->wide != NULL, "%s / %s: wide BVH built (%u nodes, %u blocks, depth %u)", mesh, builder,
+          s->wide ? s->wide->node_count : 0, s->wide ? s->wide->tri_block_count : 0, s->wide ? s->wide->depth : 0);
+    if (!s->wide)
+        return;
+    rtk_simd_path saved = s->wide->path;
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 5u, 11u);
+    int bad_binary = 0, bad_brute[3] = {0}, bad_any[3] = {0}, bad_work = 0, bad_measure = 0, hits = 0;
+    int bad_vs_binary[3] = {0};
+    char first[3][512] = {"", "", ""};
+    for (int i = 0; i < count; i++) {
+        rtk_ray ray = make_ray(s, &rng, i);
+        if (!rtk_ray_valid(&ray))
+            continue;
+        rtk_hit hb, hf;
+        s->wide->path = RTK_SIMD_BINARY;
+        int b = rtk_bvh_closest(s, &ray, &hb);
+        int b_any = rtk_bvh_any(s, &ray);
+        int f = brute_closest(s, &ray, &hf);
+        hits += f;
+        if (!same_hit(b, &hb, f, &hf))
+            bad_binary++;
+        rtk_trace_work work0 = {0, 0};
+        for (int p = 0; p < npaths; p++) {
+            rtk_hit hw;
+            rtk_trace_work work = {0, 0};
+            int w = ray.tmin >= 0.0f ? rtk_wide_closest(s, paths[p], &ray, &hw, NULL)
+                                     : (s->wide->path = paths[p], rtk_bvh_closest(s, &ray, &hw));
+            if (!same_hit(w, &hw, b, &hb) && !bad_vs_binary[p]++ &&
+                !bad_brute[p])
+                snprintf(first[p], sizeof first[p],
+                         "ray %d org (%a %a %a) dir (%a %a %a) [%g, %g]: wide %d prim %u t %a u %a, binary %d prim %u t %a u %a",
+                         i, ray.org.x, ray.org.y, ray.org.z, ray.dir.x, ray.dir.y, ray.dir.z, ray.tmin, ray.tmax, w,
+                         hw.prim, hw.t, hw.u, b, hb.prim, hb.t, hb.u);
+            if (!same_hit(w, &hw, f, &hf) && !bad_brute[p]++)
+                snprintf(first[p], sizeof first[p],
+                         "ray %d org (%a %a %a) dir (%a %a %a) [%g, %g]: wide %d prim %u t %a u %a, brute %d prim %u t %a u %a",
+                         i, ray.org.x, ray.org.y, ray.org.z, ray.dir.x, ray.dir.y, ray.dir.z, ray.tmin, ray.tmax, w,
+                         hw.prim, hw.t, hw.u, f, hf.prim, hf.t, hf.u);
+            int wa = ray.tmin >= 0.0f ? rtk_wide_any(s, paths[p], &ray, NULL)
+                                      : (s->wide->path = paths[p], rtk_bvh_any(s, &ray));
+            if (wa != b_any)
+                bad_any[p]++;
+            if (ray.tmin >= 0.0f) {
+                rtk_hit hm;
+                int m = rtk_wide_closest(s, paths[p], &ray, &hm, &work);
+                if (!same_hit(m, &hm, w, &hw))
+                    bad_measure++;
+                if (p == 0)
+                    work0 = work;
+                else if (work.nodes != work0.nodes || work.triangles != work0.triangles)
+                    bad_work++;
+            }
+        }
+    }
+    s->wide->path = saved;
+    check(bad_binary == 0, "%s / %s: binary traversal = brute force, bit for bit, on %d rays (%d hits): %d differ",
+          mesh, builder, count, hits, bad_binary);
+    for (int p = 0; p < npaths; p++) {
+        check(bad_brute[p] == 0, "%s / %s: %s closest hit = brute force, bit for bit: %d differ%s%s", mesh, builder,
+              rtk_simd_name(paths[p]), bad_brute[p], bad_brute[p] ? "; first: " : "", first[p]);
+        check(bad_vs_binary[p] == 0, "%s / %s: %s closest hit = binary traversal, bit for bit: %d differ%s%s", mesh, builder,
+              rtk_simd_name(paths[p]), bad_vs_binary[p], bad_vs_binary[p] && !bad_brute[p] ? "; first: " : "",
+              bad_vs_binary[p] && !bad_brute[p] ? first[p] : "");
+        check(bad_any[p] == 0, "%s / %s: %s any hit = binary traversal: %d differ", mesh, builder,
+              rtk_simd_name(paths[p]), bad_any[p]);
+    }
+    check(bad_measure == 0, "%s / %s: counting work leaves hits unchanged: %d differ", mesh, builder, bad_measure);
+    check(bad_work == 0, "%s / %s: every wide path counts the same work: %d differ", mesh, builder, bad_work);
+}
+
+/* rtk_trace_measure through a render context equals rtk_trace. */
+static void check_measure_service(rtk_scene *s)
+{
+    rtk_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.scene = s;
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 9u, 1u);
+    int bad = 0, counted = 0;
+    for (int i = 0; i < 500; i++) {
+        rtk_ray ray = make_ray(s, &rng, i);
+        rtk_hit h1, h2;
+        rtk_trace_work work;
+        int a = rtk_trace(&ctx, &ray, &h1);
+        int b = rtk_trace_measure(&ctx, &ray, &h2, &work);
+        bad += !same_hit(a, &h1, b, &h2);
+        counted += work.nodes > 0;
+    }
+    rtk_ray invalid = {rtk_vec3_make(0, 0, 0), 0.0f, rtk_vec3_make(0, 0, 0), INFINITY};
+    rtk_hit h;
+    rtk_trace_work work = {7, 7};
+    int r = rtk_trace_measure(&ctx, &invalid, &h, &work);
+    check(bad == 0 && counted > 0, "rtk_trace_measure = rtk_trace (%d differ, %d of 500 counted nodes)", bad, counted);
+    check(r == 0 && work.nodes == 0 && work.triangles == 0 && ctx.invalid_rays == 1,
+          "rtk_trace_measure: an invalid ray misses with zero work and is counted");
+}
+
+static void check_env(void)
+{
+    setenv("RTK_SIMD", "scalar", 1);
+    check(rtk_simd_from_env() == RTK_SIMD_SCALAR, "RTK_SIMD=scalar forces plain C");
+    setenv("RTK_SIMD", "binary", 1);
+    check(rtk_simd_from_env() == RTK_SIMD_BINARY, "RTK_SIMD=binary forces the binary tree");
+    setenv("RTK_SIMD", "neon", 1);
+    check(rtk_simd_from_env() == rtk_simd_best(), "RTK_SIMD=neon falls back to the best path (%s)",
+          rtk_simd_name(rtk_simd_best()));
+    unsetenv("RTK_SIMD");
+    check(rtk_simd_from_env() == rtk_simd_best(), "no RTK_SIMD: the best path (%s)", rtk_simd_name(rtk_simd_best()));
+}
+
+int main(void)
+{
+    rtk_log_set_level(RTK_LOG_WARN);
+    const char *quick = getenv("RTK_WIDE_TEST_QUICK");
+    int rays = quick ? 1000 : 4000;
+    check_env();
+    rtk_registry *reg = NULL;
+    if (rtk_registry_create(&reg) != RTK_OK) {
+        printf("FAIL  registry: %s\n", rtk_error_message());
+        return 1;
+    }
+    const rtk_plugin *builders[4];
+    int nb = 0;
+    static const char *names[] = {"median", "sah", "lbvh"};
+    for (int i = 0; i < 3; i++) {
+        const rtk_plugin *p = NULL;
+        if (rtk_registry_find(reg, RTK_KIND_ACCELERATOR, names[i], &p) == RTK_OK)
+            builders[nb++] = p;
+    }
+    check(nb >= 1, "the median builder is found");
+    builders[nb++] = &one_leaf;
+    int measured = 0;
+    for (int m = 0; m < MESH_COUNT; m++) {
+        for (int bi = 0; bi < nb; bi++) {
+            const char *mesh = NULL;
+            rtk_scene *s = make_mesh(m, &mesh);
+            if (!s) {
+                printf("skip  %s: not available\n", mesh);
+                break;
+            }
+            if (m != MESH_BUNNY) {
+                rtk_bounds b = {rtk_vec3_make(INFINITY, INFINITY, INFINITY), rtk_vec3_make(-INFINITY, -INFINITY, -INFINITY)};
+                for (uint32_t v = 0; v < s->vertex_count; v++) {
+                    const float *p = s->positions + 3 * (size_t)v;
+                    b.lower = rtk_vec3_make(fminf(b.lower.x, p[0]), fminf(b.lower.y, p[1]), fminf(b.lower.z, p[2]));
+                    b.upper = rtk_vec3_make(fmaxf(b.upper.x, p[0]), fmaxf(b.upper.y, p[1]), fmaxf(b.upper.z, p[2]));
+                }
+                s->bounds = b;
+            }
+            rtk_params *params = builders[bi] == &one_leaf ? NULL : rtk_params_defaults(builders[bi]);
+            rtk_status st = rtk_bvh_build(s, builders[bi], params, 2);
+            check(st == RTK_OK, "%s / %s: build", mesh, builders[bi]->name);
+            if (st == RTK_OK) {
+                int n = m == MESH_BUNNY ? rays / 4 : rays;
+                if (builders[bi] == &one_leaf && s->triangle_count > 5000)
+                    n /= 4;
+                compare_paths(s, mesh, builders[bi]->name, n);
+                if (!measured++)
+                    check_measure_service(s);
+            }
+            rtk_params_destroy(params);
+            rtk_scene_free(s);
+        }
+    }
+    rtk_registry_destroy(reg);
+    printf("%d passed, %d failed\n", passed, failed);
+    return failed != 0;
+}
