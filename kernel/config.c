@@ -34,11 +34,13 @@ static const rtk_param_desc top_params[] = {
             "default $XDG_CACHE_HOME/rtk or ~/.cache/rtk"},
     {.name = "plugin_path", .type = RTK_PARAM_STRING,
      .doc = "directory or list of directories with more plugins (trusted configs only)"},
+    {.name = "lights", .type = RTK_PARAM_STRING,
+     .doc = "list of point, spot and directional lights: ( { type = \"point\"; ... }, ... )"},
     {.name = "accelerator", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"median\"; and its parameters"},
     {.name = "integrator", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"headlight\"; and its parameters"},
     {.name = "filter", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"box\"; and its parameters"},
 };
-static const char *const top_special[] = {"camera", "film", "sampler", "plugin_path",
+static const char *const top_special[] = {"camera", "film", "sampler", "plugin_path", "lights",
                                           "accelerator", "integrator", "filter", NULL};
 
 static const rtk_param_desc camera_params[] = {
@@ -69,6 +71,21 @@ static const rtk_param_desc sampler_params[] = {
      .doc = "seed of the sample streams"},
 };
 
+static const rtk_param_desc light_params[] = {
+    {.name = "type", .type = RTK_PARAM_STRING, .def_string = "point", .choices = "point|spot|directional",
+     .doc = "kind of light"},
+    {.name = "position", .type = RTK_PARAM_STRING, .doc = "point and spot: where the light is [x, y, z]"},
+    {.name = "direction", .type = RTK_PARAM_STRING,
+     .doc = "directional and spot: the direction the light travels [x, y, z]"},
+    {.name = "intensity", .type = RTK_PARAM_STRING,
+     .doc = "[r, g, b]: W/sr for point and spot, irradiance W/m^2 for directional"},
+    {.name = "inner", .type = RTK_PARAM_FLOAT, .def = 30.0, .min = 0.0, .max = 90.0,
+     .doc = "spot: half-angle of full intensity, degrees"},
+    {.name = "outer", .type = RTK_PARAM_FLOAT, .def = 45.0, .min = 0.0, .max = 90.0,
+     .doc = "spot: half-angle beyond which it is dark, degrees"},
+};
+static const char *const light_special[] = {"position", "direction", "intensity", NULL};
+
 static const rtk_plugin top_schema = {RTK_PLUGIN_HEADER, .name = "the config", .params = top_params,
                                       .param_count = RTK_COUNTOF(top_params)};
 static const rtk_plugin camera_schema = {RTK_PLUGIN_HEADER, .name = "camera", .params = camera_params,
@@ -77,6 +94,8 @@ static const rtk_plugin film_schema = {RTK_PLUGIN_HEADER, .name = "film", .param
                                        .param_count = RTK_COUNTOF(film_params)};
 static const rtk_plugin sampler_schema = {RTK_PLUGIN_HEADER, .name = "sampler", .params = sampler_params,
                                           .param_count = RTK_COUNTOF(sampler_params)};
+static const rtk_plugin light_schema = {RTK_PLUGIN_HEADER, .name = "lights", .params = light_params,
+                                        .param_count = RTK_COUNTOF(light_params)};
 
 static const char aov_choices[] = "albedo|normal|depth";
 
@@ -637,6 +656,70 @@ static rtk_status read_camera(const loader *ld, const config_setting_t *root, rt
     return RTK_OK;
 }
 
+/* Reads the list of punctual lights. */
+static rtk_status read_lights(const loader *ld, const config_setting_t *root, rtk_config *cfg)
+{
+    const config_setting_t *list = member(root, "lights");
+    if (!list)
+        return RTK_OK;
+    if (config_setting_type(list) != CONFIG_TYPE_LIST) {
+        char found[256];
+        describe_setting(list, found, sizeof found);
+        return fail(ld, list, RTK_ERR_INVALID,
+                    "lights: expected a list of groups ( { type = \"point\"; position = [0, 2, 0]; "
+                    "intensity = [5, 5, 5]; } ), found %s", found);
+    }
+    int n = config_setting_length(list);
+    cfg->lights = rtk_calloc((size_t)n + 1, sizeof *cfg->lights);
+    if (!cfg->lights)
+        return RTK_ERR_NOMEM;
+    for (int i = 0; i < n; i++) {
+        const config_setting_t *g = config_setting_get_elem(list, (unsigned)i);
+        char label[32];
+        snprintf(label, sizeof label, "lights[%d]", i);
+        if (config_setting_type(g) != CONFIG_TYPE_GROUP)
+            return fail(ld, g, RTK_ERR_INVALID, "%s: expected a group { type = \"point\"; ... }", label);
+        rtk_params *params = NULL;
+        slot_spec spec = {.label = label, .schema = &light_schema, .special = light_special};
+        rtk_status status = fill_params(ld, g, &spec, &params);
+        if (status != RTK_OK)
+            return status;
+        rtk_punctual_light *l = &cfg->lights[i];
+        const char *type = rtk_params_string(params, "type");
+        l->type = strcmp(type, "directional") == 0 ? RTK_LIGHT_DIRECTIONAL
+                  : strcmp(type, "spot") == 0      ? RTK_LIGHT_SPOT
+                                                   : RTK_LIGHT_POINT;
+        double inner = rtk_params_float(params, "inner"), outer = rtk_params_float(params, "outer");
+        rtk_params_destroy(params);
+        const char *need = l->type == RTK_LIGHT_POINT ? "position" : l->type == RTK_LIGHT_DIRECTIONAL ? "direction" : NULL;
+        if (need && !member(g, need))
+            return fail(ld, g, RTK_ERR_INVALID, "%s: a %s light needs %s = [x, y, z]", label, type, need);
+        if (l->type == RTK_LIGHT_SPOT && (!member(g, "position") || !member(g, "direction")))
+            return fail(ld, g, RTK_ERR_INVALID, "%s: a spot light needs position and direction", label);
+        if (!member(g, "intensity"))
+            return fail(ld, g, RTK_ERR_INVALID, "%s: no intensity: add intensity = [r, g, b];", label);
+        rtk_vec3 intensity = rtk_vec3_make(0, 0, 0);
+        if ((status = read_vec3(ld, g, label, "position", &l->position)) != RTK_OK ||
+            (status = read_vec3(ld, g, label, "direction", &l->direction)) != RTK_OK ||
+            (status = read_vec3(ld, g, label, "intensity", &intensity)) != RTK_OK)
+            return status;
+        if (intensity.x < 0.0f || intensity.y < 0.0f || intensity.z < 0.0f)
+            return fail(ld, member(g, "intensity"), RTK_ERR_INVALID, "%s: intensity must not be negative", label);
+        l->intensity = rtk_rgb_make(intensity.x, intensity.y, intensity.z);
+        if (l->type != RTK_LIGHT_POINT) {
+            if (rtk_vec3_length(l->direction) == 0.0f)
+                return fail(ld, member(g, "direction"), RTK_ERR_INVALID, "%s: direction is zero", label);
+            l->direction = rtk_vec3_normalize(l->direction);
+        }
+        if (l->type == RTK_LIGHT_SPOT && inner > outer)
+            return fail(ld, g, RTK_ERR_INVALID, "%s: inner (%g) is wider than outer (%g)", label, inner, outer);
+        l->cos_inner = (float)cos(inner * M_PI / 180.0);
+        l->cos_outer = (float)cos(outer * M_PI / 180.0);
+        cfg->light_count++;
+    }
+    return RTK_OK;
+}
+
 /* "<config name without .cfg>.png" next to the config. */
 static char *default_output(const loader *ld)
 {
@@ -994,7 +1077,7 @@ static rtk_status load(loader *ld, rtk_config *cfg)
     const config_setting_t *root = config_root_setting(&ld->cfg);
     if ((status = read_top(ld, root, cfg)) != RTK_OK || (status = read_plugin_path(ld, root)) != RTK_OK ||
         (status = read_camera(ld, root, cfg)) != RTK_OK || (status = read_film(ld, root, cfg)) != RTK_OK ||
-        (status = read_sampler(ld, root, cfg)) != RTK_OK ||
+        (status = read_sampler(ld, root, cfg)) != RTK_OK || (status = read_lights(ld, root, cfg)) != RTK_OK ||
         (status = load_slot(ld, root, "accelerator", RTK_KIND_ACCELERATOR, "median", &cfg->accelerator)) != RTK_OK ||
         (status = load_slot(ld, root, "integrator", RTK_KIND_INTEGRATOR, "headlight", &cfg->integrator)) != RTK_OK ||
         (status = load_slot(ld, root, "filter", RTK_KIND_FILTER, "box", &cfg->filter)) != RTK_OK)
@@ -1058,6 +1141,7 @@ RTK_API void rtk_config_destroy(rtk_config *config)
     free(config->output);
     free(config->sampler_type);
     free(config->cache_dir);
+    free(config->lights);
     rtk_params_destroy(config->integrator.params);
     rtk_params_destroy(config->accelerator.params);
     rtk_params_destroy(config->filter.params);

@@ -290,6 +290,8 @@ struct rtk_config {
     uint64_t seed;
     uint32_t threads;            /* 0 = all cores */
     char *cache_dir;             /* BVH cache directory, NULL = caching off */
+    rtk_punctual_light *lights;  /* the config's punctual lights */
+    uint32_t light_count;
     rtk_plugin_slot integrator, accelerator, filter;
 };
 

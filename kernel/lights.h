@@ -4,6 +4,8 @@
 
 #include "internal.h"
 
+RTK_EXTERN_C_BEGIN
+
 /* Emitting triangles and a Vose alias table over their power. */
 typedef struct rtk_lights {
     uint32_t count;
@@ -22,5 +24,7 @@ rtk_status rtk_scene_add_punctual(rtk_scene *scene, const rtk_punctual_light *li
  * without emitters gets an empty table. */
 rtk_status rtk_lights_build(rtk_scene *scene);
 void rtk_lights_free(rtk_lights *lights);
+
+RTK_EXTERN_C_END
 
 #endif

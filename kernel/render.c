@@ -2,6 +2,7 @@
  * render tiles on a thread pool, write the image atomically, report. */
 #include "bvh_cache.h"
 #include "film.h"
+#include "lights.h"
 #include "internal.h"
 
 #include <math.h>
@@ -288,6 +289,8 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     double t = rtk_now();
     uint32_t needs = ifn->needs(istate);
     st = rtk_scene_load(cfg->scene_path, needs, &scene);
+    for (uint32_t i = 0; st == RTK_OK && i < cfg->light_count; i++)
+        st = rtk_scene_add_punctual(scene, &cfg->lights[i]);
     if (st != RTK_OK)
         goto done;
     report->load_seconds = rtk_now() - t;

@@ -5,6 +5,7 @@
  * validated before it is read. Functions called from C catch all
  * exceptions. */
 #include "../internal.h"
+#include "../lights.h"
 
 #include <tiny_gltf.h>
 
@@ -318,7 +319,7 @@ float clamp01(float v) { return v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v; }
 /* Extensions whose "required" use rtk honours; any other required
  * extension changes the meaning of the data, so the file is refused. */
 const char *const supported_required[] = {"KHR_materials_emissive_strength", "KHR_materials_ior",
-                                          "KHR_materials_transmission"};
+                                          "KHR_materials_transmission", "KHR_lights_punctual"};
 
 class Loader {
   public:
@@ -351,6 +352,7 @@ class Loader {
     rtk_status visit(int index, const Mat4 &parent, int depth);
     rtk_status local_matrix(int index, Mat4 *out);
     void take_camera(int index, const Mat4 &world);
+    rtk_status take_light(int index, const Mat4 &world);
     rtk_status add_primitive(int mesh, int primitive, const Mat4 &world);
     rtk_status view(int accessor, const Where &where, const std::vector<int> &components, int type, View *out);
     rtk_status fail(const Where &where, int accessor, const char *fmt, ...) RTK_PRINTF(4, 5);
@@ -649,6 +651,52 @@ void Loader::take_camera(int index, const Mat4 &world)
     scene_->has_camera = 1;
 }
 
+/* A node's KHR_lights_punctual light, placed by the node's transform: at
+ * its origin, shining along its -Z axis. glTF intensities (candela for
+ * point and spot, lux for directional) are taken as rtk's W/sr and W/m^2. */
+rtk_status Loader::take_light(int index, const Mat4 &world)
+{
+    const tinygltf::Node &node = model_.nodes[size_t(index)];
+    auto ext = node.extensions.find("KHR_lights_punctual");
+    if (ext == node.extensions.end() || !ext->second.IsObject() || !ext->second.Has("light"))
+        return RTK_OK;
+    const tinygltf::Value &v = ext->second.Get("light");
+    int id = v.IsNumber() ? v.GetNumberAsInt() : -1;
+    if (id < 0 || size_t(id) >= model_.lights.size()) {
+        rtk_log(RTK_LOG_WARN, "%s: %s refers to light %d, which does not exist; ignored", path_,
+                node_label(index).c_str(), id);
+        return RTK_OK;
+    }
+    const tinygltf::Light &gl = model_.lights[size_t(id)];
+    rtk_punctual_light l = {};
+    double pos[3], dir[3];
+    transform(world, 0, 0, 0, 1, pos);
+    transform(world, 0, 0, -1, 0, dir);
+    double ld = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+    double c[3] = {1.0, 1.0, 1.0};
+    if (gl.color.size() == 3)
+        c[0] = gl.color[0], c[1] = gl.color[1], c[2] = gl.color[2];
+    double k = gl.intensity;
+    if (!(ld > 0.0) || !std::isfinite(k) || k < 0.0 || !std::isfinite(c[0] + c[1] + c[2])) {
+        rtk_log(RTK_LOG_WARN, "%s: light %d on %s has an unusable transform, colour or intensity; ignored", path_, id,
+                node_label(index).c_str());
+        return RTK_OK;
+    }
+    l.position = rtk_vec3_make(float(pos[0]), float(pos[1]), float(pos[2]));
+    l.direction = rtk_vec3_make(float(dir[0] / ld), float(dir[1] / ld), float(dir[2] / ld));
+    l.intensity = rtk_rgb_make(float(c[0] * k), float(c[1] * k), float(c[2] * k));
+    if (gl.type == "directional") {
+        l.type = RTK_LIGHT_DIRECTIONAL;
+    } else if (gl.type == "spot") {
+        l.type = RTK_LIGHT_SPOT;
+        l.cos_inner = float(std::cos(gl.spot.innerConeAngle));
+        l.cos_outer = float(std::cos(gl.spot.outerConeAngle));
+    } else {
+        l.type = RTK_LIGHT_POINT;
+    }
+    return rtk_scene_add_punctual(scene_, &l);
+}
+
 rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world)
 {
     const tinygltf::Primitive &prim = model_.meshes[size_t(mesh)].primitives[size_t(index)];
@@ -818,6 +866,8 @@ rtk_status Loader::visit(int index, const Mat4 &parent, int depth)
     const tinygltf::Node &node = model_.nodes[size_t(index)];
     if (node.camera >= 0 && !scene_->has_camera)
         take_camera(index, world);
+    if ((scene_->needs & RTK_NEED_LIGHTS) && (status = take_light(index, world)) != RTK_OK)
+        return status;
     if (node.mesh >= 0) {
         if (size_t(node.mesh) >= model_.meshes.size())
             return rtk_error(RTK_ERR_PARSE, "%s: %s uses mesh %d, but the file has %zu meshes", path_,

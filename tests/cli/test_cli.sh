@@ -8,6 +8,7 @@ src=$2
 build=$3
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
+export XDG_CACHE_HOME="$tmp/cache"
 passed=0
 failed=0
 
@@ -60,6 +61,8 @@ printf 'scene = "quad.obj";\nfilm = { width = "wide"; };\n' >"$tmp/type.cfg"
 expect "wrong type names file and line" fail "type.cfg:2" "width" -- "$rtk" render "$tmp/type.cfg"
 printf 'scene = "quad.obj";\n\nintegrator = { plugin = "headlite"; };\n' >"$tmp/missing.cfg"
 expect "missing plugin names file, line and what exists" fail "missing.cfg:3" "headlite" "headlight" -- "$rtk" render "$tmp/missing.cfg"
+printf 'scene = "quad.obj";\nlights = ( { type = "point"; positon = [0, 1, 0]; intensity = [1, 1, 1]; } );\n' >"$tmp/light.cfg"
+expect "typo in a light names file, line and suggestion" fail "light.cfg:2" "did you mean 'position'" -- "$rtk" render "$tmp/light.cfg"
 printf 'scene = "quad.obj";\nfilm = { spp = 0; };\n' >"$tmp/range.cfg"
 expect "out of range value names file and line" fail "range.cfg:2" "spp" -- "$rtk" render "$tmp/range.cfg"
 expect "--set override with a typo is refused" fail "--set" "bogus" -- "$rtk" render "$tmp/min.cfg" --set integrator.bogus=1

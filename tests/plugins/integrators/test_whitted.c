@@ -8,6 +8,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <unistd.h>
 
 static int passed, failed;
 static const rtk_plugin *whitted, *median;
@@ -91,6 +92,66 @@ static rtk_material glass(void)
     m.transmission = 1.0f;
     m.ior = 1.5f;
     return m;
+}
+
+/* A glTF file with a floor quad and a KHR_lights_punctual point light on a
+ * translated node: the loader places the light, and whitted lights the
+ * floor by the same law as above. */
+static void test_gltf_light(void)
+{
+    char dir[] = "/tmp/rtk-whitted-XXXXXX";
+    if (!mkdtemp(dir)) {
+        expect("temporary directory", 0.0, 1.0, 0.0);
+        return;
+    }
+    char bin[256], gltf[256];
+    snprintf(bin, sizeof bin, "%s/quad.bin", dir);
+    snprintf(gltf, sizeof gltf, "%s/quad.gltf", dir);
+    const float pos[12] = {-5, 0, -5, -5, 0, 5, 5, 0, 5, 5, 0, -5};
+    const uint16_t idx[6] = {0, 1, 2, 0, 2, 3};
+    FILE *f = fopen(bin, "wb");
+    fwrite(pos, sizeof pos, 1, f);
+    fwrite(idx, sizeof idx, 1, f);
+    fclose(f);
+    f = fopen(gltf, "w");
+    fputs("{\"asset\": {\"version\": \"2.0\"},\n"
+          " \"extensionsUsed\": [\"KHR_lights_punctual\"],\n"
+          " \"extensions\": {\"KHR_lights_punctual\": {\"lights\": [\n"
+          "   {\"type\": \"point\", \"color\": [1.0, 1.0, 1.0], \"intensity\": 3.0}]}},\n"
+          " \"scene\": 0, \"scenes\": [{\"nodes\": [0, 1]}],\n"
+          " \"nodes\": [{\"mesh\": 0},\n"
+          "   {\"translation\": [0.3, 2.0, -0.4], \"extensions\": {\"KHR_lights_punctual\": {\"light\": 0}}}],\n"
+          " \"materials\": [{\"pbrMetallicRoughness\": {\"baseColorFactor\": [0.5, 0.5, 0.5, 1.0],\n"
+          "   \"metallicFactor\": 0.0}}],\n"
+          " \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"indices\": 1, \"material\": 0}]}],\n"
+          " \"buffers\": [{\"uri\": \"quad.bin\", \"byteLength\": 60}],\n"
+          " \"bufferViews\": [{\"buffer\": 0, \"byteOffset\": 0, \"byteLength\": 48},\n"
+          "   {\"buffer\": 0, \"byteOffset\": 48, \"byteLength\": 12}],\n"
+          " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 4, \"type\": \"VEC3\",\n"
+          "   \"min\": [-5, 0, -5], \"max\": [5, 0, 5]},\n"
+          "   {\"bufferView\": 1, \"componentType\": 5123, \"count\": 6, \"type\": \"SCALAR\"}]}\n",
+          f);
+    fclose(f);
+    rtk_scene *s = NULL;
+    rtk_status st = rtk_scene_load(gltf, RTK_NEED_NORMALS | RTK_NEED_MATERIALS | RTK_NEED_LIGHTS, &s);
+    if (st != RTK_OK) {
+        printf("     %s\n", rtk_error_message());
+        expect("glTF with KHR_lights_punctual loads", 0.0, 1.0, 0.0);
+    } else {
+        const rtk_punctual_light *l = rtk_scene_punctual(s, 0);
+        expect("glTF KHR_lights_punctual: one light", rtk_scene_punctual_count(s), 1.0, 0.0);
+        if (l) {
+            expect("glTF light: placed by its node", l->position.y, 2.0, 0.0);
+            double r2 = 0.3 * 0.3 + 2.0 * 2.0 + 0.4 * 0.4, cos_t = 2.0 / sqrt(r2);
+            /* rtk_scene_load finished the scene; radiance() builds it. */
+            double got = radiance(s, make_ray(rtk_vec3_make(0, 1, 0), rtk_vec3_make(0, -1, 0)), "5");
+            expect("glTF point light: Lo = rho I cos / (pi r^2)", got, 0.5 * 3.0 * cos_t / (M_PI * r2), 1e-5);
+        }
+        rtk_scene_free(s);
+    }
+    remove(bin);
+    remove(gltf);
+    rmdir(dir);
 }
 
 int main(void)
@@ -215,6 +276,7 @@ int main(void)
         expect("slab: the transmitted ray leaves parallel to the entering one", got, truth, 2e-5);
         rtk_scene_free(s);
     }
+    test_gltf_light();
     rtk_registry_destroy(reg);
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
