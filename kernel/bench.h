@@ -11,7 +11,8 @@
 RTK_EXTERN_C_BEGIN
 
 /* Reads an OBJ the recipe's way: `v x y z` with strtof; faces `i`, `i/j`,
- * `i//k`, `i/j/k`, negative indices relative; polygons fanned (0, i, i+1);
+ * `i//k`, `i/j/k`, negative indices relative; polygons fanned (0, i, i+1),
+ * so faces of fewer than 3 vertices give none (one warning counts them);
  * every other statement ignored. Nothing is dropped (degenerate triangles
  * stay), bounds cover every vertex. Errors name file:line.
  * [caller frees with rtk_scene_free] */

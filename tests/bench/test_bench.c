@@ -39,6 +39,7 @@ static void test_obj(void)
                                  "vt 0 0\nvn 0 0 1\no thing\ng group\ns 1\nusemtl x\n"
                                  "f 1/1/1 2/1/1 3//1 4/1 5\n"
                                  "f -5 -4 -4\n"
+                                 "f 1 2\n"
                                  "v 9 -3 5e-1\n");
     rtk_scene *s = NULL;
     rtk_status st = rtk_bench_read_obj(path, &s);
@@ -47,7 +48,8 @@ static void test_obj(void)
         printf("  %s\n", rtk_error_message());
         return;
     }
-    check(s->triangle_count == 4 && s->vertex_count == 6, "pentagon fans into 3 triangles, the degenerate one stays");
+    check(s->triangle_count == 4 && s->vertex_count == 6,
+          "pentagon fans into 3 triangles, the degenerate one stays, a 2-vertex face gives none");
     const uint32_t want[12] = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 1, 1};
     check(memcmp(s->indices, want, sizeof want) == 0, "fan is (0, i, i+1); negative indices count back");
     check(s->bounds.upper.x == 9.0f && s->bounds.lower.y == -3.0f && s->bounds.upper.z == 0.5f,
@@ -59,10 +61,10 @@ static void test_obj(void)
     } bad[] = {
         {"v 0 0 0\nv 1 0 0\nf 1 2 3\n", ":3:"},
         {"v 0 0\n", ":1:"},
-        {"v 0 0 0\nv 1 0 0\nv 1 1 0\n\nf 1 2\n", ":5:"},
+        {"v 0 0 0\nv 1 0 0\nv 1 1 0\n\nf 1 2 x\n", ":5:"},
         {"v 0 0 0\nv 1 0 0\nv 1 1 0\nf -4 1 2\n", ":4:"},
         {"v 0 0 nan\n", ":1:"},
-        {"v 0 0 0\n", "no faces"},
+        {"v 0 0 0\nv 1 0 0\nf 1 2\n", "no triangles"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         path = write_obj(bad[i].text);

@@ -132,7 +132,7 @@ def test_recipe(rtk):
             if "embree" in accels and len(accels) > 1:
                 check("against embree" in proc.stdout, "wall: ratios to embree printed")
         # Bad files are refused with file:line.
-        bad = [("f 1 2 9", "bad.obj:4:"), ("v 1 2", "bad.obj:1:"), ("f 1 2", "bad.obj:4:"), ("f 1 0 2", "bad.obj:4:"),
+        bad = [("f 1 2 9", "bad.obj:4:"), ("v 1 2", "bad.obj:1:"), ("f 1 2", "no triangles"), ("f 1 0 2", "bad.obj:4:"),
                ("f 1 x 2", "bad.obj:4:")]
         for line, where in bad:
             text = ("v 1 2\n" if line == "v 1 2" else "v 0 0 0\nv 1 0 0\nv 0 1 0\n") + line + "\n"
