@@ -3,6 +3,7 @@
 #include "bvh_cache.h"
 #include "bvh_wide.h"
 
+#include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <stdatomic.h>
@@ -12,9 +13,10 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-_Static_assert(sizeof(rtk_bvh_node) == 32, "the cache format stores 32-byte nodes");
-
 #define BUILDER_TEXT 40 /* bytes of "name version" in the header */
+
+_Static_assert(sizeof(rtk_bvh_node) == 32, "the cache format stores 32-byte nodes");
+_Static_assert(RTK_BVH_CACHE_AT_BUILDER_TEXT + BUILDER_TEXT == RTK_BVH_CACHE_HEADER_SIZE, "header layout");
 
 static const unsigned char cache_magic[8] = {'R', 'T', 'K', 'B', 'V', 'H', 0, 0};
 
@@ -135,6 +137,17 @@ uint64_t rtk_bvh_cache_builder_hash(const rtk_plugin *plugin, const rtk_params *
     return h;
 }
 
+uint64_t rtk_bvh_cache_plugin_stamp(const rtk_plugin *plugin)
+{
+    Dl_info info;
+    struct stat st;
+    if (!dladdr(plugin->functions, &info) || !info.dli_fname || stat(info.dli_fname, &st) != 0)
+        return 0;
+    const uint64_t fields[5] = {(uint64_t)st.st_size, (uint64_t)st.st_mtim.tv_sec, (uint64_t)st.st_mtim.tv_nsec,
+                                (uint64_t)st.st_ino, (uint64_t)st.st_dev};
+    return rtk_hash64(fields, sizeof fields, RTK_BVH_CACHE_SEED);
+}
+
 char *rtk_bvh_cache_default_dir(void)
 {
     /* The XDG spec ignores relative values of XDG_CACHE_HOME. */
@@ -194,26 +207,27 @@ static ssize_t read_all(int fd, void *buf, size_t size)
 /* Header fields after parsing. */
 typedef struct cache_header {
     uint32_t version, endian, header_size, node_size;
-    uint64_t geometry, builder;
+    uint64_t geometry, builder, plugin_file;
     uint32_t node_count, depth, prim_count, zero;
     char builder_text[BUILDER_TEXT + 1];
 } cache_header;
 
 static void parse_header(const unsigned char *b, cache_header *h)
 {
-    h->version = load32(b + 8);
-    h->endian = load32(b + 12);
-    h->header_size = load32(b + 16);
-    h->node_size = load32(b + 20);
-    h->geometry = load64(b + 24);
-    h->builder = load64(b + 32);
-    h->node_count = load32(b + 40);
-    h->depth = load32(b + 44);
-    h->prim_count = load32(b + 48);
-    h->zero = load32(b + 52);
+    h->version = load32(b + RTK_BVH_CACHE_AT_VERSION);
+    h->endian = load32(b + RTK_BVH_CACHE_AT_ENDIAN);
+    h->header_size = load32(b + RTK_BVH_CACHE_AT_HEADER_SIZE);
+    h->node_size = load32(b + RTK_BVH_CACHE_AT_NODE_SIZE);
+    h->geometry = load64(b + RTK_BVH_CACHE_AT_GEOMETRY);
+    h->builder = load64(b + RTK_BVH_CACHE_AT_BUILDER);
+    h->plugin_file = load64(b + RTK_BVH_CACHE_AT_PLUGIN_FILE);
+    h->node_count = load32(b + RTK_BVH_CACHE_AT_NODE_COUNT);
+    h->depth = load32(b + RTK_BVH_CACHE_AT_DEPTH);
+    h->prim_count = load32(b + RTK_BVH_CACHE_AT_PRIM_COUNT);
+    h->zero = load32(b + RTK_BVH_CACHE_AT_ZERO);
     /* Text from the file goes to a terminal: printable ASCII only. */
     for (int i = 0; i < BUILDER_TEXT; i++) {
-        unsigned char c = b[56 + i];
+        unsigned char c = b[RTK_BVH_CACHE_AT_BUILDER_TEXT + i];
         h->builder_text[i] = (char)(c == 0 || (c >= 0x20 && c < 0x7f) ? c : '?');
     }
     h->builder_text[BUILDER_TEXT] = '\0';
@@ -226,14 +240,14 @@ static void fill_header(unsigned char *b, const rtk_scene *s, uint64_t geometry,
     memcpy(b, cache_magic, sizeof cache_magic);
     const uint32_t words[4] = {RTK_BVH_CACHE_VERSION, RTK_BVH_CACHE_ENDIAN, RTK_BVH_CACHE_HEADER_SIZE,
                                (uint32_t)sizeof(rtk_bvh_node)};
-    memcpy(b + 8, words, sizeof words);
-    memcpy(b + 24, &geometry, 8);
-    memcpy(b + 32, &builder, 8);
+    memcpy(b + RTK_BVH_CACHE_AT_VERSION, words, sizeof words);
+    const uint64_t hashes[3] = {geometry, builder, rtk_bvh_cache_plugin_stamp(plugin)};
+    memcpy(b + RTK_BVH_CACHE_AT_GEOMETRY, hashes, sizeof hashes);
     const uint32_t counts[4] = {s->node_count, s->bvh_depth, s->triangle_count, 0};
-    memcpy(b + 40, counts, sizeof counts);
+    memcpy(b + RTK_BVH_CACHE_AT_NODE_COUNT, counts, sizeof counts);
     char text[BUILDER_TEXT + 1];
     builder_text(plugin, text);
-    memcpy(b + 56, text, BUILDER_TEXT);
+    memcpy(b + RTK_BVH_CACHE_AT_BUILDER_TEXT, text, BUILDER_TEXT);
 }
 
 static uint64_t checksum(const unsigned char *header, const rtk_bvh_node *nodes, uint32_t node_count,
@@ -331,6 +345,10 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
             snprintf(why, why_size, "stale: built by '%s', not '%s'", h.builder_text, want);
         else
             snprintf(why, why_size, "stale: built by '%s' with other parameters", h.builder_text);
+        return 0;
+    }
+    if (h.plugin_file != rtk_bvh_cache_plugin_stamp(plugin)) {
+        snprintf(why, why_size, "stale: built by another build of '%s' (the plugin file changed)", h.builder_text);
         return 0;
     }
     /* n <= (UINT32_MAX - 1) / 2 (checked by the caller), so 2n - 1 fits. */

@@ -12,30 +12,50 @@
  *        0    8  magic "RTKBVH\0\0"
  *        8    4  format version (1)
  *       12    4  endianness marker 0x01020304
- *       16    4  header size (96)
+ *       16    4  header size (104)
  *       20    4  node size (32, sizeof(rtk_bvh_node))
  *       24    8  geometry hash (rtk_bvh_cache_geometry_hash)
  *       32    8  builder hash (rtk_bvh_cache_builder_hash)
- *       40    4  node count, 1 .. 2 * prim count - 1
- *       44    4  tree depth
- *       48    4  prim count (the scene's triangles)
- *       52    4  zero
- *       56   40  "name version" of the builder, NUL-padded (for messages)
- *       96       node count rtk_bvh_node
+ *       40    8  plugin file stamp (rtk_bvh_cache_plugin_stamp)
+ *       48    4  node count, 1 .. 2 * prim count - 1
+ *       52    4  tree depth
+ *       56    4  prim count (the scene's triangles)
+ *       60    4  zero
+ *       64   40  "name version" of the builder, NUL-padded (for messages)
+ *      104       node count rtk_bvh_node
  *                prim count uint32_t: leaf slot -> triangle id
  *                8  checksum: h = hash(header, RTK_BVH_CACHE_SEED),
  *                   h = hash(nodes, h), h = hash(prim ids, h)
  *
- * A file's size is exactly 96 + 32 * nodes + 4 * prims + 8. */
+ * A file's size is exactly 104 + 32 * nodes + 4 * prims + 8. The file name
+ * carries the geometry and builder hashes; the plugin file stamp is only
+ * in the header, so rebuilding a plugin overwrites its old trees instead
+ * of leaving them behind. */
 #ifndef RTK_BVH_CACHE_H
 #define RTK_BVH_CACHE_H
 
 #include "internal.h"
 
 #define RTK_BVH_CACHE_VERSION 1u
-#define RTK_BVH_CACHE_HEADER_SIZE 96u
+#define RTK_BVH_CACHE_HEADER_SIZE 104u
 #define RTK_BVH_CACHE_ENDIAN 0x01020304u
 #define RTK_BVH_CACHE_SEED 0x5254cb42u
+
+/* Byte offsets of the header fields. */
+enum {
+    RTK_BVH_CACHE_AT_VERSION = 8,
+    RTK_BVH_CACHE_AT_ENDIAN = 12,
+    RTK_BVH_CACHE_AT_HEADER_SIZE = 16,
+    RTK_BVH_CACHE_AT_NODE_SIZE = 20,
+    RTK_BVH_CACHE_AT_GEOMETRY = 24,
+    RTK_BVH_CACHE_AT_BUILDER = 32,
+    RTK_BVH_CACHE_AT_PLUGIN_FILE = 40,
+    RTK_BVH_CACHE_AT_NODE_COUNT = 48,
+    RTK_BVH_CACHE_AT_DEPTH = 52,
+    RTK_BVH_CACHE_AT_PRIM_COUNT = 56,
+    RTK_BVH_CACHE_AT_ZERO = 60,
+    RTK_BVH_CACHE_AT_BUILDER_TEXT = 64
+};
 
 /* Where a render's BVH came from. */
 typedef struct rtk_bvh_cache_use {
@@ -52,6 +72,12 @@ uint64_t rtk_bvh_cache_geometry_hash(const rtk_scene *scene);
 /* Hash of the builder: plugin name and version, every parameter's name,
  * type and value. */
 uint64_t rtk_bvh_cache_builder_hash(const rtk_plugin *plugin, const rtk_params *params);
+
+/* Hash of the size, modification time and inode of the file the plugin's
+ * code was loaded from, so that a rebuilt or reinstalled plugin whose
+ * version string did not change does not get its old trees; 0 when the
+ * file is unknown. */
+uint64_t rtk_bvh_cache_plugin_stamp(const rtk_plugin *plugin);
 
 /* $XDG_CACHE_HOME/rtk, else $HOME/.cache/rtk, else NULL. [caller frees] */
 char *rtk_bvh_cache_default_dir(void);

@@ -259,6 +259,10 @@ static char dir[256], path[512];
 static unsigned char *good;   /* the good cache file */
 static size_t good_size;
 
+#define AT_NODES RTK_BVH_CACHE_AT_NODE_COUNT
+#define AT_PRIMS RTK_BVH_CACHE_AT_PRIM_COUNT
+#define AT_DEPTH RTK_BVH_CACHE_AT_DEPTH
+
 static uint32_t get32(const unsigned char *b, size_t off)
 {
     uint32_t v;
@@ -275,7 +279,7 @@ static void put32(unsigned char *b, size_t off, uint32_t v)
  * that only the structural validation stands between it and the scene. */
 static void fix_checksum(unsigned char *b, size_t size)
 {
-    uint32_t nodes = get32(b, 40), prims = get32(b, 48);
+    uint32_t nodes = get32(b, AT_NODES), prims = get32(b, AT_PRIMS);
     size_t node_bytes = 32 * (size_t)nodes, prim_bytes = 4 * (size_t)prims;
     if (size != RTK_BVH_CACHE_HEADER_SIZE + node_bytes + prim_bytes + 8)
         return;
@@ -390,7 +394,7 @@ static void test_round_trip(void)
     check(good && good_size == RTK_BVH_CACHE_HEADER_SIZE + 32 * (size_t)ref->node_count +
                                   4 * (size_t)ref->triangle_count + 8,
           "save: file size is header + nodes + prim ids + checksum");
-    check(good && memcmp(good, "RTKBVH\0\0", 8) == 0 && get32(good, 8) == 1, "save: magic and version");
+    check(good && memcmp(good, "RTKBVH\0\0", 8) == 0 && get32(good, RTK_BVH_CACHE_AT_VERSION) == 1, "save: magic and version");
     check(dir_count(dir, ".tmp") == 0, "save: no temporary file left");
     capture c;
     capture_begin(&c);
@@ -445,23 +449,23 @@ static void test_header_fields(void)
         uint32_t value;
         const char *reason;
     } cases[] = {
-        {"format version 3", 8, 3, "format version 3, expected 1"},
-        {"format version 0", 8, 0, "format version 0, expected 1"},
-        {"other byte order", 12, 0x04030201u, "other byte order"},
-        {"garbage byte-order marker", 12, 0xdeadbeefu, "byte-order marker"},
-        {"header size 2^32-1", 16, 0xffffffffu, "header size"},
-        {"node size 64", 20, 64, "node size"},
-        {"reserved field set", 52, 1, "reserved"},
-        {"node count 2^32-1", 40, 0xffffffffu, "node count"},
-        {"node count 0", 40, 0, "node count"},
-        {"node count one less (file too long)", 40, 0, "trailing"}, /* values set below */
-        {"node count one more (file too short)", 40, 0, "truncated"},
-        {"prim count 2^32-1", 48, 0xffffffffu, "built for other geometry"},
-        {"prim count 0", 48, 0, "built for other geometry"},
-        {"depth 2^32-1", 44, 0xffffffffu, "checksum mismatch"},
+        {"format version 3", RTK_BVH_CACHE_AT_VERSION, 3, "format version 3, expected 1"},
+        {"format version 0", RTK_BVH_CACHE_AT_VERSION, 0, "format version 0, expected 1"},
+        {"other byte order", RTK_BVH_CACHE_AT_ENDIAN, 0x04030201u, "other byte order"},
+        {"garbage byte-order marker", RTK_BVH_CACHE_AT_ENDIAN, 0xdeadbeefu, "byte-order marker"},
+        {"header size 2^32-1", RTK_BVH_CACHE_AT_HEADER_SIZE, 0xffffffffu, "header size"},
+        {"node size 64", RTK_BVH_CACHE_AT_NODE_SIZE, 64, "node size"},
+        {"reserved field set", RTK_BVH_CACHE_AT_ZERO, 1, "reserved"},
+        {"node count 2^32-1", AT_NODES, 0xffffffffu, "node count"},
+        {"node count 0", AT_NODES, 0, "node count"},
+        {"node count one less (file too long)", AT_NODES, 0, "trailing"}, /* values set below */
+        {"node count one more (file too short)", AT_NODES, 0, "truncated"},
+        {"prim count 2^32-1", AT_PRIMS, 0xffffffffu, "built for other geometry"},
+        {"prim count 0", AT_PRIMS, 0, "built for other geometry"},
+        {"depth 2^32-1", AT_DEPTH, 0xffffffffu, "checksum mismatch"},
     };
-    cases[9].value = get32(good, 40) - 1;
-    cases[10].value = get32(good, 40) + 1;
+    cases[9].value = get32(good, AT_NODES) - 1;
+    cases[10].value = get32(good, AT_NODES) + 1;
     for (size_t i = 0; i < RTK_COUNTOF(cases); i++) {
         memcpy(b, good, good_size);
         put32(b, cases[i].offset, cases[i].value);
@@ -472,22 +476,22 @@ static void test_header_fields(void)
     expect_refused("wrong magic", b, good_size, "bad magic");
     expect_rebuilt("wrong magic", b, good_size);
     memcpy(b, good, good_size);
-    put32(b, 8, 3);
+    put32(b, RTK_BVH_CACHE_AT_VERSION, 3);
     expect_rebuilt("format version 3", b, good_size);
     memcpy(b, good, good_size);
-    put32(b, 40, 0xffffffffu);
+    put32(b, AT_NODES, 0xffffffffu);
     expect_rebuilt("node count 2^32-1", b, good_size);
     /* Huge counts with a checksum that matches: refused before allocating. */
     memcpy(b, good, good_size);
-    put32(b, 40, 0xfffffff0u);
-    put32(b, 48, 0xfffffff0u);
+    put32(b, AT_NODES, 0xfffffff0u);
+    put32(b, AT_PRIMS, 0xfffffff0u);
     fix_checksum(b, good_size);
     expect_refused("huge counts, checksum fixed", b, good_size, NULL);
     /* The builder text is printed: control characters must not be. */
     memcpy(b, good, good_size);
-    memcpy(b + 56, "\x1b[31mevil\x07", 11);
+    memcpy(b + RTK_BVH_CACHE_AT_BUILDER_TEXT, "\x1b[31mevil\x07", 11);
     uint64_t other = bhash ^ 1;
-    memcpy(b + 32, &other, 8);
+    memcpy(b + RTK_BVH_CACHE_AT_BUILDER, &other, 8);
     if (write_file(path, b, good_size)) {
         capture c;
         capture_begin(&c);
@@ -497,6 +501,16 @@ static void test_header_fields(void)
               "builder text from the file is printed without control characters (got: %s)", shown(err));
         free(err);
     }
+    /* Another build of the same plugin (same name, version, parameters). */
+    memcpy(b, good, good_size);
+    uint64_t stamp;
+    memcpy(&stamp, b + RTK_BVH_CACHE_AT_PLUGIN_FILE, 8);
+    check(stamp != 0 && stamp == rtk_bvh_cache_plugin_stamp(median), "the header carries the plugin file's stamp");
+    stamp ^= 0x100;
+    memcpy(b + RTK_BVH_CACHE_AT_PLUGIN_FILE, &stamp, 8);
+    fix_checksum(b, good_size);
+    expect_refused("plugin file rebuilt", b, good_size, "plugin file changed");
+    expect_rebuilt("plugin file rebuilt", b, good_size);
     free(b);
     group_done("damaged header fields: each refused with its reason", f0, p0);
 }
@@ -566,7 +580,7 @@ static void test_bit_flips(void)
 /* Finds a node of the good image satisfying leaf/inner; returns its index. */
 static uint32_t find_node(const unsigned char *b, int leaf, uint32_t skip)
 {
-    uint32_t n = get32(b, 40);
+    uint32_t n = get32(b, AT_NODES);
     for (uint32_t i = 1; i < n; i++) {
         uint32_t count = get32(b, RTK_BVH_CACHE_HEADER_SIZE + 32 * (size_t)i + 28);
         if ((count > 0) == (leaf != 0) && skip-- == 0)
@@ -585,7 +599,7 @@ static void test_structure(void)
     check(inner && leaf && leaf2, "structure: the tree has inner nodes and leaves to damage");
     /* Each edit keeps the checksum right: the kernel's validation decides. */
     memcpy(b, good, good_size);
-    put32(b, H + 32 * inner + 12, get32(b, 40) - 1);
+    put32(b, H + 32 * inner + 12, get32(b, AT_NODES) - 1);
     fix_checksum(b, good_size);
     expect_refused("child index past the last node", b, good_size, "invalid tree");
     memcpy(b, good, good_size);
@@ -624,7 +638,7 @@ static void test_structure(void)
     fix_checksum(b, good_size);
     expect_refused("NaN bounds", b, good_size, "invalid tree");
     memcpy(b, good, good_size);
-    put32(b, 44, get32(b, 44) + 1);
+    put32(b, AT_DEPTH, get32(b, AT_DEPTH) + 1);
     fix_checksum(b, good_size);
     expect_refused("depth in the header differs from the tree", b, good_size, "depth");
     memcpy(b, good, good_size);
@@ -637,8 +651,8 @@ static void test_structure(void)
     const size_t one_leaf = H + 32 + 4 * (size_t)ref->triangle_count + 8;
     unsigned char *c = calloc(1, one_leaf);
     memcpy(c, good, H);
-    put32(c, 40, 1);
-    put32(c, 44, 1);
+    put32(c, AT_NODES, 1);
+    put32(c, AT_DEPTH, 1);
     memcpy(c + H, good + H, 12);      /* root bounds */
     memcpy(c + H + 16, good + H + 16, 12);
     put32(c, H + 12, 0);
