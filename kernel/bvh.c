@@ -101,7 +101,12 @@ RTK_API int rtk_intersect_triangle(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, r
     float T = U * az + V * bz + W * cz;
     float rcp = 1.0f / det;
     float t = T * rcp;
-    if (!(t_error_bound(U, V, W, ax, ay, bx, by, cx, cy, az, bz, cz, rcp) < RTK_T_TOLERANCE * fabsf(t))) {
+    float err = t_error_bound(U, V, W, ax, ay, bx, by, cx, cy, az, bz, cz, rcp);
+    if (!(err < RTK_T_TOLERANCE * fabsf(t))) {
+        /* Outside the range even with the error (a ray leaving a surface
+         * meets it behind its origin): no need for double. */
+        if (t + err < ray->tmin || t - err > ray->tmax)
+            return 0;
         /* The float t may be off by more than traversal allows (grazing or
          * thin triangles), or too close to the origin for float to tell
          * its sign (a ray leaving a large triangle would otherwise meet it

@@ -44,6 +44,8 @@ typedef struct collapser {
     uint32_t node_count, node_cap;
     rtk_wide_tris *tris;
     uint32_t tri_count, tri_cap;
+    uint32_t *tri_total;  /* per binary node: triangles below it */
+    uint32_t *slots;      /* scratch: the slots of one merged subtree */
     uint32_t depth;
     int failed;
 } collapser;
@@ -87,13 +89,13 @@ static void set_child(collapser *c, uint32_t node, int i, const float lo[3], con
     n->child[i] = ref;
 }
 
-/* Bounds of the triangles in slots [begin, end). */
-static void slot_bounds(const rtk_scene *s, uint32_t begin, uint32_t end, float lo[3], float hi[3])
+/* Bounds of the triangles in slots[0, n). */
+static void slot_bounds(const rtk_scene *s, const uint32_t *slots, uint32_t n, float lo[3], float hi[3])
 {
     for (int k = 0; k < 3; k++)
         lo[k] = INFINITY, hi[k] = -INFINITY;
-    for (uint32_t i = begin; i < end; i++) {
-        const float *v = s->tri_verts + 9 * (size_t)i;
+    for (uint32_t i = 0; i < n; i++) {
+        const float *v = s->tri_verts + 9 * (size_t)slots[i];
         for (int j = 0; j < 9; j++) {
             int k = j % 3;
             lo[k] = fminf(lo[k], v[j]);
@@ -102,10 +104,10 @@ static void slot_bounds(const rtk_scene *s, uint32_t begin, uint32_t end, float 
     }
 }
 
-/* Leaf reference for slots [begin, end), at most RTK_WIDE_LEAF_BLOCKS blocks. */
-static uint32_t make_blocks(collapser *c, uint32_t begin, uint32_t end)
+/* Leaf reference for slots[0, n), at most RTK_WIDE_LEAF_BLOCKS blocks. */
+static uint32_t make_blocks(collapser *c, const uint32_t *slots, uint32_t n)
 {
-    uint32_t blocks = (end - begin + RTK_WIDE_TRIS - 1) / RTK_WIDE_TRIS;
+    uint32_t blocks = (n + RTK_WIDE_TRIS - 1) / RTK_WIDE_TRIS;
     if (c->tri_count + blocks > c->tri_cap) {
         uint32_t cap = c->tri_cap ? 2 * c->tri_cap : 64;
         while (cap < c->tri_count + blocks)
@@ -120,13 +122,13 @@ static uint32_t make_blocks(collapser *c, uint32_t begin, uint32_t end)
     uint32_t first = c->tri_count;
     for (uint32_t b = 0; b < blocks; b++) {
         rtk_wide_tris *t = &c->tris[c->tri_count++];
-        for (int lane = 0; lane < RTK_WIDE_TRIS; lane++) {
-            uint32_t slot = begin + b * RTK_WIDE_TRIS + (uint32_t)lane;
-            if (slot < end) {
-                const float *v = c->s->tri_verts + 9 * (size_t)slot;
+        for (uint32_t lane = 0; lane < RTK_WIDE_TRIS; lane++) {
+            uint32_t i = b * RTK_WIDE_TRIS + lane;
+            if (i < n) {
+                const float *v = c->s->tri_verts + 9 * (size_t)slots[i];
                 for (int j = 0; j < 9; j++)
                     t->v[j][lane] = v[j];
-                t->prim[lane] = c->s->prim_ids[slot];
+                t->prim[lane] = c->s->prim_ids[slots[i]];
             } else {
                 /* NaN corners: every comparison of the test fails, a miss. */
                 for (int j = 0; j < 9; j++)
@@ -138,14 +140,13 @@ static uint32_t make_blocks(collapser *c, uint32_t begin, uint32_t end)
     return RTK_WIDE_LEAF | first << RTK_WIDE_LEAF_SHIFT | (blocks - 1);
 }
 
-/* Reference for the leaf over slots [begin, end): blocks directly, or a
- * node over up to RTK_WIDE pieces when the leaf is too large for one
- * reference. */
-static uint32_t make_leaf(collapser *c, uint32_t begin, uint32_t end, uint32_t depth)
+/* Reference for a leaf over slots[0, n): blocks directly, or a node over
+ * up to RTK_WIDE pieces when the leaf is too large for one reference. */
+static uint32_t make_leaf(collapser *c, const uint32_t *slots, uint32_t n, uint32_t depth)
 {
     const uint32_t per_ref = RTK_WIDE_LEAF_BLOCKS * RTK_WIDE_TRIS;
-    if (end - begin <= per_ref)
-        return make_blocks(c, begin, end);
+    if (n <= per_ref)
+        return make_blocks(c, slots, n);
     if (depth > RTK_WIDE_MAX_DEPTH) {
         c->failed = 1;
         return RTK_WIDE_LEAF;
@@ -155,21 +156,70 @@ static uint32_t make_leaf(collapser *c, uint32_t begin, uint32_t end, uint32_t d
     uint32_t node = new_node(c);
     if (c->failed)
         return RTK_WIDE_LEAF;
-    uint64_t n = end - begin;
-    uint64_t piece = (n + RTK_WIDE - 1) / RTK_WIDE;
+    uint32_t piece = (n + RTK_WIDE - 1) / RTK_WIDE;
     if (piece < per_ref)
         piece = per_ref;
     int i = 0;
-    for (uint64_t b = begin; b < end; b += piece, i++) {
-        uint32_t e = (uint32_t)(b + piece < end ? b + piece : end);
+    for (uint32_t b = 0; b < n; b += piece, i++) {
+        uint32_t m = n - b < piece ? n - b : piece;
         float lo[3], hi[3];
-        slot_bounds(c->s, (uint32_t)b, e, lo, hi);
-        uint32_t ref = make_leaf(c, (uint32_t)b, e, depth + 1);
+        slot_bounds(c->s, slots + b, m, lo, hi);
+        uint32_t ref = make_leaf(c, slots + b, m, depth + 1);
         if (c->failed)
             return RTK_WIDE_LEAF;
         set_child(c, node, i, lo, hi, ref);
     }
     return node;
+}
+
+/* Appends the slots of binary subtree bin to c->slots from *n on. */
+static void gather_slots(collapser *c, uint32_t bin, uint32_t *n)
+{
+    const rtk_bvh_node *bn = c->s->nodes;
+    if (bn[bin].count > 0) {
+        for (uint32_t i = 0; i < bn[bin].count; i++)
+            c->slots[(*n)++] = bn[bin].offset + i;
+        return;
+    }
+    gather_slots(c, bn[bin].offset, n);
+    gather_slots(c, bn[bin].offset + 1, n);
+}
+
+/* Triangles below every binary node (post-order, explicit stack). */
+static int count_triangles(collapser *c)
+{
+    const rtk_scene *s = c->s;
+    /* each level replaces one pair by three */
+    uint32_t *stack = rtk_alloc(sizeof *stack * 4 * ((size_t)s->bvh_depth + 2));
+    if (!stack)
+        return 0;
+    int top = 0;
+    stack[top++] = 0, stack[top++] = 0; /* (node, children done) */
+    while (top > 0) {
+        uint32_t done = stack[--top], id = stack[--top];
+        const rtk_bvh_node *n = &s->nodes[id];
+        if (n->count > 0) {
+            c->tri_total[id] = n->count;
+        } else if (done) {
+            c->tri_total[id] = c->tri_total[n->offset] + c->tri_total[n->offset + 1];
+        } else {
+            stack[top++] = id, stack[top++] = 1;
+            stack[top++] = n->offset, stack[top++] = 0;
+            stack[top++] = n->offset + 1, stack[top++] = 0;
+        }
+    }
+    free(stack);
+    return 1;
+}
+
+/* A binary subtree this small becomes one leaf block: one four-lane test
+ * instead of a node and several part-empty blocks. */
+#define RTK_WIDE_MERGE RTK_WIDE_TRIS
+
+/* Whether binary node id ends a wide path: a leaf or a small subtree. */
+static int is_wide_leaf(const collapser *c, uint32_t id)
+{
+    return c->s->nodes[id].count > 0 || c->tri_total[id] <= RTK_WIDE_MERGE;
 }
 
 /* Wide node for binary node bin: its children, then repeatedly the inner
@@ -197,7 +247,7 @@ static uint32_t collapse(collapser *c, uint32_t bin, uint32_t depth)
         float best_area = -1.0f;
         for (int i = 0; i < n; i++) {
             const rtk_bvh_node *k = &bn[kids[i]];
-            if (k->count > 0)
+            if (is_wide_leaf(c, kids[i]))
                 continue;
             float a = half_area(k->lower, k->upper);
             if (a > best_area)
@@ -214,8 +264,14 @@ static uint32_t collapse(collapser *c, uint32_t bin, uint32_t depth)
         return 0;
     for (int i = 0; i < n; i++) {
         const rtk_bvh_node *k = &bn[kids[i]];
-        uint32_t ref = k->count > 0 ? make_leaf(c, k->offset, k->offset + k->count, depth + 1)
-                                    : collapse(c, kids[i], depth + 1);
+        uint32_t ref;
+        if (is_wide_leaf(c, kids[i])) {
+            uint32_t count = 0;
+            gather_slots(c, kids[i], &count);
+            ref = make_leaf(c, c->slots, count, depth + 1);
+        } else {
+            ref = collapse(c, kids[i], depth + 1);
+        }
         if (c->failed)
             return 0;
         set_child(c, node, i, k->lower, k->upper, ref);
@@ -253,7 +309,14 @@ rtk_status rtk_wide_build(rtk_scene *s)
     collapser c;
     memset(&c, 0, sizeof c);
     c.s = s;
-    collapse(&c, 0, 0);
+    c.tri_total = rtk_alloc(sizeof *c.tri_total * (size_t)s->node_count);
+    c.slots = rtk_alloc(sizeof *c.slots * (size_t)s->triangle_count);
+    if (!c.tri_total || !c.slots || !count_triangles(&c))
+        c.failed = 1;
+    else
+        collapse(&c, 0, 0);
+    free(c.tri_total);
+    free(c.slots);
     rtk_wide_bvh *w = NULL;
     if (!c.failed && c.tri_count >= 1u << (31 - RTK_WIDE_LEAF_SHIFT))
         c.failed = 1;
@@ -605,8 +668,15 @@ RTK_INLINE int tri_test4(const rtk_wide_tris *b, const tri_ray *r, float tmin, f
     __m128 allowed = _mm_mul_ps(_mm_set1_ps(RTK_T_TOLERANCE), RTK_ABS(t));
 #undef RTK_ABS
     int near = _mm_movemask_ps(_mm_cmpnlt_ps(bound, allowed)) & cand;
-    *scalar |= near;
-    __m128 inside = _mm_and_ps(_mm_cmpge_ps(t, _mm_set1_ps(tmin)), _mm_cmple_ps(t, _mm_set1_ps(tmax)));
+    const __m128 tmin4 = _mm_set1_ps(tmin), tmax4 = _mm_set1_ps(tmax);
+    if (near) {
+        /* Those the scalar test rejects before its double: outside the
+         * range by twice the bound (itself twice the scalar one). */
+        __m128 err2 = _mm_add_ps(bound, bound);
+        __m128 out = _mm_or_ps(_mm_cmplt_ps(_mm_add_ps(t, err2), tmin4), _mm_cmpgt_ps(_mm_sub_ps(t, err2), tmax4));
+        *scalar |= near & ~_mm_movemask_ps(out);
+    }
+    __m128 inside = _mm_and_ps(_mm_cmpge_ps(t, tmin4), _mm_cmple_ps(t, tmax4));
     int mask = _mm_movemask_ps(inside) & cand & ~near;
     if (!mask)
         return 0;
@@ -735,6 +805,14 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
 
 /* ---- AVX2: the eight children at once ---- */
 
+/* Leaves out of line: the node loop keeps its registers. */
+static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf(const rtk_wide_bvh *w, uint32_t ref, const tri_ray *r,
+                                                               const rtk_ray *ray, rtk_hit *hit, int any,
+                                                               rtk_trace_work *work)
+{
+    return leaf_test(w, ref, r, ray, hit, any, work);
+}
+
 RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, int any,
                                              rtk_trace_work *work)
 {
@@ -748,10 +826,10 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
     const __m256 fx = _mm256_set1_ps(p.inv_far[0]), fy = _mm256_set1_ps(p.inv_far[1]),
                  fz = _mm256_set1_ps(p.inv_far[2]);
     const __m256 tmin8 = _mm256_set1_ps(ray->tmin);
+    /* Entry rows; the exit row of an axis is its entry row ^ 1. */
     const size_t nx = (size_t)p.near[0] * RTK_WIDE, ny = (size_t)p.near[1] * RTK_WIDE,
                  nz = (size_t)p.near[2] * RTK_WIDE;
-    const size_t gx_ = (size_t)p.far[0] * RTK_WIDE, gy_ = (size_t)p.far[1] * RTK_WIDE,
-                 gz_ = (size_t)p.far[2] * RTK_WIDE;
+    const rtk_wide_node *nodes = w->nodes;
     float tmax_w = widen(any ? ray->tmax : hit->t);
     __m256 tmax8 = _mm256_set1_ps(tmax_w);
     stack_entry stack[RTK_WIDE_STACK];
@@ -759,16 +837,16 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
     uint32_t cur = 0;
     for (;;) {
         while (!(cur & RTK_WIDE_LEAF)) {
-            const rtk_wide_node *n = &w->nodes[cur];
+            const rtk_wide_node *n = &nodes[cur];
             const float *bb = &n->bounds[0][0];
             if (work)
                 work->nodes++;
             __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + nx), ox), ix);
             __m256 tny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + ny), oy), iy);
             __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + nz), oz), iz);
-            __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + gx_), ox), fx);
-            __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + gy_), oy), fy);
-            __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + gz_), oz), fz);
+            __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + (nx ^ RTK_WIDE)), ox), fx);
+            __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + (ny ^ RTK_WIDE)), oy), fy);
+            __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + (nz ^ RTK_WIDE)), oz), fz);
             /* max(a, t) returns t when a is NaN: the NaN of 0 * inf is dropped. */
             __m256 t0 = _mm256_max_ps(tnz, _mm256_max_ps(tny, _mm256_max_ps(tnx, tmin8)));
             __m256 t1 = _mm256_min_ps(tfz, _mm256_min_ps(tfy, _mm256_min_ps(tfx, tmax8)));
@@ -777,13 +855,22 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
                 goto pop;
             if ((mask & (mask - 1)) == 0) {
                 cur = n->child[__builtin_ctz(mask)];
+            } else if (any) {
+                /* Occlusion needs no order: push all but the first. */
+                cur = n->child[__builtin_ctz(mask)];
+                for (mask &= mask - 1; mask; mask &= mask - 1) {
+                    uint32_t c = n->child[__builtin_ctz(mask)];
+                    stack[top].ref = c;
+                    stack[top].t = 0.0f;
+                    top++;
+                }
             } else {
                 float dist[RTK_WIDE];
                 _mm256_storeu_ps(dist, t0);
                 cur = push_sorted(n, mask, dist, stack, &top);
             }
         }
-        if (leaf_test(w, cur, &tr, ray, hit, any, work)) {
+        if (avx2_leaf(w, cur, &tr, ray, hit, any, work)) {
             if (any)
                 return 1;
             tmax_w = widen(hit->t);
