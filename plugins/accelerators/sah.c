@@ -33,7 +33,9 @@
 /* Subtrees of at least this many primitives go to the shared queue. */
 #define SAH_SPAWN_MIN 4096
 /* Nodes of at most this many primitives try every object split. */
-#define SAH_SMALL 16
+#ifndef SAH_SMALL
+#define SAH_SMALL 8
+#endif
 
 typedef struct sah {
     int sweep;
@@ -65,8 +67,14 @@ static inline v4 v4_mul(v4 a, v4 b) { return _mm_mul_ps(a, b); }
  * and NaN in a gives b. */
 static inline v4 v4_min(v4 a, v4 b) { return _mm_min_ps(a, b); }
 static inline v4 v4_max(v4 a, v4 b) { return _mm_max_ps(a, b); }
-/* Truncates each lane (lanes 0-2 hold values in [0, 255]). */
-static inline void v4_to_u32(v4 a, uint32_t out[4]) { _mm_storeu_si128((__m128i *)out, _mm_cvttps_epi32(a)); }
+/* Truncates lanes 0-2, which hold values in [0, 255]. */
+static inline void v4_to_u32(v4 a, uint32_t out[3])
+{
+    __m128i i = _mm_cvttps_epi32(a);
+    out[0] = (uint32_t)_mm_cvtsi128_si32(i);
+    out[1] = (uint32_t)_mm_cvtsi128_si32(_mm_shuffle_epi32(i, 1));
+    out[2] = (uint32_t)_mm_cvtsi128_si32(_mm_shuffle_epi32(i, 2));
+}
 #else
 typedef struct v4 {
     float f[4];
@@ -81,7 +89,7 @@ static inline v4 v4_sub(v4 a, v4 b) { V4_LANES(a.f[k] - b.f[k]); }
 static inline v4 v4_mul(v4 a, v4 b) { V4_LANES(a.f[k] * b.f[k]); }
 static inline v4 v4_min(v4 a, v4 b) { V4_LANES(a.f[k] < b.f[k] ? a.f[k] : b.f[k]); }
 static inline v4 v4_max(v4 a, v4 b) { V4_LANES(a.f[k] > b.f[k] ? a.f[k] : b.f[k]); }
-static inline void v4_to_u32(v4 a, uint32_t out[4]) { for (int k = 0; k < 4; k++) out[k] = a.f[k] >= 0.0f && a.f[k] < 256.0f ? (uint32_t)a.f[k] : 0; }
+static inline void v4_to_u32(v4 a, uint32_t out[3]) { for (int k = 0; k < 3; k++) out[k] = (uint32_t)a.f[k]; }
 #undef V4_LANES
 #endif
 
@@ -171,7 +179,7 @@ static v4 bounds_upper(const rtk_bounds *b)
 
 /* Bins of a doubled centroid c on each axis: (c - lo) * scale clamped to
  * [0, bins - 1]; NaN (0 * inf on a tiny extent) goes to bin 0. */
-static inline void bins_of(v4 c, v4 lo, v4 scale, v4 last, uint32_t out[4])
+static inline void bins_of(v4 c, v4 lo, v4 scale, v4 last, uint32_t out[3])
 {
     v4_to_u32(v4_min(v4_max(v4_mul(v4_sub(c, lo), scale), v4_set1(0.0f)), last), out);
 }
@@ -236,12 +244,14 @@ static void binning_clear(binning *bn, uint32_t nb)
 static inline void binning_add(binning *bn, const ref *r, v4 clo, v4 scale, v4 last)
 {
     v4 lo = v4_load(r->lo), hi = v4_load(r->hi);
-    uint32_t bi[4];
+    uint32_t bi[3];
     bins_of(v4_add(lo, hi), clo, scale, last, bi);
-    for (int k = 0; k < 3; k++) {
-        box_grow(&bn->box[k][bi[k]], lo, hi);
-        bn->count[k][bi[k]]++;
-    }
+    box_grow(&bn->box[0][bi[0]], lo, hi);
+    box_grow(&bn->box[1][bi[1]], lo, hi);
+    box_grow(&bn->box[2][bi[2]], lo, hi);
+    bn->count[0][bi[0]]++;
+    bn->count[1][bi[1]]++;
+    bn->count[2][bi[2]]++;
 }
 
 static split find_binned(const build *b, const job *j)
@@ -319,6 +329,14 @@ static inline void ref_grow(job *j, const ref *r)
     box_add_point(&j->cent, v4_add(lo, hi));
 }
 
+/* Bounds of refs [begin, end) into j. */
+static void bounds_of_refs(const build *b, uint32_t begin, uint32_t end, job *j)
+{
+    box_empty(&j->geom), box_empty(&j->cent);
+    for (uint32_t i = begin; i < end; i++)
+        ref_grow(j, &b->refs[i]);
+}
+
 /* Moves the primitives of bins below s.at to the front, as find_binned
  * binned them; fills both children's bounds. Returns the first slot of
  * the right side. */
@@ -335,46 +353,67 @@ static uint32_t partition_binned(const build *b, const job *j, split s, job *l, 
     const float clo = lo[k], scl = sc[k], at = (float)s.at;
 #define SAH_LEFT(rf) (!(((rf).lo[k] + (rf).hi[k] - clo) * scl >= at))
     ref *refs = b->refs;
-    box_empty(&l->geom), box_empty(&l->cent), box_empty(&r->geom), box_empty(&r->cent);
-    uint32_t i = j->begin, e = j->end;
-    for (;;) {
-        while (i < e && SAH_LEFT(refs[i]))
-            ref_grow(l, &refs[i++]);
-        while (i < e && !SAH_LEFT(refs[e - 1]))
-            ref_grow(r, &refs[--e]);
-        if (i >= e)
-            break;
-        ref t = refs[i];
-        refs[i] = refs[e - 1];
-        refs[e - 1] = t;
-        ref_grow(l, &refs[i++]);
-        ref_grow(r, &refs[--e]);
+    /* Lomuto without branches: [begin, mid) is left, [mid, i) right. */
+    uint32_t mid = j->begin;
+    for (uint32_t i = j->begin; i < j->end; i++) {
+        ref x = refs[i];
+        refs[i] = refs[mid];
+        refs[mid] = x;
+        mid += SAH_LEFT(x);
     }
 #undef SAH_LEFT
-    return i;
+    bounds_of_refs(b, j->begin, mid, l);
+    bounds_of_refs(b, mid, j->end, r);
+    return mid;
 }
 
-/* Sorts the refs of j along axis k into ord (slots relative to begin),
- * by doubled centroid, ties by primitive index. */
-static void sort_small(const build *b, const job *j, int k, uint8_t ord[SAH_SMALL])
+/* Orders the m refs of a small node along each axis by doubled centroid,
+ * ties by primitive index: ord[k][r] is the slot (from the node's first)
+ * of rank r. Counting ranks pairwise has no data-dependent branches. */
+static void sort_small(const ref *refs, uint32_t m, uint8_t ord[3][SAH_SMALL])
 {
-    const ref *refs = b->refs + j->begin;
-    const uint32_t m = j->end - j->begin;
-    float key[SAH_SMALL];
+    uint32_t rank[SAH_SMALL][4];
+#if defined(__SSE2__)
+    __m128 key[SAH_SMALL];
+    __m128i r[SAH_SMALL];
     for (uint32_t i = 0; i < m; i++) {
-        float c = refs[i].lo[k] + refs[i].hi[k];
-        uint32_t at = i;
-        while (at > 0) {
-            const ref *p = &refs[ord[at - 1]];
-            if (key[at - 1] < c || (key[at - 1] == c && p->id < refs[i].id))
-                break;
-            key[at] = key[at - 1];
-            ord[at] = ord[at - 1];
-            at--;
-        }
-        key[at] = c;
-        ord[at] = (uint8_t)i;
+        key[i] = _mm_add_ps(v4_load(refs[i].lo), v4_load(refs[i].hi));
+        r[i] = _mm_setzero_si128();
     }
+    const __m128i one = _mm_set1_epi32(1);
+    for (uint32_t i = 0; i < m; i++) {
+        for (uint32_t j = i + 1; j < m; j++) {
+            __m128 id_first = _mm_castsi128_ps(_mm_set1_epi32(-(int32_t)(refs[j].id < refs[i].id)));
+            __m128 first = _mm_or_ps(_mm_cmplt_ps(key[j], key[i]), _mm_and_ps(_mm_cmpeq_ps(key[j], key[i]), id_first));
+            __m128i mask = _mm_castps_si128(first); /* all ones where j comes first */
+            r[i] = _mm_sub_epi32(r[i], mask);
+            r[j] = _mm_add_epi32(r[j], _mm_add_epi32(mask, one));
+        }
+    }
+    for (uint32_t i = 0; i < m; i++)
+        _mm_storeu_si128((__m128i *)rank[i], r[i]);
+#else
+    float key[SAH_SMALL][3];
+    for (uint32_t i = 0; i < m; i++) {
+        for (int k = 0; k < 3; k++) {
+            key[i][k] = refs[i].lo[k] + refs[i].hi[k];
+            rank[i][k] = 0;
+        }
+    }
+    for (uint32_t i = 0; i < m; i++) {
+        for (uint32_t j = i + 1; j < m; j++) {
+            uint32_t id_first = refs[j].id < refs[i].id;
+            for (int k = 0; k < 3; k++) {
+                uint32_t first = (key[j][k] < key[i][k]) | ((key[j][k] == key[i][k]) & id_first);
+                rank[i][k] += first;
+                rank[j][k] += first ^ 1;
+            }
+        }
+    }
+#endif
+    for (int k = 0; k < 3; k++)
+        for (uint32_t i = 0; i < m; i++)
+            ord[k][rank[i][k]] = (uint8_t)i;
 }
 
 /* Exact SAH over every object split of a small node: cheaper there than
@@ -387,9 +426,18 @@ static split find_small(const build *b, const job *j)
     split best = {-1, 0, INFINITY};
     float best_weight = INFINITY, rweight[SAH_SMALL];
     uint32_t best_skew = UINT32_MAX;
+    if (m == 2) {
+        /* One split, the same on every axis; the order stays. */
+        vbox one = {v4_load(refs[0].lo), v4_load(refs[0].hi)}, two = {v4_load(refs[1].lo), v4_load(refs[1].hi)};
+        best = (split){0, 1, 0.0f};
+        best_weight = half_area(&one) + half_area(&two);
+        best.cost = split_cost(o, best_weight, half_area(&j->geom), m);
+        return best;
+    }
+    uint8_t order[3][SAH_SMALL];
+    sort_small(refs, m, order);
     for (int k = 0; k < 3; k++) {
-        uint8_t ord[SAH_SMALL];
-        sort_small(b, j, k, ord);
+        const uint8_t *ord = order[k];
         vbox acc;
         box_empty(&acc);
         for (uint32_t i = m - 1; i > 0; i--) {
@@ -419,23 +467,17 @@ static uint32_t partition_small(const build *b, const job *j, split s, job *l, j
 {
     ref *refs = b->refs + j->begin, tmp[SAH_SMALL];
     const uint32_t m = j->end - j->begin;
-    uint8_t ord[SAH_SMALL];
-    sort_small(b, j, s.axis, ord);
-    for (uint32_t i = 0; i < m; i++)
-        tmp[i] = refs[ord[i]];
-    memcpy(refs, tmp, sizeof *refs * m);
+    if (m > 2) {
+        uint8_t order[3][SAH_SMALL];
+        sort_small(refs, m, order);
+        for (uint32_t i = 0; i < m; i++)
+            tmp[i] = refs[order[s.axis][i]];
+        memcpy(refs, tmp, sizeof *refs * m);
+    }
     box_empty(&l->geom), box_empty(&l->cent), box_empty(&r->geom), box_empty(&r->cent);
     for (uint32_t i = 0; i < m; i++)
         ref_grow(i < s.at ? l : r, &refs[i]);
     return j->begin + s.at;
-}
-
-/* Bounds of refs [begin, end) into j. */
-static void bounds_of_refs(const build *b, uint32_t begin, uint32_t end, job *j)
-{
-    box_empty(&j->geom), box_empty(&j->cent);
-    for (uint32_t i = begin; i < end; i++)
-        ref_grow(j, &b->refs[i]);
 }
 
 static void bounds_of_ids(const build *b, const uint32_t *ids, uint32_t begin, uint32_t end, vbox *geom)
