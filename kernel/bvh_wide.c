@@ -495,6 +495,19 @@ RTK_INLINE uint32_t push_sorted(const rtk_wide_node *n, uint32_t mask, const flo
     return base[count - 1].ref;
 }
 
+/* Occlusion needs no order: pushes all hit children but the first and
+ * returns that one. */
+RTK_INLINE uint32_t push_unsorted(const rtk_wide_node *n, uint32_t mask, stack_entry *stack, int *top)
+{
+    uint32_t first = n->child[__builtin_ctz(mask)];
+    for (mask &= mask - 1; mask; mask &= mask - 1) {
+        stack[*top].ref = n->child[__builtin_ctz(mask)];
+        stack[*top].t = 0.0f;
+        ++*top;
+    }
+    return first;
+}
+
 /* Records a hit found at (t, u, v) on prim if it is closer, or as close
  * with a lower id. Returns 1 when the hit changed. */
 RTK_INLINE int record_hit(rtk_hit *hit, float t, float u, float v, uint32_t prim)
@@ -554,6 +567,8 @@ RTK_INLINE int scalar_traverse(const rtk_scene *s, const rtk_ray *ray_in, rtk_hi
                 goto pop;
             if ((mask & (mask - 1)) == 0)
                 cur = n->child[__builtin_ctz(mask)];
+            else if (any)
+                cur = push_unsorted(n, mask, stack, &top);
             else
                 cur = push_sorted(n, mask, dist, stack, &top);
         }
@@ -561,11 +576,12 @@ RTK_INLINE int scalar_traverse(const rtk_scene *s, const rtk_ray *ray_in, rtk_hi
             const rtk_wide_tris *t = &w->tris[(cur & ~RTK_WIDE_LEAF) >> RTK_WIDE_LEAF_SHIFT];
             const rtk_wide_tris *end = t + (cur & (RTK_WIDE_LEAF_BLOCKS - 1)) + 1;
             for (; t < end; t++) {
+                if (work)
+                    for (int lane = 0; lane < RTK_WIDE_TRIS; lane++)
+                        work->triangles += t->prim[lane] != RTK_INVALID_ID;
                 for (int lane = 0; lane < RTK_WIDE_TRIS; lane++) {
                     if (t->prim[lane] == RTK_INVALID_ID)
                         continue;
-                    if (work)
-                        work->triangles++;
                     float tt, u, v;
                     if (!scalar_lane(t, lane, &ray, &tt, &u, &v))
                         continue;
@@ -784,6 +800,8 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
                 goto pop;
             if ((mask & (mask - 1)) == 0)
                 cur = n->child[__builtin_ctz(mask)];
+            else if (any)
+                cur = push_unsorted(n, mask, stack, &top);
             else
                 cur = push_sorted(n, mask, dist, stack, &top);
         }
@@ -856,14 +874,7 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
             if ((mask & (mask - 1)) == 0) {
                 cur = n->child[__builtin_ctz(mask)];
             } else if (any) {
-                /* Occlusion needs no order: push all but the first. */
-                cur = n->child[__builtin_ctz(mask)];
-                for (mask &= mask - 1; mask; mask &= mask - 1) {
-                    uint32_t c = n->child[__builtin_ctz(mask)];
-                    stack[top].ref = c;
-                    stack[top].t = 0.0f;
-                    top++;
-                }
+                cur = push_unsorted(n, mask, stack, &top);
             } else {
                 float dist[RTK_WIDE];
                 _mm256_storeu_ps(dist, t0);

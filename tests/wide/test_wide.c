@@ -295,7 +295,7 @@ static void compare_paths(rtk_scene *s, const char *mesh, const char *builder, i
         hits += f;
         if (!same_hit(b, &hb, f, &hf))
             bad_binary++;
-        rtk_trace_work work0 = {0, 0};
+        rtk_trace_work work0 = {0, 0}, awork0 = {0, 0};
         for (int p = 0; p < npaths; p++) {
             rtk_hit hw;
             rtk_trace_work work = {0, 0};
@@ -321,9 +321,13 @@ static void compare_paths(rtk_scene *s, const char *mesh, const char *builder, i
                 int m = rtk_wide_closest(s, paths[p], &ray, &hm, &work);
                 if (!same_hit(m, &hm, w, &hw))
                     bad_measure++;
+                rtk_trace_work awork = {0, 0};
+                if (rtk_wide_any(s, paths[p], &ray, &awork) != wa)
+                    bad_measure++;
                 if (p == 0)
-                    work0 = work;
-                else if (work.nodes != work0.nodes || work.triangles != work0.triangles)
+                    work0 = work, awork0 = awork;
+                else if (work.nodes != work0.nodes || work.triangles != work0.triangles ||
+                         awork.nodes != awork0.nodes || awork.triangles != awork0.triangles)
                     bad_work++;
             }
         }
