@@ -1,0 +1,43 @@
+/* The accelerator conformance checks by group, for callers that want some
+ * of them at a different size than `rtk conform` runs them (tests/hard
+ * traces the icosphere with a million rays). Kernel-internal: the public
+ * entry point stays rtk_conform (include/rtk/host.h). */
+#ifndef RTK_CONFORM_HARD_H
+#define RTK_CONFORM_HARD_H
+
+#include "internal.h"
+
+RTK_EXTERN_C_BEGIN
+
+/* Groups of accelerator checks. The first four run for every parameter
+ * set of the plugin, the others for its defaults. */
+typedef enum rtk_conform_case {
+    RTK_CONFORM_BASIC = 1u << 0,       /* small meshes against brute force */
+    RTK_CONFORM_DEGENERATE = 1u << 1,  /* copies, concentric, one point, dense cube: depth, leaves */
+    RTK_CONFORM_SIGNED_ZERO = 1u << 2, /* axis-aligned rays with +-0 components at box faces */
+    RTK_CONFORM_REPEAT = 1u << 3,      /* same answers built twice, on 1 and 2 threads, as one leaf */
+    RTK_CONFORM_ICOSPHERE = 1u << 4,   /* closed 81,920-triangle sphere: vertices and shared edges */
+    RTK_CONFORM_INSIDE = 1u << 5,      /* cameras inside closed meshes see no background */
+    RTK_CONFORM_GRAZING = 1u << 6,     /* rays parallel and at 1e-7..1e-2 rad to quads */
+    RTK_CONFORM_SURFACE = 1u << 7,     /* secondary rays from offset origins, scales 1e-3..1e4 */
+    RTK_CONFORM_FAR_BOX = 1u << 8,     /* closed boxes at 1e6 and 1e7 seen from inside */
+    RTK_CONFORM_TINY = 1u << 9,        /* triangles with edges of 1e-3..1e-8 */
+    RTK_CONFORM_FANS = 1u << 10,       /* 1000-needle sliver fans */
+    RTK_CONFORM_ALL = (1u << 11) - 1u
+} rtk_conform_case;
+
+/* What to run; a zero field means the default. */
+typedef struct rtk_conform_options {
+    uint32_t cases;          /* RTK_CONFORM_* bits; 0: all */
+    uint32_t icosphere_rays; /* rays per icosphere placement; 0: 100,000 */
+    uint32_t ray_scale;      /* multiplies the ray counts of the other cases; 0: 1 */
+} rtk_conform_options;
+
+/* rtk_conform with options (NULL: all checks at their default sizes);
+ * options only concern accelerators. */
+rtk_status rtk_conform_run(const char *path, const rtk_conform_options *options, FILE *out, int *passed,
+                           int *failed);
+
+RTK_EXTERN_C_END
+
+#endif
