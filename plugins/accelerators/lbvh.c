@@ -68,6 +68,7 @@ typedef struct build {
     task *tasks;                   /* subtrees for the threads */
     uint32_t task_count;
     atomic_uint next_task;
+    uint32_t *used;                /* 1 for each slot of the tree */
     task *tops;                    /* inner nodes above the subtrees, parents first */
     uint32_t top_count;
 } build;
@@ -271,7 +272,7 @@ static void node_union(rtk_bvh_node *n, const rtk_bvh_node *l, const rtk_bvh_nod
 }
 
 /* Builds the subtree of t with its bounds; returns its SAH cost in
- * units of area. */
+ * units of area when collapsing (else 0). */
 static float emit(const build *b, task t)
 {
     const lbvh *o = b->opt;
@@ -289,15 +290,24 @@ static float emit(const build *b, task t)
         memcpy(n->upper, hi, sizeof hi);
         n->offset = t.begin;
         n->count = count;
-        return o->t_tri * (float)count * half_area(n);
+        b->used[t.slot] = 1;
+        return o->collapse ? o->t_tri * (float)count * half_area(n) : 0.0f;
     }
     uint32_t mid = split_at(b->codes, t.begin, t.end);
     float cost = emit(b, (task){t.region, t.begin, mid, t.region + 2});
     cost += emit(b, (task){t.region + 1, mid, t.end, t.region + 2 * (mid - t.begin)});
     node_union(n, &a->nodes[t.region], &a->nodes[t.region + 1]);
+    b->used[t.slot] = 1;
+    if (!o->collapse) {
+        n->offset = t.region;
+        n->count = 0;
+        return 0.0f;
+    }
     float area = half_area(n), leaf = o->t_tri * (float)count * area;
     cost += o->t_node * area;
-    if (o->collapse && count <= o->max_leaf && leaf <= cost) {
+    if (count <= o->max_leaf && leaf <= cost) {
+        /* The descendants all lie in the node's own slots. */
+        memset(b->used + t.region, 0, sizeof *b->used * (2 * count - 2));
         n->offset = t.begin;
         n->count = count;
         return leaf;
@@ -397,49 +407,27 @@ static void run_team(build *b, uint32_t threads)
     pthread_mutex_destroy(&b->gate_lock);
 }
 
-/* Slots [0, span) hold the tree with gaps; moves the nodes reachable from
- * the root down in slot order, so siblings stay adjacent, and renumbers
- * the children. Sets node_count. */
-static rtk_status compact_nodes(rtk_build_args *a, uint32_t span)
+/* Closes the gaps in slots [0, span): used[i] is 1 for the slots the tree
+ * uses and 0 for the others (span + 1 entries, overwritten). Nodes move
+ * down keeping their order, so siblings stay adjacent, and their children
+ * are renumbered. Sets node_count. */
+static void compact_nodes(rtk_build_args *a, uint32_t *used, uint32_t span)
 {
-    size_t words = ((size_t)span + 63) / 64;
-    uint64_t *used = calloc(words, sizeof *used);
-    uint32_t *before = malloc(sizeof *before * words);
-    if (!used || !before) {
-        free(used);
-        free(before);
-        return rtk_error(RTK_ERR_NOMEM, "lbvh: out of memory");
-    }
-    uint32_t stack[LBVH_PENDING * 4], top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-        uint32_t id = stack[--top];
-        used[id / 64] |= 1ull << (id % 64);
-        const rtk_bvh_node *n = &a->nodes[id];
-        if (n->count == 0) {
-            stack[top++] = n->offset + 1;
-            stack[top++] = n->offset;
-        }
-    }
     uint32_t total = 0;
-    for (size_t w = 0; w < words; w++) {
-        before[w] = total;
-        total += (uint32_t)__builtin_popcountll(used[w]);
+    for (uint32_t i = 0; i <= span; i++) {
+        uint32_t u = used[i];
+        used[i] = total; /* now the slot's new index */
+        total += u;
     }
-    for (uint32_t id = 0, next = 0; id < span; id++) {
-        if (!(used[id / 64] >> (id % 64) & 1))
+    for (uint32_t i = 0; i < span; i++) {
+        if (used[i + 1] == used[i])
             continue;
-        rtk_bvh_node n = a->nodes[id];
-        if (n.count == 0) {
-            uint32_t c = n.offset;
-            n.offset = before[c / 64] + (uint32_t)__builtin_popcountll(used[c / 64] & ((1ull << (c % 64)) - 1));
-        }
-        a->nodes[next++] = n;
+        rtk_bvh_node n = a->nodes[i];
+        if (n.count == 0)
+            n.offset = used[n.offset];
+        a->nodes[used[i]] = n;
     }
     a->node_count = total;
-    free(used);
-    free(before);
-    return RTK_OK;
 }
 
 static rtk_status lbvh_build(void *state, rtk_build_args *a)
@@ -460,9 +448,10 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
     b.ids_tmp = malloc(sizeof *b.ids_tmp * n);
     b.tasks = malloc(sizeof *b.tasks * plan_cap);
     b.tops = malloc(sizeof *b.tops * plan_cap);
+    b.used = calloc((size_t)a->max_nodes + 1, sizeof *b.used);
     atomic_init(&b.next_task, 0);
     rtk_status st = RTK_OK;
-    if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp || !b.tasks || !b.tops) {
+    if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp || !b.tasks || !b.tops || !b.used) {
         st = rtk_error(RTK_ERR_NOMEM, "lbvh: out of memory");
         goto done;
     }
@@ -474,8 +463,9 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
         node_union(node, &a->nodes[t->region], &a->nodes[t->region + 1]);
         node->offset = t->region;
         node->count = 0;
+        b.used[t->slot] = 1;
     }
-    st = compact_nodes(a, a->max_nodes);
+    compact_nodes(a, b.used, a->max_nodes);
 done:
     free(b.cbounds);
     free(b.hist);
@@ -484,6 +474,7 @@ done:
     free(b.ids_tmp);
     free(b.tasks);
     free(b.tops);
+    free(b.used);
     return st;
 }
 

@@ -123,6 +123,7 @@ typedef struct build {
     uint32_t *tmp;    /* sweep: partition scratch */
     float *area;      /* sweep: areas of suffix bounds */
     uint8_t *left;    /* sweep: side of each primitive */
+    uint32_t *used;   /* 1 for each slot written */
     queue *q;         /* NULL when building on one thread */
 } build;
 
@@ -573,6 +574,7 @@ static void build_subtree(const build *b, const job *root)
             s = o->sweep ? find_sweep(b, &j) : count <= SAH_SMALL ? find_small(b, &j) : find_binned(b, &j);
         if (count == 1 || (count <= o->max_leaf && (s.axis < 0 || o->t_tri * (float)count <= s.cost))) {
             write_node(&a->nodes[j.slot], &j.geom, j.begin, count);
+            b->used[j.slot] = 1;
             if (!o->sweep)
                 for (uint32_t i = j.begin; i < j.end; i++)
                     a->prim_order[i] = b->refs[i].id;
@@ -601,6 +603,7 @@ static void build_subtree(const build *b, const job *root)
         l.end = r.begin = mid;
         r.region = j.region + 2 * (mid - j.begin);
         write_node(&a->nodes[j.slot], &j.geom, j.region, 0);
+        b->used[j.slot] = 1;
         if (b->q && r.end - r.begin >= SAH_SPAWN_MIN)
             queue_push(b->q, &r);
         else
@@ -667,49 +670,27 @@ static rtk_status run_build(build *b, const job *root, uint32_t threads)
     return RTK_OK;
 }
 
-/* Slots [0, span) hold the tree with gaps; moves the nodes reachable from
- * the root down in slot order, so siblings stay adjacent, and renumbers
- * the children. Sets node_count. */
-static rtk_status compact_nodes(rtk_build_args *a, uint32_t span)
+/* Closes the gaps in slots [0, span): used[i] is 1 for the slots the tree
+ * uses and 0 for the others (span + 1 entries, overwritten). Nodes move
+ * down keeping their order, so siblings stay adjacent, and their children
+ * are renumbered. Sets node_count. */
+static void compact_nodes(rtk_build_args *a, uint32_t *used, uint32_t span)
 {
-    size_t words = ((size_t)span + 63) / 64;
-    uint64_t *used = calloc(words, sizeof *used);
-    uint32_t *before = malloc(sizeof *before * words);
-    if (!used || !before) {
-        free(used);
-        free(before);
-        return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
-    }
-    uint32_t stack[SAH_STACK + 2], top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-        uint32_t id = stack[--top];
-        used[id / 64] |= 1ull << (id % 64);
-        const rtk_bvh_node *n = &a->nodes[id];
-        if (n->count == 0) {
-            stack[top++] = n->offset + 1;
-            stack[top++] = n->offset;
-        }
-    }
     uint32_t total = 0;
-    for (size_t w = 0; w < words; w++) {
-        before[w] = total;
-        total += (uint32_t)__builtin_popcountll(used[w]);
+    for (uint32_t i = 0; i <= span; i++) {
+        uint32_t u = used[i];
+        used[i] = total; /* now the slot's new index */
+        total += u;
     }
-    for (uint32_t id = 0, next = 0; id < span; id++) {
-        if (!(used[id / 64] >> (id % 64) & 1))
+    for (uint32_t i = 0; i < span; i++) {
+        if (used[i + 1] == used[i])
             continue;
-        rtk_bvh_node n = a->nodes[id];
-        if (n.count == 0) {
-            uint32_t c = n.offset;
-            n.offset = before[c / 64] + (uint32_t)__builtin_popcountll(used[c / 64] & ((1ull << (c % 64)) - 1));
-        }
-        a->nodes[next++] = n;
+        rtk_bvh_node n = a->nodes[i];
+        if (n.count == 0)
+            n.offset = used[n.offset];
+        a->nodes[used[i]] = n;
     }
     a->node_count = total;
-    free(used);
-    free(before);
-    return RTK_OK;
 }
 
 /* Order-preserving map of a float's bits to an unsigned key. */
@@ -806,10 +787,14 @@ static rtk_status sah_build(void *state, rtk_build_args *a)
 {
     build b = {.opt = state, .a = a};
     job root = {.slot = 0, .begin = 0, .end = a->prim_count, .region = 1, .depth = 1};
+    b.used = calloc((size_t)a->max_nodes + 1, sizeof *b.used);
+    if (!b.used)
+        return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
     rtk_status st = b.opt->sweep ? build_sweep(&b, &root) : build_binned(&b, &root);
-    if (st != RTK_OK)
-        return st;
-    return compact_nodes(a, a->max_nodes);
+    if (st == RTK_OK)
+        compact_nodes(a, b.used, a->max_nodes);
+    free(b.used);
+    return st;
 }
 
 static void sah_destroy(void *state)
