@@ -31,8 +31,8 @@
 /* Subtrees at most this large are built by one thread; larger ones are
  * split first (only when several threads build). */
 #define LBVH_GRAIN 4096
-/* Inputs this small are built on one thread. */
-#define LBVH_PARALLEL_MIN 32768
+/* Fewest primitives worth a thread of their own. */
+#define LBVH_PART 16384
 /* Bits of the radix sort's digits. */
 #define LBVH_DIGIT 11
 /* Most threads one build uses. */
@@ -433,10 +433,13 @@ static void compact_nodes(rtk_build_args *a, uint32_t *used, uint32_t span)
 static rtk_status lbvh_build(void *state, rtk_build_args *a)
 {
     const uint32_t n = a->prim_count;
-    uint32_t threads = a->thread_count < 1 ? 1 : a->thread_count;
+    /* Each thread gets a part of at least LBVH_PART primitives. */
+    uint32_t threads = a->thread_count;
+    if (threads > n / LBVH_PART)
+        threads = n / LBVH_PART;
     if (threads > LBVH_MAX_THREADS)
         threads = LBVH_MAX_THREADS;
-    if (n < LBVH_PARALLEL_MIN)
+    if (threads < 1)
         threads = 1;
     build b = {.opt = state, .a = a};
     /* Inner nodes above the subtrees: at most n / grain per level. */

@@ -639,7 +639,10 @@ static void *work(void *arg)
 static rtk_status run_build(build *b, const job *root, uint32_t threads)
 {
     uint32_t n = b->a->prim_count;
-    if (threads <= 1 || n < 2 * SAH_SPAWN_MIN) {
+    /* More threads than queued subtrees would only wait. */
+    if (threads > n / SAH_SPAWN_MIN)
+        threads = n / SAH_SPAWN_MIN;
+    if (threads <= 1) {
         build_subtree(b, root);
         return RTK_OK;
     }
