@@ -33,9 +33,7 @@
 /* Subtrees of at least this many primitives go to the shared queue. */
 #define SAH_SPAWN_MIN 4096
 /* Nodes of at most this many primitives try every object split. */
-#ifndef SAH_SMALL
 #define SAH_SMALL 8
-#endif
 
 typedef struct sah {
     int sweep;
@@ -92,6 +90,18 @@ static inline v4 v4_max(v4 a, v4 b) { V4_LANES(a.f[k] > b.f[k] ? a.f[k] : b.f[k]
 static inline void v4_to_u32(v4 a, uint32_t out[3]) { for (int k = 0; k < 3; k++) out[k] = (uint32_t)a.f[k]; }
 #undef V4_LANES
 #endif
+
+/* A ref's lower corner and upper corner as four floats each; lane 3
+ * holds the id or padding bits and is ignored. */
+static inline v4 ref_lo(const ref *r)
+{
+    return v4_load((const float *)(const void *)r);
+}
+
+static inline v4 ref_hi(const ref *r)
+{
+    return v4_load((const float *)(const void *)((const char *)r + 16));
+}
 
 /* A box; lane 3 is ignored. */
 typedef struct vbox {
@@ -244,7 +254,7 @@ static void binning_clear(binning *bn, uint32_t nb)
 
 static inline void binning_add(binning *bn, const ref *r, v4 clo, v4 scale, v4 last)
 {
-    v4 lo = v4_load(r->lo), hi = v4_load(r->hi);
+    v4 lo = ref_lo(r), hi = ref_hi(r);
     uint32_t bi[3];
     bins_of(v4_add(lo, hi), clo, scale, last, bi);
     box_grow(&bn->box[0][bi[0]], lo, hi);
@@ -325,7 +335,7 @@ static split find_binned(const build *b, const job *j)
 
 static inline void ref_grow(job *j, const ref *r)
 {
-    v4 lo = v4_load(r->lo), hi = v4_load(r->hi);
+    v4 lo = ref_lo(r), hi = ref_hi(r);
     box_grow(&j->geom, lo, hi);
     box_add_point(&j->cent, v4_add(lo, hi));
 }
@@ -370,34 +380,39 @@ static uint32_t partition_binned(const build *b, const job *j, split s, job *l, 
 
 /* Orders the m refs of a small node along each axis by doubled centroid,
  * ties by primitive index: ord[k][r] is the slot (from the node's first)
- * of rank r. Counting ranks pairwise has no data-dependent branches. */
+ * of rank r. The centroids are compared as integers that sort like the
+ * floats (a total order even for NaN, so the ranks are a permutation),
+ * pairwise, without data-dependent branches. */
 static void sort_small(const ref *refs, uint32_t m, uint8_t ord[3][SAH_SMALL])
 {
     uint32_t rank[SAH_SMALL][4];
 #if defined(__SSE2__)
-    __m128 key[SAH_SMALL];
-    __m128i r[SAH_SMALL];
+    __m128i key[SAH_SMALL], r[SAH_SMALL];
     for (uint32_t i = 0; i < m; i++) {
-        key[i] = _mm_add_ps(v4_load(refs[i].lo), v4_load(refs[i].hi));
+        __m128i bits = _mm_castps_si128(_mm_add_ps(ref_lo(&refs[i]), ref_hi(&refs[i])));
+        key[i] = _mm_xor_si128(bits, _mm_and_si128(_mm_srai_epi32(bits, 31), _mm_set1_epi32(0x7fffffff)));
         r[i] = _mm_setzero_si128();
     }
     const __m128i one = _mm_set1_epi32(1);
     for (uint32_t i = 0; i < m; i++) {
         for (uint32_t j = i + 1; j < m; j++) {
-            __m128 id_first = _mm_castsi128_ps(_mm_set1_epi32(-(int32_t)(refs[j].id < refs[i].id)));
-            __m128 first = _mm_or_ps(_mm_cmplt_ps(key[j], key[i]), _mm_and_ps(_mm_cmpeq_ps(key[j], key[i]), id_first));
-            __m128i mask = _mm_castps_si128(first); /* all ones where j comes first */
-            r[i] = _mm_sub_epi32(r[i], mask);
-            r[j] = _mm_add_epi32(r[j], _mm_add_epi32(mask, one));
+            __m128i id_first = _mm_set1_epi32(-(int32_t)(refs[j].id < refs[i].id));
+            __m128i first = _mm_or_si128(_mm_cmplt_epi32(key[j], key[i]),
+                                         _mm_and_si128(_mm_cmpeq_epi32(key[j], key[i]), id_first));
+            r[i] = _mm_sub_epi32(r[i], first); /* first is all ones where j comes first */
+            r[j] = _mm_add_epi32(r[j], _mm_add_epi32(first, one));
         }
     }
     for (uint32_t i = 0; i < m; i++)
         _mm_storeu_si128((__m128i *)rank[i], r[i]);
 #else
-    float key[SAH_SMALL][3];
+    int32_t key[SAH_SMALL][3];
     for (uint32_t i = 0; i < m; i++) {
         for (int k = 0; k < 3; k++) {
-            key[i][k] = refs[i].lo[k] + refs[i].hi[k];
+            float c = refs[i].lo[k] + refs[i].hi[k];
+            int32_t bits;
+            memcpy(&bits, &c, sizeof bits);
+            key[i][k] = bits < 0 ? bits ^ 0x7fffffff : bits;
             rank[i][k] = 0;
         }
     }
@@ -429,7 +444,7 @@ static split find_small(const build *b, const job *j)
     uint32_t best_skew = UINT32_MAX;
     if (m == 2) {
         /* One split, the same on every axis; the order stays. */
-        vbox one = {v4_load(refs[0].lo), v4_load(refs[0].hi)}, two = {v4_load(refs[1].lo), v4_load(refs[1].hi)};
+        vbox one = {ref_lo(&refs[0]), ref_hi(&refs[0])}, two = {ref_lo(&refs[1]), ref_hi(&refs[1])};
         best = (split){0, 1, 0.0f};
         best_weight = half_area(&one) + half_area(&two);
         best.cost = split_cost(o, best_weight, half_area(&j->geom), m);
@@ -442,12 +457,12 @@ static split find_small(const build *b, const job *j)
         vbox acc;
         box_empty(&acc);
         for (uint32_t i = m - 1; i > 0; i--) {
-            box_grow(&acc, v4_load(refs[ord[i]].lo), v4_load(refs[ord[i]].hi));
+            box_grow(&acc, ref_lo(&refs[ord[i]]), ref_hi(&refs[ord[i]]));
             rweight[i] = half_area(&acc) * (float)(m - i);
         }
         box_empty(&acc);
         for (uint32_t i = 1; i < m; i++) {
-            box_grow(&acc, v4_load(refs[ord[i - 1]].lo), v4_load(refs[ord[i - 1]].hi));
+            box_grow(&acc, ref_lo(&refs[ord[i - 1]]), ref_hi(&refs[ord[i - 1]]));
             float weight = half_area(&acc) * (float)i + rweight[i];
             uint32_t skew = 2 * i > m ? 2 * i - m : m - 2 * i;
             if (weight < best_weight || (weight == best_weight && skew < best_skew)) {
