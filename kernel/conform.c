@@ -1974,7 +1974,7 @@ static void conform_accelerator(runner *r, const rtk_plugin *p, const rtk_confor
     uint32_t cases = o && o->cases ? o->cases : RTK_CONFORM_ALL;
     uint32_t ico = o && o->icosphere_rays ? o->icosphere_rays : 100000;
     uint32_t scale = o && o->ray_scale ? o->ray_scale : 1;
-    uint32_t variants = variant_count(p);
+    uint32_t variants = o && o->defaults_only ? 1 : variant_count(p);
     for (uint32_t vi = 0; vi < variants; vi++) {
         char label[128], name[256];
         rtk_params *params = param_variant(p, (int)vi, label, sizeof label);

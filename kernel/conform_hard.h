@@ -31,6 +31,7 @@ typedef struct rtk_conform_options {
     uint32_t cases;          /* RTK_CONFORM_* bits; 0: all */
     uint32_t icosphere_rays; /* rays per icosphere placement; 0: 100,000 */
     uint32_t ray_scale;      /* multiplies the ray counts of the other cases; 0: 1 */
+    int defaults_only;       /* 1: only the plugin's default parameters */
 } rtk_conform_options;
 
 /* rtk_conform with options (NULL: all checks at their default sizes);

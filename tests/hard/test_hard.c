@@ -4,9 +4,10 @@
  *                                placement (`rtk conform` traces 1e5), and
  *                                AO from cameras inside closed meshes, which
  *                                must be exactly 0 (needs the ao plugin)
- *   test_hard paths PLUGIN...    every hard case on the traversal the
- *                                environment picks (RTK_SIMD), so that each
- *                                traversal path sees them, not only the best
+ *   test_hard paths PLUGIN...    every hard case, for the default parameters,
+ *                                on the traversal the environment picks
+ *                                (RTK_SIMD), so that each traversal path sees
+ *                                them, not only the best
  * Output is rtk conform's: one line per check, then "N passed, N failed". */
 #include "conform_hard.h"
 #include "film.h"
@@ -181,9 +182,10 @@ int main(int argc, char **argv)
         }
         if (p->kind != RTK_KIND_ACCELERATOR)
             continue;
-        rtk_conform_options o = {0, 0, 0};
+        rtk_conform_options o = {0, 0, 0, 0};
         o.cases = full ? RTK_CONFORM_ICOSPHERE : RTK_CONFORM_ALL & ~(uint32_t)RTK_CONFORM_BASIC;
         o.icosphere_rays = full ? 1000000 : 0;
+        o.defaults_only = !full;
         int p_ok = 0, p_bad = 0;
         rtk_conform_run(argv[i], &o, stdout, &p_ok, &p_bad);
         passed += p_ok;
