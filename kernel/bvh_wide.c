@@ -599,7 +599,7 @@ RTK_INLINE int scalar_traverse(const rtk_scene *s, const rtk_ray *ray_in, rtk_hi
             if (top == 0)
                 return any ? 0 : hit->prim != RTK_INVALID_ID;
             --top;
-        } while (stack[top].t > tmax_w);
+        } while (!any && stack[top].t > tmax_w);
         cur = stack[top].ref;
     }
 }
@@ -816,7 +816,7 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
             if (top == 0)
                 return any ? 0 : hit->prim != RTK_INVALID_ID;
             --top;
-        } while (stack[top].t > tmax_w);
+        } while (!any && stack[top].t > tmax_w);
         cur = stack[top].ref;
     }
 }
@@ -892,7 +892,7 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
             if (top == 0)
                 return any ? 0 : hit->prim != RTK_INVALID_ID;
             --top;
-        } while (stack[top].t > tmax_w);
+        } while (!any && stack[top].t > tmax_w);
         cur = stack[top].ref;
     }
 }
