@@ -30,8 +30,9 @@
 /* Deepest wide tree: the binary limit (each wide level spans at least one
  * binary level) plus levels that split oversized leaves. */
 #define RTK_WIDE_MAX_DEPTH 288
-/* Each level pushes at most RTK_WIDE - 1 entries. */
-#define RTK_WIDE_STACK ((RTK_WIDE - 1) * RTK_WIDE_MAX_DEPTH + 2)
+/* Each node on the path from the root (depth 0 .. RTK_WIDE_MAX_DEPTH)
+ * leaves at most RTK_WIDE - 1 entries on the stack. */
+#define RTK_WIDE_STACK ((RTK_WIDE - 1) * (RTK_WIDE_MAX_DEPTH + 1) + 1)
 
 /* 1 + 2 gamma(3), as in bvh.c. */
 static const float slab_slack = 1.0f + 2.0f * (3.0f * 0.5f * FLT_EPSILON) / (1.0f - 3.0f * 0.5f * FLT_EPSILON);

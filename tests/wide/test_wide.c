@@ -247,6 +247,42 @@ static rtk_status one_leaf_build(void *state, rtk_build_args *a)
     return RTK_OK;
 }
 
+/* A builder that makes a chain: each inner node holds one primitive's leaf
+ * and the rest of the chain, 200 deep, then one leaf with everything left:
+ * the deepest trees the stack must hold. */
+static rtk_status chain_build(void *state, rtk_build_args *a)
+{
+    (void)state;
+    uint32_t n = a->prim_count, links = n > 200 ? 200 : n - 1;
+    for (uint32_t i = 0; i < n; i++)
+        a->prim_order[i] = i;
+    /* Node 2k is inner (children 2k+1 = leaf of prim k, 2k+2 = the rest) for
+     * k < links; node 2 * links is the last leaf, over [links, n). */
+    for (uint32_t k = 0; k <= links; k++) {
+        uint32_t first = k, count = k < links ? 1 : n - links;
+        rtk_bvh_node *leaf = &a->nodes[k < links ? 2 * k + 1 : 2 * k];
+        rtk_bounds b = a->prim_bounds[first];
+        for (uint32_t i = first + 1; i < first + count; i++) {
+            const rtk_bounds *p = &a->prim_bounds[i];
+            b.lower = rtk_vec3_make(fminf(b.lower.x, p->lower.x), fminf(b.lower.y, p->lower.y), fminf(b.lower.z, p->lower.z));
+            b.upper = rtk_vec3_make(fmaxf(b.upper.x, p->upper.x), fmaxf(b.upper.y, p->upper.y), fmaxf(b.upper.z, p->upper.z));
+        }
+        leaf->lower[0] = b.lower.x, leaf->lower[1] = b.lower.y, leaf->lower[2] = b.lower.z;
+        leaf->upper[0] = b.upper.x, leaf->upper[1] = b.upper.y, leaf->upper[2] = b.upper.z;
+        leaf->offset = first, leaf->count = count;
+    }
+    for (uint32_t k = links; k-- > 0;) {
+        rtk_bvh_node *n0 = &a->nodes[2 * k], *l = &a->nodes[2 * k + 1], *r = &a->nodes[2 * k + 2];
+        for (int j = 0; j < 3; j++) {
+            n0->lower[j] = fminf(l->lower[j], r->lower[j]);
+            n0->upper[j] = fmaxf(l->upper[j], r->upper[j]);
+        }
+        n0->offset = 2 * k + 1, n0->count = 0;
+    }
+    a->node_count = 2 * links + 1;
+    return RTK_OK;
+}
+
 static rtk_status no_state(const rtk_params *params, void **state)
 {
     (void)params;
@@ -263,6 +299,10 @@ static const rtk_accelerator_fns one_leaf_fns = {
     .size = sizeof(rtk_accelerator_fns), .create = no_state, .build = one_leaf_build, .destroy = no_destroy};
 static const rtk_plugin one_leaf = {RTK_PLUGIN_HEADER, .kind = RTK_KIND_ACCELERATOR, .name = "one_leaf",
                                     .version = "1", .summary = "one leaf", .functions = &one_leaf_fns};
+static const rtk_accelerator_fns chain_fns = {
+    .size = sizeof(rtk_accelerator_fns), .create = no_state, .build = chain_build, .destroy = no_destroy};
+static const rtk_plugin chain = {RTK_PLUGIN_HEADER, .kind = RTK_KIND_ACCELERATOR, .name = "chain",
+                                 .version = "1", .summary = "a 200-deep chain", .functions = &chain_fns};
 
 /* Compares every wide path with the binary traversal and brute force on
  * count rays of scene s built by plugin. */
@@ -399,7 +439,7 @@ int main(void)
         printf("FAIL  registry: %s\n", rtk_error_message());
         return 1;
     }
-    const rtk_plugin *builders[4];
+    const rtk_plugin *builders[5];
     int nb = 0;
     static const char *names[] = {"median", "sah", "lbvh"};
     for (int i = 0; i < 3; i++) {
@@ -409,6 +449,7 @@ int main(void)
     }
     check(nb >= 1, "the median builder is found");
     builders[nb++] = &one_leaf;
+    builders[nb++] = &chain;
     int measured = 0;
     for (int m = 0; m < MESH_COUNT; m++) {
         for (int bi = 0; bi < nb; bi++) {
@@ -427,12 +468,13 @@ int main(void)
                 }
                 s->bounds = b;
             }
-            rtk_params *params = builders[bi] == &one_leaf ? NULL : rtk_params_defaults(builders[bi]);
+            int own = builders[bi] == &one_leaf || builders[bi] == &chain;
+            rtk_params *params = own ? NULL : rtk_params_defaults(builders[bi]);
             rtk_status st = rtk_bvh_build(s, builders[bi], params, 2);
             check(st == RTK_OK, "%s / %s: build", mesh, builders[bi]->name);
             if (st == RTK_OK) {
                 int n = m == MESH_BUNNY ? rays / 4 : rays;
-                if (builders[bi] == &one_leaf && s->triangle_count > 5000)
+                if (own && s->triangle_count > 5000)
                     n /= 4;
                 compare_paths(s, mesh, builders[bi]->name, n);
                 if (!measured++)
