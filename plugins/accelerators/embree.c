@@ -13,7 +13,10 @@
  *
  * Embree's distances are its own (not the kernel's watertight test), so
  * t may differ from brute force in the last bits and exact ties may go to
- * another triangle than the lowest id.
+ * another triangle than the lowest id. Its default intersector lets some
+ * rays aimed exactly at shared edges and vertices pass between triangles
+ * (`rtk conform embree` fails those cases); robust = true closes most of
+ * them, but also changes the build (no spatial splits) and slows tracing.
  */
 #include <rtk/rtk.h>
 
