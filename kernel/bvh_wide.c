@@ -524,15 +524,33 @@ RTK_INLINE int record_hit(rtk_hit *hit, float t, float u, float v, uint32_t prim
 
 /* Entry distance of child i, or +inf when missed; same arithmetic and
  * NaN handling as the SIMD paths. */
+/* box_reduce_note: every path reduces the three slab distances and the ray
+ * interval as max(max(y, z), max(x, tmin)) and likewise with min, a tree
+ * of depth 2 (the sequential chain costs a latency step per node). max and
+ * min return their second operand when either is NaN, so the NaN of
+ * 0 * inf (origin on a slab plane of a +-0 direction component) never
+ * survives: the result is always a real distance, at worst with a slab
+ * dropped, which only lets more boxes through.
+ *
+ * _mm_max_ps / _mm_min_ps exactly: the second operand when either is NaN. */
+RTK_INLINE float max_ps(float a, float b)
+{
+    return a > b ? a : b;
+}
+RTK_INLINE float min_ps(float a, float b)
+{
+    return a < b ? a : b;
+}
+
 RTK_INLINE int scalar_box(const rtk_wide_node *n, int i, const wide_ray *p, float tmin, float tmax_w, float *entry)
 {
-    float t0 = tmin, t1 = tmax_w;
+    float a[3], b[3];
     for (int k = 0; k < 3; k++) {
-        float a = (n->bounds[p->near[k]][i] - p->org[k]) * p->inv[k];
-        float b = (n->bounds[p->far[k]][i] - p->org[k]) * p->inv_far[k];
-        t0 = a > t0 ? a : t0;
-        t1 = b < t1 ? b : t1;
+        a[k] = (n->bounds[p->near[k]][i] - p->org[k]) * p->inv[k];
+        b[k] = (n->bounds[p->far[k]][i] - p->org[k]) * p->inv_far[k];
     }
+    float t0 = max_ps(max_ps(a[1], a[2]), max_ps(a[0], tmin));
+    float t1 = min_ps(min_ps(b[1], b[2]), min_ps(b[0], tmax_w));
     *entry = t0;
     return t0 <= t1;
 }
@@ -764,9 +782,9 @@ RTK_INLINE __m128 sse_box4(const rtk_wide_node *n, int half, const wide_ray *p, 
     __m128 gx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->far[0]][o]), ox), fx);
     __m128 gy = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->far[1]][o]), oy), fy);
     __m128 gz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->far[2]][o]), oz), fz);
-    /* max(a, t) returns t when a is NaN: the NaN of 0 * inf is dropped. */
-    __m128 t0 = _mm_max_ps(nz, _mm_max_ps(ny, _mm_max_ps(nx, tmin4)));
-    __m128 t1 = _mm_min_ps(gz, _mm_min_ps(gy, _mm_min_ps(gx, tmax4)));
+    /* See box_reduce_note. */
+    __m128 t0 = _mm_max_ps(_mm_max_ps(ny, nz), _mm_max_ps(nx, tmin4));
+    __m128 t1 = _mm_min_ps(_mm_min_ps(gy, gz), _mm_min_ps(gx, tmax4));
     *mask = _mm_movemask_ps(_mm_cmple_ps(t0, t1));
     return t0;
 }
@@ -866,9 +884,9 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
             __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + (nx ^ RTK_WIDE)), ox), fx);
             __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + (ny ^ RTK_WIDE)), oy), fy);
             __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + (nz ^ RTK_WIDE)), oz), fz);
-            /* max(a, t) returns t when a is NaN: the NaN of 0 * inf is dropped. */
-            __m256 t0 = _mm256_max_ps(tnz, _mm256_max_ps(tny, _mm256_max_ps(tnx, tmin8)));
-            __m256 t1 = _mm256_min_ps(tfz, _mm256_min_ps(tfy, _mm256_min_ps(tfx, tmax8)));
+            /* See box_reduce_note. */
+            __m256 t0 = _mm256_max_ps(_mm256_max_ps(tny, tnz), _mm256_max_ps(tnx, tmin8));
+            __m256 t1 = _mm256_min_ps(_mm256_min_ps(tfy, tfz), _mm256_min_ps(tfx, tmax8));
             uint32_t mask = (uint32_t)_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
             if (mask == 0)
                 goto pop;
