@@ -1,8 +1,12 @@
 /* sah: top-down BVH build minimising the surface area heuristic. Each node
  * is split where t_node + t_tri * (A_left N_left + A_right N_right) / A is
  * least, or becomes a leaf when t_tri * N costs no more and N <= max_leaf.
- * binned mode bins centroids along each axis (O(n) per node); sweep mode
- * tries every split of the centroids sorted along each axis (exact SAH).
+ * binned mode bins centroids along each axis (O(n) per node; nodes of at
+ * most 8 primitives try every object split instead); sweep mode tries
+ * every split of the centroids sorted along each axis (exact SAH, the
+ * sorted orders kept through stable partitions: O(n) per tree level).
+ * Where no split separates the centroids, or past depth 200, a node is
+ * halved by count, so the depth stays within the kernel's 256.
  *
  * Parameters:
  *   bins      int [4, 256]         16      bins per axis (binned mode)
