@@ -758,11 +758,12 @@ static rtk_status build_binned(build *b, job *root)
     b->refs = malloc(sizeof *b->refs * n);
     if (!b->refs)
         return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+    box_empty(&root->geom), box_empty(&root->cent);
     for (uint32_t i = 0; i < n; i++) {
         const rtk_bounds *pb = &a->prim_bounds[i];
         b->refs[i] = (ref){{pb->lower.x, pb->lower.y, pb->lower.z}, i, {pb->upper.x, pb->upper.y, pb->upper.z}, 0};
+        ref_grow(root, &b->refs[i]);
     }
-    bounds_of_refs(b, 0, n, root);
     rtk_status st = run_build(b, root, a->thread_count);
     free(b->refs);
     return st;
