@@ -892,12 +892,23 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
                 goto pop;
             if ((mask & (mask - 1)) == 0) {
                 cur = n->child[__builtin_ctz(mask)];
-            } else if (any) {
-                cur = push_unsorted(n, mask, stack, &top);
             } else {
-                float dist[RTK_WIDE];
-                _mm256_storeu_ps(dist, t0);
-                cur = push_sorted(n, mask, dist, stack, &top);
+                if (any) {
+                    cur = push_unsorted(n, mask, stack, &top);
+                } else {
+                    float dist[RTK_WIDE];
+                    _mm256_storeu_ps(dist, t0);
+                    cur = push_sorted(n, mask, dist, stack, &top);
+                }
+                /* The next pop, while the nearer child is traversed. */
+                uint32_t next = stack[top - 1].ref;
+                if (!(next & RTK_WIDE_LEAF)) {
+                    const char *pf = (const char *)&nodes[next];
+                    _mm_prefetch(pf, _MM_HINT_T0);
+                    _mm_prefetch(pf + 64, _MM_HINT_T0);
+                    _mm_prefetch(pf + 128, _MM_HINT_T0);
+                    _mm_prefetch(pf + 192, _MM_HINT_T0);
+                }
             }
         }
         if (avx2_leaf(w, cur, &tr, ray, hit, any, work)) {
