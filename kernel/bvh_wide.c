@@ -2,13 +2,14 @@
  * traversal in plain C, SSE and AVX2, the SIMD paths compiled here with
  * target attributes and chosen at run time.
  *
- * Every path computes the same numbers: the box test is the binary
- * traversal's (differences, products by the reciprocal, NaN of 0 * inf
- * dropped, far distances widened by 1 + 2 gamma(3), tmax by
- * rtk_cull_distance); the triangle
- * test is rtk_intersect_triangle's arithmetic, operation for operation, on
- * four triangles at once. Nothing here may contract a * b + c into an FMA,
- * which is why the AVX2 target does not include FMA. */
+ * Every path computes the same numbers: the box test (differences,
+ * products by the reciprocal, NaN of 0 * inf dropped, far distances
+ * widened by 1 + 2 gamma(3), tmax by rtk_cull_distance) is the same
+ * sequence of operations on every path, and the triangle test is
+ * rtk_intersect_triangle's arithmetic, operation for operation, on four
+ * triangles at once, lanes that need double precision handed to it.
+ * Nothing here may contract a * b + c into an FMA, which is why the AVX2
+ * target does not include FMA. */
 #include "bvh_wide.h"
 
 #include <float.h>
