@@ -263,7 +263,10 @@ void rtk_bench_ao_rays(const rtk_scene *s, const rtk_ray *primary, const rtk_hit
     const double dir[3] = {primary->dir.x, primary->dir.y, primary->dir.z};
     double t = hit->t, p[3], e1[3], e2[3], n[3];
     rtk_vec3 v0, v1, v2;
-    rtk_scene_triangle(s, hit->prim, &v0, &v1, &v2);
+    if (hit->inst != RTK_INVALID_ID)
+        rtk_instance_triangle(s, hit->inst, hit->prim, &v0, &v1, &v2); /* the normal's sign is fixed below */
+    else
+        rtk_scene_triangle(s, hit->prim, &v0, &v1, &v2);
     const double a0[3] = {v0.x, v0.y, v0.z}, a1[3] = {v1.x, v1.y, v1.z}, a2[3] = {v2.x, v2.y, v2.z};
     for (int i = 0; i < 3; i++) {
         p[i] = org[i] + t * dir[i];
@@ -603,9 +606,11 @@ static rtk_status load_scene(bench *b, const char *path, rtk_registry *reg)
         /* glTF: the kernel's loader, which drops zero-area triangles. */
         st = rtk_scene_load(mesh, 0, &b->scene);
     }
+    if (st == RTK_OK && b->config && b->config->instance_count)
+        st = rtk_config_place_instances(b->config, b->scene);
     if (st != RTK_OK)
         return st;
-    if (b->scene->triangle_count == 0)
+    if (b->scene->triangle_count == 0 && b->scene->instance_count == 0)
         return rtk_error(RTK_ERR_INVALID, "%s: no triangles", mesh);
     return RTK_OK;
 }
@@ -638,9 +643,42 @@ static void progress(const bench *b, const bench_accel *a, uint32_t threads, con
 }
 
 /* Node, leaf, depth, SAH cost (c_node = c_tri = 1, relative to the root's
- * area) and memory of the kernel tree the scene holds. */
+ * area) and memory of the kernel tree the scene holds. An instanced scene:
+ * nodes and leaves of every level (each mesh once), depth through the top
+ * level, memory of every tree and the instance records, no SAH cost (the
+ * levels' costs do not add up to one figure). */
+static void instanced_stats(const rtk_scene *s, bench_row *row)
+{
+    row->traversal = "two-level";
+    row->has_tree = 1;
+    uint32_t leaves = 0, nodes = s->node_count + s->tlas_node_count, depth = s->bvh_depth;
+    for (uint32_t i = 0; i < s->tlas_node_count; i++)
+        leaves += s->tlas_nodes[i].count > 0;
+    for (uint32_t i = 0; i < s->node_count; i++)
+        leaves += s->nodes[i].count > 0;
+    for (uint32_t m = 0; m < s->mesh_count; m++) {
+        const rtk_scene *mesh = s->meshes[m];
+        nodes += mesh->node_count;
+        for (uint32_t i = 0; i < mesh->node_count; i++)
+            leaves += mesh->nodes[i].count > 0;
+        if (s->tlas_depth + 1 + mesh->bvh_depth > depth)
+            depth = s->tlas_depth + 1 + mesh->bvh_depth;
+    }
+    row->nodes = nodes;
+    row->leaves = leaves;
+    row->depth = depth;
+    row->sah_cost = NAN;
+    size_t geometry, bvh, instances;
+    rtk_scene_memory(s, &geometry, &bvh, &instances);
+    row->memory = bvh + instances;
+}
+
 static void tree_stats(const rtk_scene *s, bench_row *row)
 {
+    if (s->instance_count) {
+        instanced_stats(s, row);
+        return;
+    }
     row->traversal = s->own_traversal                                 ? "own"
                      : s->wide && s->wide->path != RTK_SIMD_BINARY ? rtk_simd_name(s->wide->path)
                                                                     : "binary";
@@ -687,7 +725,8 @@ static rtk_status measure(bench *b, const bench_accel *a, uint32_t threads, benc
         /* The previous instance is torn down outside the timed span. */
         rtk_bvh_release(s);
         double c0 = cpu_now(CLOCK_PROCESS_CPUTIME_ID), t0 = rtk_now();
-        rtk_status st = rtk_bvh_build(s, a->plugin, a->params, threads);
+        rtk_status st = s->instance_count ? rtk_instances_build(s, a->plugin, a->params, threads, NULL, NULL)
+                                          : rtk_bvh_build(s, a->plugin, a->params, threads);
         b->times[i] = rtk_now() - t0;
         b->cpu_times[i] = cpu_now(CLOCK_PROCESS_CPUTIME_ID) - c0;
         if (st != RTK_OK)
@@ -769,6 +808,14 @@ static void print_report(const bench *b, const char *path, FILE *out)
     uint64_t pixels = (uint64_t)b->width * b->height;
     fprintf(out, "rtk bench: %s\n", path);
     fprintf(out, "triangles %u, vertices %u, bounds diagonal %.6g\n", s->triangle_count, s->vertex_count, b->diag);
+    if (s->instance_count) {
+        uint64_t placed = 0;
+        for (uint32_t i = 0; i < s->instance_count; i++)
+            placed += s->meshes[s->instances[i].mesh]->triangle_count;
+        fprintf(out, "instances %u of %u mesh%s, placing %llu triangles (two-level: the accelerator builds each mesh "
+                "and the top level)\n", s->instance_count, s->mesh_count, s->mesh_count == 1 ? "" : "es",
+                (unsigned long long)placed);
+    }
     fprintf(out, "image %ux%u, camera eye (%.6g, %.6g, %.6g) forward (%.6g, %.6g, %.6g), vertical fov %.6g\n",
             b->width, b->height, c->eye[0], c->eye[1], c->eye[2], c->fwd[0], c->fwd[1], c->fwd[2],
             2.0 * atan(c->th) * 180.0 / M_PI);

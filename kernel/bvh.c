@@ -2,6 +2,7 @@
  * closest-hit and any-hit traversal, and the checked hand-off to builder
  * plugins. Builders only emit nodes; everything here is shared by all. */
 #include "bvh_wide.h"
+#include "slab.h"
 
 #include <float.h>
 #include <math.h>
@@ -9,8 +10,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Deepest tree traversal accepts; a builder going deeper is refused. */
-#define RTK_BVH_MAX_DEPTH 256
 
 static float axis(rtk_vec3 v, int k)
 {
@@ -159,49 +158,6 @@ int rtk_ray_valid(const rtk_ray *r)
     return 1;
 }
 
-/* Per-ray constants of the slab test. */
-typedef struct ray_prep {
-    float org[3], inv[3];
-    int neg[3];
-} ray_prep;
-
-static void prepare(const rtk_ray *r, ray_prep *p)
-{
-    const float d[3] = {r->dir.x, r->dir.y, r->dir.z};
-    p->org[0] = r->org.x, p->org[1] = r->org.y, p->org[2] = r->org.z;
-    for (int k = 0; k < 3; k++) {
-        p->inv[k] = 1.0f / d[k]; /* +-0 gives +-inf, which the slab test handles */
-        p->neg[k] = signbit(d[k]) != 0;
-    }
-}
-
-/* 1 + 2 gamma(3): each slab distance carries three roundings (subtract,
- * reciprocal, multiply); Ize 2013 widens the far distance by this much. */
-static const float slab_slack = 1.0f + 2.0f * (3.0f * 0.5f * FLT_EPSILON) / (1.0f - 3.0f * 0.5f * FLT_EPSILON);
-
-/* Entry distance into the node's box, or +inf when the ray misses it. The
- * far end is widened by slab_slack so that rounding never culls a box the
- * ray crosses, and the ray's tmax (a hit found so far) by
- * rtk_cull_distance, so that no triangle whose float t ties with that hit
- * is culled. NaN from 0 * inf fails both comparisons and is dropped, which
- * only widens the interval. */
-static float box_entry(const rtk_bvh_node *n, const ray_prep *p, float tmin, float tmax)
-{
-    float t0 = tmin, t1 = INFINITY;
-    for (int k = 0; k < 3; k++) {
-        float lo = p->neg[k] ? n->upper[k] : n->lower[k];
-        float hi = p->neg[k] ? n->lower[k] : n->upper[k];
-        float a = (lo - p->org[k]) * p->inv[k];
-        float b = (hi - p->org[k]) * p->inv[k];
-        t0 = a > t0 ? a : t0;
-        t1 = b < t1 ? b : t1;
-    }
-    t1 = t1 >= 0.0f ? t1 * slab_slack : t1 / slab_slack;
-    float cull = rtk_cull_distance(tmax);
-    t1 = cull < t1 ? cull : t1;
-    return t0 <= t1 ? t0 : INFINITY;
-}
-
 static int leaf_hit(const rtk_scene *s, uint32_t slot, const rtk_ray *ray, float *t, float *u, float *v)
 {
     const float *tv = s->tri_verts + 9 * (size_t)slot;
@@ -216,12 +172,12 @@ static inline __attribute__((always_inline)) int binary_closest(const rtk_scene 
     if (s->node_count == 0)
         return 0;
     rtk_ray ray = *ray_in;
-    ray_prep p;
-    prepare(&ray, &p);
+    rtk_slab_ray p;
+    rtk_slab_prepare(&ray, &p);
     uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
     int top = 0;
     uint32_t node = 0;
-    if (box_entry(&s->nodes[0], &p, ray.tmin, ray.tmax) == INFINITY)
+    if (rtk_slab_entry(&s->nodes[0], &p, ray.tmin, ray.tmax) == INFINITY)
         return 0;
     for (;;) {
         const rtk_bvh_node *n = &s->nodes[node];
@@ -244,8 +200,8 @@ static inline __attribute__((always_inline)) int binary_closest(const rtk_scene 
             if (work)
                 work->nodes++;
             uint32_t c0 = n->offset, c1 = n->offset + 1;
-            float t0 = box_entry(&s->nodes[c0], &p, ray.tmin, ray.tmax);
-            float t1 = box_entry(&s->nodes[c1], &p, ray.tmin, ray.tmax);
+            float t0 = rtk_slab_entry(&s->nodes[c0], &p, ray.tmin, ray.tmax);
+            float t1 = rtk_slab_entry(&s->nodes[c1], &p, ray.tmin, ray.tmax);
             if (t0 != INFINITY && t1 != INFINITY) {
                 if (t1 < t0) {
                     uint32_t tmp = c0;
@@ -278,14 +234,14 @@ static inline __attribute__((always_inline)) int binary_any(const rtk_scene *s, 
 {
     if (s->node_count == 0)
         return 0;
-    ray_prep p;
-    prepare(ray, &p);
+    rtk_slab_ray p;
+    rtk_slab_prepare(ray, &p);
     uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
     int top = 0;
     stack[top++] = 0;
     while (top > 0) {
         const rtk_bvh_node *n = &s->nodes[stack[--top]];
-        if (box_entry(n, &p, ray->tmin, ray->tmax) == INFINITY)
+        if (rtk_slab_entry(n, &p, ray->tmin, ray->tmax) == INFINITY)
             continue;
         if (n->count > 0) {
             for (uint32_t i = 0; i < n->count; i++) {
@@ -313,30 +269,10 @@ static int use_wide(const rtk_scene *s, const rtk_ray *ray)
     return s->wide && s->wide->path != RTK_SIMD_BINARY && ray->tmin >= 0.0f;
 }
 
-int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
+int rtk_bvh_closest_own(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
 {
-    if (use_wide(s, ray) && !s->own_traversal)
-        return rtk_wide_closest(s, s->wide->path, ray, hit, NULL);
-    hit->prim = RTK_INVALID_ID;
-    hit->t = ray->tmax;
-    hit->u = hit->v = 0.0f;
-    if (s->own_traversal)
-        return s->own_traversal->closest(s->own_state, ray, hit) && hit->prim < s->triangle_count;
-    return binary_closest(s, ray, hit, NULL);
-}
-
-int rtk_bvh_any(const rtk_scene *s, const rtk_ray *ray)
-{
-    if (s->own_traversal)
-        return s->own_traversal->any(s->own_state, ray);
-    if (use_wide(s, ray))
-        return rtk_wide_any(s, s->wide->path, ray, NULL);
-    return binary_any(s, ray, NULL);
-}
-
-int rtk_bvh_closest_measure(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
-{
-    work->nodes = work->triangles = 0;
+    if (work)
+        work->nodes = work->triangles = 0;
     if (use_wide(s, ray) && !s->own_traversal)
         return rtk_wide_closest(s, s->wide->path, ray, hit, work);
     hit->prim = RTK_INVALID_ID;
@@ -344,17 +280,48 @@ int rtk_bvh_closest_measure(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
     hit->u = hit->v = 0.0f;
     if (s->own_traversal)
         return s->own_traversal->closest(s->own_state, ray, hit) && hit->prim < s->triangle_count;
-    return binary_closest(s, ray, hit, work);
+    return work ? binary_closest(s, ray, hit, work) : binary_closest(s, ray, hit, NULL);
 }
 
-int rtk_bvh_any_measure(const rtk_scene *s, const rtk_ray *ray, rtk_trace_work *work)
+int rtk_bvh_any_own(const rtk_scene *s, const rtk_ray *ray, rtk_trace_work *work)
 {
-    work->nodes = work->triangles = 0;
+    if (work)
+        work->nodes = work->triangles = 0;
     if (s->own_traversal)
         return s->own_traversal->any(s->own_state, ray);
     if (use_wide(s, ray))
         return rtk_wide_any(s, s->wide->path, ray, work);
-    return binary_any(s, ray, work);
+    return work ? binary_any(s, ray, work) : binary_any(s, ray, NULL);
+}
+
+int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
+{
+    if (s->instance_count)
+        return rtk_instances_closest(s, ray, hit, NULL);
+    hit->inst = RTK_INVALID_ID;
+    return rtk_bvh_closest_own(s, ray, hit, NULL);
+}
+
+int rtk_bvh_any(const rtk_scene *s, const rtk_ray *ray)
+{
+    if (s->instance_count)
+        return rtk_instances_any(s, ray, NULL);
+    return rtk_bvh_any_own(s, ray, NULL);
+}
+
+int rtk_bvh_closest_measure(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
+{
+    if (s->instance_count)
+        return rtk_instances_closest(s, ray, hit, work);
+    hit->inst = RTK_INVALID_ID;
+    return rtk_bvh_closest_own(s, ray, hit, work);
+}
+
+int rtk_bvh_any_measure(const rtk_scene *s, const rtk_ray *ray, rtk_trace_work *work)
+{
+    if (s->instance_count)
+        return rtk_instances_any(s, ray, work);
+    return rtk_bvh_any_own(s, ray, work);
 }
 
 static int box_contains(const float lo[3], const float hi[3], const float clo[3], const float chi[3])
@@ -468,6 +435,11 @@ static const rtk_accelerator_fns *own_traversal(const rtk_accelerator_fns *fns)
     if (fns->size < offsetof(rtk_accelerator_fns, any) + sizeof fns->any)
         return NULL;
     return fns->closest && fns->any ? fns : NULL;
+}
+
+int rtk_accelerator_traverses_itself(const rtk_plugin *accelerator)
+{
+    return own_traversal(accelerator->functions) != NULL;
 }
 
 rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads)

@@ -585,6 +585,19 @@ static int own_traversal(const rtk_plugin *plugin)
 rtk_status rtk_bvh_build_cached(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads,
                                 const char *dir, rtk_bvh_cache_use *use)
 {
+    if (s->instance_count) {
+        memset(use, 0, sizeof *use);
+        rtk_status st = rtk_instances_build(s, plugin, params, threads, dir, &use->from_cache);
+        if (st == RTK_OK && dir)
+            snprintf(use->file, sizeof use->file, "%s (one file per mesh)", dir);
+        return st;
+    }
+    return rtk_bvh_build_cached_own(s, plugin, params, threads, dir, use);
+}
+
+rtk_status rtk_bvh_build_cached_own(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params,
+                                    uint32_t threads, const char *dir, rtk_bvh_cache_use *use)
+{
     memset(use, 0, sizeof *use);
     if (!dir || s->triangle_count == 0 || s->triangle_count > (UINT32_MAX - 1) / 2 || own_traversal(plugin))
         return rtk_bvh_build(s, plugin, params, threads);

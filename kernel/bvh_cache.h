@@ -102,8 +102,13 @@ rtk_status rtk_bvh_cache_save(const rtk_scene *scene, const char *path, uint64_t
 
 /* rtk_bvh_build behind the cache in dir (NULL = caching off): loads a
  * valid cache file, else builds and saves. Accelerators with their own
- * traversal are never cached. Fails only when the build itself fails. */
+ * traversal are never cached. Fails only when the build itself fails. A
+ * scene with instances gets every level built (rtk_instances_build), each
+ * mesh through the cache. */
 rtk_status rtk_bvh_build_cached(rtk_scene *scene, const rtk_plugin *accelerator, const rtk_params *params,
                                 uint32_t threads, const char *dir, rtk_bvh_cache_use *use);
+/* The same for the scene's own triangles only. */
+rtk_status rtk_bvh_build_cached_own(rtk_scene *scene, const rtk_plugin *accelerator, const rtk_params *params,
+                                    uint32_t threads, const char *dir, rtk_bvh_cache_use *use);
 
 #endif

@@ -36,11 +36,15 @@ static const rtk_param_desc top_params[] = {
      .doc = "directory or list of directories with more plugins (trusted configs only)"},
     {.name = "lights", .type = RTK_PARAM_STRING,
      .doc = "list of point, spot and directional lights: ( { type = \"point\"; ... }, ... )"},
+    {.name = "instances", .type = RTK_PARAM_STRING,
+     .doc = "list of models placed beside the scene, each loaded once: ( { file = \"bunny.obj\"; "
+            "translate = [x, y, z]; rotate = [ax, ay, az, degrees]; scale = s; grid = [nx, ny, nz]; "
+            "spacing = [dx, dy, dz]; }, ... )"},
     {.name = "accelerator", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"median\"; and its parameters"},
     {.name = "integrator", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"headlight\"; and its parameters"},
     {.name = "filter", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"box\"; and its parameters"},
 };
-static const char *const top_special[] = {"camera", "film", "sampler", "plugin_path", "lights",
+static const char *const top_special[] = {"camera", "film", "sampler", "plugin_path", "lights", "instances",
                                           "accelerator", "integrator", "filter", NULL};
 
 static const rtk_param_desc camera_params[] = {
@@ -86,6 +90,18 @@ static const rtk_param_desc light_params[] = {
 };
 static const char *const light_special[] = {"position", "direction", "intensity", NULL};
 
+static const rtk_param_desc instance_params[] = {
+    {.name = "file", .type = RTK_PARAM_STRING, .required = 1,
+     .doc = "model to place (.obj, .gltf, .glb), relative to the config file; loaded once however often placed"},
+    {.name = "translate", .type = RTK_PARAM_STRING, .doc = "[x, y, z] added after rotating and scaling"},
+    {.name = "rotate", .type = RTK_PARAM_STRING, .doc = "[ax, ay, az, degrees]: rotation about an axis"},
+    {.name = "scale", .type = RTK_PARAM_STRING, .doc = "s or [sx, sy, sz], applied first"},
+    {.name = "grid", .type = RTK_PARAM_STRING,
+     .doc = "[nx, ny, nz] copies, default [1, 1, 1]; copy (i, j, k) moves by (i dx, j dy, k dz)"},
+    {.name = "spacing", .type = RTK_PARAM_STRING, .doc = "[dx, dy, dz] between grid copies"},
+};
+static const char *const instance_special[] = {"translate", "rotate", "scale", "grid", "spacing", NULL};
+
 static const rtk_plugin top_schema = {RTK_PLUGIN_HEADER, .name = "the config", .params = top_params,
                                       .param_count = RTK_COUNTOF(top_params)};
 static const rtk_plugin camera_schema = {RTK_PLUGIN_HEADER, .name = "camera", .params = camera_params,
@@ -96,6 +112,8 @@ static const rtk_plugin sampler_schema = {RTK_PLUGIN_HEADER, .name = "sampler", 
                                           .param_count = RTK_COUNTOF(sampler_params)};
 static const rtk_plugin light_schema = {RTK_PLUGIN_HEADER, .name = "lights", .params = light_params,
                                         .param_count = RTK_COUNTOF(light_params)};
+static const rtk_plugin instance_schema = {RTK_PLUGIN_HEADER, .name = "instances", .params = instance_params,
+                                           .param_count = RTK_COUNTOF(instance_params)};
 
 static const char aov_choices[] = "albedo|normal|depth";
 
@@ -396,22 +414,23 @@ static config_setting_t *member(const config_setting_t *group, const char *key)
 }
 
 /* Reads key of group as [x, y, z] when given. */
-static rtk_status read_vec3(const loader *ld, const config_setting_t *group, const char *label, const char *key,
-                            rtk_vec3 *out)
+/* Reads group.key as a list of n finite numbers into v; leaves v alone
+ * when the key is absent. */
+static rtk_status read_numbers(const loader *ld, const config_setting_t *group, const char *label, const char *key,
+                               unsigned n, const char *shape, double *v)
 {
     const config_setting_t *s = member(group, key);
     if (!s)
         return RTK_OK;
     char found[256];
-    if (!is_sequence(s) || config_setting_length(s) != 3) {
+    if (!is_sequence(s) || config_setting_length(s) != (int)n) {
         if (is_sequence(s))
             snprintf(found, sizeof found, "%d elements", config_setting_length(s));
         else
             describe_setting(s, found, sizeof found);
-        return fail(ld, s, RTK_ERR_INVALID, "%s: %s: expected 3 numbers [x, y, z], found %s", label, key, found);
+        return fail(ld, s, RTK_ERR_INVALID, "%s: %s: expected %u numbers %s, found %s", label, key, n, shape, found);
     }
-    double v[3];
-    for (unsigned i = 0; i < 3; i++) {
+    for (unsigned i = 0; i < n; i++) {
         const config_setting_t *e = config_setting_get_elem(s, i);
         if (is_int_setting(e)) {
             v[i] = (double)config_setting_get_int64(e);
@@ -426,6 +445,16 @@ static rtk_status read_vec3(const loader *ld, const config_setting_t *group, con
             return fail(ld, s, RTK_ERR_INVALID, "%s: %s: element %u (%g) is not a finite float", label, key,
                         i + 1, v[i]);
     }
+    return RTK_OK;
+}
+
+static rtk_status read_vec3(const loader *ld, const config_setting_t *group, const char *label, const char *key,
+                            rtk_vec3 *out)
+{
+    double v[3] = {out->x, out->y, out->z};
+    rtk_status status = read_numbers(ld, group, label, key, 3, "[x, y, z]", v);
+    if (status != RTK_OK)
+        return status;
     *out = rtk_vec3_make((float)v[0], (float)v[1], (float)v[2]);
     return RTK_OK;
 }
@@ -716,6 +745,109 @@ static rtk_status read_lights(const loader *ld, const config_setting_t *root, rt
         l->cos_inner = (float)cos(inner * M_PI / 180.0);
         l->cos_outer = (float)cos(outer * M_PI / 180.0);
         cfg->light_count++;
+    }
+    return RTK_OK;
+}
+
+/* Most copies one instances entry may ask for. */
+#define RTK_MAX_GRID_COPIES (1u << 24)
+
+/* T(translate) R(axis, degrees) S(scale), 3x4 row-major. */
+static void compose(const double t[3], const double axis[3], double degrees, const double s[3], double m[12])
+{
+    double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+    double x = axis[0] / len, y = axis[1] / len, z = axis[2] / len;
+    double a = degrees * M_PI / 180.0, c = cos(a), sn = sin(a), k = 1.0 - c;
+    double r[9] = {c + x * x * k,      x * y * k - z * sn, x * z * k + y * sn,
+                   y * x * k + z * sn, c + y * y * k,      y * z * k - x * sn,
+                   z * x * k - y * sn, z * y * k + x * sn, c + z * z * k};
+    for (int row = 0; row < 3; row++) {
+        for (int col = 0; col < 3; col++)
+            m[4 * row + col] = r[3 * row + col] * s[col];
+        m[4 * row + 3] = t[row];
+    }
+}
+
+/* Reads the list of instanced models. */
+static rtk_status read_instances(const loader *ld, const config_setting_t *root, rtk_config *cfg)
+{
+    const config_setting_t *list = member(root, "instances");
+    if (!list)
+        return RTK_OK;
+    if (config_setting_type(list) != CONFIG_TYPE_LIST) {
+        char found[256];
+        describe_setting(list, found, sizeof found);
+        return fail(ld, list, RTK_ERR_INVALID,
+                    "instances: expected a list of groups ( { file = \"bunny.obj\"; translate = [0, 0, 0]; } ), "
+                    "found %s", found);
+    }
+    int n = config_setting_length(list);
+    cfg->instances = rtk_calloc((size_t)n + 1, sizeof *cfg->instances);
+    if (!cfg->instances)
+        return RTK_ERR_NOMEM;
+    for (int i = 0; i < n; i++) {
+        const config_setting_t *g = config_setting_get_elem(list, (unsigned)i);
+        char label[32];
+        snprintf(label, sizeof label, "instances[%d]", i);
+        if (config_setting_type(g) != CONFIG_TYPE_GROUP)
+            return fail(ld, g, RTK_ERR_INVALID, "%s: expected a group { file = \"bunny.obj\"; ... }", label);
+        rtk_params *params = NULL;
+        slot_spec spec = {.label = label, .schema = &instance_schema, .special = instance_special};
+        rtk_status status = fill_params(ld, g, &spec, &params);
+        if (status != RTK_OK)
+            return status;
+        rtk_config_instance *in = &cfg->instances[cfg->instance_count];
+        const char *file = rtk_params_string(params, "file");
+        if (!file[0])
+            status = fail(ld, member(g, "file"), RTK_ERR_INVALID, "%s: file is empty: give the model to place", label);
+        else if (!(in->file = rtk_path_join(ld->dir, file)))
+            status = RTK_ERR_NOMEM;
+        rtk_params_destroy(params);
+        if (status != RTK_OK)
+            return status;
+        cfg->instance_count++;
+        char loc[1050];
+        where(ld, g, loc, sizeof loc);
+        snprintf(in->where, sizeof in->where, "%s: %s", loc, label);
+
+        double t[3] = {0, 0, 0}, rot[4] = {0, 1, 0, 0}, s[3] = {1, 1, 1}, grid[3] = {1, 1, 1};
+        const config_setting_t *scale = member(g, "scale");
+        if (scale && (is_int_setting(scale) || config_setting_type(scale) == CONFIG_TYPE_FLOAT)) {
+            double v = is_int_setting(scale) ? (double)config_setting_get_int64(scale) : config_setting_get_float(scale);
+            s[0] = s[1] = s[2] = v;
+        } else if ((status = read_numbers(ld, g, label, "scale", 3, "[sx, sy, sz] (or one number)", s)) != RTK_OK) {
+            return status;
+        }
+        if ((status = read_numbers(ld, g, label, "translate", 3, "[x, y, z]", t)) != RTK_OK ||
+            (status = read_numbers(ld, g, label, "rotate", 4, "[ax, ay, az, degrees]", rot)) != RTK_OK ||
+            (status = read_numbers(ld, g, label, "grid", 3, "[nx, ny, nz]", grid)) != RTK_OK ||
+            (status = read_numbers(ld, g, label, "spacing", 3, "[dx, dy, dz]", in->spacing)) != RTK_OK)
+            return status;
+        for (int k = 0; k < 3; k++) {
+            if (!isfinite(s[k]) || s[k] == 0.0)
+                return fail(ld, scale, RTK_ERR_INVALID, "%s: scale must be finite and not zero (it would flatten "
+                            "the model)", label);
+        }
+        if (rot[0] == 0.0 && rot[1] == 0.0 && rot[2] == 0.0) {
+            if (rot[3] != 0.0)
+                return fail(ld, member(g, "rotate"), RTK_ERR_INVALID,
+                            "%s: rotate: the axis [0, 0, 0] has no direction; give e.g. [0, 1, 0, %g]", label, rot[3]);
+            rot[1] = 1.0;
+        }
+        double copies = 1.0;
+        for (int k = 0; k < 3; k++) {
+            if (grid[k] < 1.0 || grid[k] != floor(grid[k]))
+                return fail(ld, member(g, "grid"), RTK_ERR_INVALID,
+                            "%s: grid: element %d (%g) must be a whole number of copies, at least 1", label, k + 1,
+                            grid[k]);
+            copies *= grid[k];
+        }
+        if (copies > RTK_MAX_GRID_COPIES)
+            return fail(ld, member(g, "grid"), RTK_ERR_INVALID, "%s: grid asks for %.0f copies; at most %u", label,
+                        copies, RTK_MAX_GRID_COPIES);
+        for (int k = 0; k < 3; k++)
+            in->grid[k] = (uint32_t)grid[k];
+        compose(t, rot, rot[3], s, in->to_world);
     }
     return RTK_OK;
 }
@@ -1078,6 +1210,7 @@ static rtk_status load(loader *ld, rtk_config *cfg)
     if ((status = read_top(ld, root, cfg)) != RTK_OK || (status = read_plugin_path(ld, root)) != RTK_OK ||
         (status = read_camera(ld, root, cfg)) != RTK_OK || (status = read_film(ld, root, cfg)) != RTK_OK ||
         (status = read_sampler(ld, root, cfg)) != RTK_OK || (status = read_lights(ld, root, cfg)) != RTK_OK ||
+        (status = read_instances(ld, root, cfg)) != RTK_OK ||
         (status = load_slot(ld, root, "accelerator", RTK_KIND_ACCELERATOR, "median", &cfg->accelerator)) != RTK_OK ||
         (status = load_slot(ld, root, "integrator", RTK_KIND_INTEGRATOR, "headlight", &cfg->integrator)) != RTK_OK ||
         (status = load_slot(ld, root, "filter", RTK_KIND_FILTER, "box", &cfg->filter)) != RTK_OK)
@@ -1142,6 +1275,9 @@ RTK_API void rtk_config_destroy(rtk_config *config)
     free(config->sampler_type);
     free(config->cache_dir);
     free(config->lights);
+    for (uint32_t i = 0; i < config->instance_count; i++)
+        free(config->instances[i].file);
+    free(config->instances);
     rtk_params_destroy(config->integrator.params);
     rtk_params_destroy(config->accelerator.params);
     rtk_params_destroy(config->filter.params);

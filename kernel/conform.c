@@ -4,6 +4,7 @@
  * counts); lines starting with '#' are notes (timings); the last line is
  * "N passed, N failed". Accelerators also get the hard cases of issue 3
  * (see "accelerator hard cases" below and conform_hard.h). */
+#include "bvh_cache.h"
 #include "conform_hard.h"
 #include "film.h"
 #include "lights.h"
@@ -1042,7 +1043,7 @@ static void conform_signed_zero(runner *r, const rtk_plugin *p, const rtk_params
                     for (int sign = -1; sign <= 1; sign += 2) {
                         rtk_ray ray = make_ray(rtk_vec3_make(vals[x], vals[y], vals[z]), rtk_vec3_make(0, 0, 0), INFINITY);
                         double t_best = INFINITY;
-                        traced first = {0, 0, {0, 0, 0, 0}};
+                        traced first = {0, 0, {0, 0, 0, 0, 0}};
                         for (int zeros = 0; zeros < 4; zeros++) {
                             float comp[3];
                             for (int c = 0, bit = 0; c < 3; c++)
@@ -1969,6 +1970,124 @@ static void conform_fans(runner *r, const rtk_plugin *p, const rtk_params *param
     rtk_scene_free(m.s);
 }
 
+/* 3x4 row-major T R S: rotation by degrees about axis. */
+static void instance_transform(dvec t, dvec axis, double degrees, dvec s, double m[12])
+{
+    dvec u = dunit(axis);
+    double a = degrees * M_PI / 180.0, c = cos(a), sn = sin(a), k = 1.0 - c;
+    double rot[9] = {c + u.x * u.x * k,       u.x * u.y * k - u.z * sn, u.x * u.z * k + u.y * sn,
+                     u.y * u.x * k + u.z * sn, c + u.y * u.y * k,       u.y * u.z * k - u.x * sn,
+                     u.z * u.x * k - u.y * sn, u.z * u.y * k + u.x * sn, c + u.z * u.z * k};
+    const double sc[3] = {s.x, s.y, s.z}, tr[3] = {t.x, t.y, t.z};
+    for (int row = 0; row < 3; row++) {
+        for (int col = 0; col < 3; col++)
+            m[4 * row + col] = rot[3 * row + col] * sc[col];
+        m[4 * row + 3] = tr[row];
+    }
+}
+
+/* Brute force over every placed triangle: the scene's own with the world
+ * ray, each instance's with the ray in its object space as the kernel
+ * makes it; ties to own triangles, then the lowest instance and triangle. */
+static int brute_instances(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
+{
+    int found = brute_closest(s, ray, hit);
+    hit->inst = RTK_INVALID_ID;
+    float best = found ? hit->t : ray->tmax;
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        rtk_ray lr;
+        if (!rtk_instance_local_ray(&s->instances[i], ray, &lr))
+            continue;
+        const rtk_scene *mesh = s->meshes[s->instances[i].mesh];
+        for (uint32_t k = 0; k < mesh->triangle_count; k++) {
+            rtk_vec3 a, b, c;
+            rtk_scene_triangle(mesh, k, &a, &b, &c);
+            float t, u, v;
+            if (rtk_intersect_triangle(&lr, a, b, c, &t, &u, &v) && (t < best || (t == best && !found))) {
+                best = t;
+                found = 1;
+                hit->t = t, hit->u = u, hit->v = v, hit->prim = k, hit->inst = i;
+            }
+        }
+    }
+    return found;
+}
+
+/* Two-level instancing: the plugin builds a mesh's tree and the top level
+ * over 60 placements (rotated, scaled unevenly, mirrored, 1e3 away)
+ * beside 40 world-space triangles; closest and any hit must be brute
+ * force's (another triangle only at the same distance within rounding).
+ * An accelerator with its own traversal must refuse the scene, saying so. */
+static void conform_instances(runner *r, const rtk_plugin *p, const rtk_params *params, const char *label)
+{
+    char name[256];
+    snprintf(name, sizeof name, "instanced scene (a mesh placed 60 times, top level by the plugin) = brute force [%s]",
+             label);
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 60, 2);
+    rtk_scene *s = rtk_scene_new("conform instances", 0);
+    uint32_t mi = 0;
+    if (!s || rtk_scene_add_mesh(s, "conform mesh", &mi) != RTK_OK) {
+        check(r, 0, name, "out of memory");
+        rtk_scene_free(s);
+        return;
+    }
+    for (int i = 0; i < 240; i++) {
+        rtk_vec3 c = rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1)), v[3];
+        for (int k = 0; k < 3; k++)
+            v[k] = rtk_vec3_add(c, rtk_vec3_make(frand(&rng, -.3f, .3f), frand(&rng, -.3f, .3f), frand(&rng, -.3f, .3f)));
+        add_tri(i < 200 ? s->meshes[mi] : s, v[0], v[1], v[2]);
+    }
+    for (int i = 0; i < 60; i++) {
+        double m[12];
+        double sc = drange(&rng, 0.3, 2.0);
+        dvec scale = dv(sc * (i % 4 == 3 ? -1.0 : 1.0), sc * drange(&rng, 0.5, 1.5), sc);
+        dvec at = dv(drange(&rng, -6, 6), drange(&rng, -6, 6), drange(&rng, -6, 6));
+        if (i == 59)
+            at = dv(1e3, -1e3, 5e2);
+        instance_transform(at, drand_unit(&rng), drange(&rng, -180, 180), scale, m);
+        rtk_scene_add_instance(s, mi, m, "conform");
+    }
+    rtk_status st = rtk_scene_finish(s);
+    rtk_bvh_cache_use use;
+    if (st == RTK_OK)
+        st = rtk_bvh_build_cached(s, p, params, 2, NULL, &use);
+    if (rtk_accelerator_traverses_itself(p)) {
+        snprintf(name, sizeof name, "an instanced scene is refused, naming the alternatives (own traversal) [%s]", label);
+        check(r, st != RTK_OK && strstr(rtk_error_message(), "cannot nest"), name, "%s",
+              st == RTK_OK ? "built" : rtk_error_message());
+        rtk_scene_free(s);
+        return;
+    }
+    if (st != RTK_OK) {
+        check(r, 0, name, "build failed: %s", rtk_error_message());
+        rtk_scene_free(s);
+        return;
+    }
+    tally tl;
+    memset(&tl, 0, sizeof tl);
+    for (int i = 0; i < 4000; i++) {
+        dvec o = i == 3999 ? dv(1e3 + 20, -1e3, 5e2) : dv(drange(&rng, -9, 9), drange(&rng, -9, 9), drange(&rng, -9, 9));
+        dvec d = i == 3999 ? dv(-1, 0, 0) : drand_unit(&rng);
+        rtk_ray ray = make_ray(fdv(o), fdv(d), i % 3 == 0 ? (float)drange(&rng, 0.5, 8) : INFINITY);
+        traced tr = trace(s, &ray);
+        rtk_hit b;
+        int bh = brute_instances(s, &ray, &b);
+        tl.rays++;
+        double slack = 8.0 * FLT_EPSILON * (dlen(o) + fabs((double)b.t));
+        if (tr.hit != tr.any || tr.hit != bh)
+            tally_bad(&tl, &ray, "closest %s, any %s, brute force %s", tr.hit ? "hit" : "miss", tr.any ? "hit" : "miss",
+                      bh ? "hit" : "miss");
+        else if (bh && (tr.h.inst != b.inst || tr.h.prim != b.prim) && !(fabs((double)tr.h.t - b.t) <= slack))
+            tally_bad(&tl, &ray, "hit (instance %u, triangle %u) at t %.9g, brute force (%u, %u) at %.9g", tr.h.inst,
+                      tr.h.prim, tr.h.t, b.inst, b.prim, b.t);
+        else if (bh && tr.h.inst == b.inst && tr.h.prim == b.prim && tr.h.t != b.t)
+            tally_bad(&tl, &ray, "t %.9g, brute force %.9g on the same triangle", tr.h.t, b.t);
+    }
+    tally_check(r, &tl, name);
+    rtk_scene_free(s);
+}
+
 static void conform_accelerator(runner *r, const rtk_plugin *p, const rtk_conform_options *o)
 {
     uint32_t cases = o && o->cases ? o->cases : RTK_CONFORM_ALL;
@@ -1984,7 +2103,8 @@ static void conform_accelerator(runner *r, const rtk_plugin *p, const rtk_confor
             continue;
         }
         double t0 = rtk_now();
-        const uint32_t each = RTK_CONFORM_BASIC | RTK_CONFORM_DEGENERATE | RTK_CONFORM_SIGNED_ZERO | RTK_CONFORM_REPEAT;
+        const uint32_t each = RTK_CONFORM_BASIC | RTK_CONFORM_DEGENERATE | RTK_CONFORM_SIGNED_ZERO | RTK_CONFORM_REPEAT |
+                              RTK_CONFORM_INSTANCES;
         if (cases & RTK_CONFORM_BASIC)
             conform_basic(r, p, params, label);
         if (cases & RTK_CONFORM_DEGENERATE)
@@ -1993,6 +2113,8 @@ static void conform_accelerator(runner *r, const rtk_plugin *p, const rtk_confor
             conform_signed_zero(r, p, params, label, vi == 0);
         if (cases & RTK_CONFORM_REPEAT)
             conform_repeat(r, p, params, label, vi == 0);
+        if (cases & RTK_CONFORM_INSTANCES)
+            conform_instances(r, p, params, label);
         if (cases & each)
             fprintf(r->out, "# [%s] %.2f s\n", label, rtk_now() - t0);
         if (vi == 0) {
@@ -2025,6 +2147,137 @@ static void conform_accelerator(runner *r, const rtk_plugin *p, const rtk_confor
 }
 
 /* ---- filters ---- */
+
+/* Radiance of every camera ray in the constant-radiance render. */
+static const float constant_radiance[3] = {0.3f, 1.7f, 42.0f};
+
+static void constant_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
+{
+    (void)state, (void)ctx, (void)ray;
+    out->radiance = rtk_rgb_make(constant_radiance[0], constant_radiance[1], constant_radiance[2]);
+}
+
+/* rtk_render_film calls only li. */
+static const rtk_integrator_fns constant_integrator = {.size = sizeof(rtk_integrator_fns), .li = constant_li};
+
+/* Renders constant radiance through the film at 1 spp (every pixel then
+ * depends on its neighbours' samples) on 2 threads and an image that is
+ * not a whole number of tiles. Products w x L are exact in double, so a
+ * pixel is off by the float rounding of its value (2^-24) plus the error
+ * of the two double sums, under 2n 2^-53 sum|w| / |sum w| for n terms:
+ * 1e-5 relative fails a pixel only if its summed weight is 0 (no sample
+ * reached it; it resolves to 0) or cancels below n 2e-11 of sum|w|, which
+ * is why this check cannot see a merely small or negative sum (see
+ * note_weight_sums). A pixel's own samples lie within 0.5 of its centre
+ * on each axis, so only a radius of 0.5 or more can promise every pixel a
+ * sample; below that, black pixels are counted in a note. */
+static void check_constant_render(runner *r, const rtk_filter_fns *f, void *state, float rad, const char *label)
+{
+    char name[256];
+    const uint32_t w = 37, h = 29;
+    rtk_scene *scene = rtk_scene_new("conform constant", 0);
+    rtk_camera_desc d = {rtk_vec3_make(0, 0, 1), rtk_vec3_make(0, 0, 0), rtk_vec3_make(0, 1, 0), 60.0f};
+    rtk_camera cam;
+    float *px = rtk_alloc((size_t)w * h * RTK_FILM_CHANNELS * sizeof(float));
+    rtk_status st = scene && px ? rtk_camera_init(&cam, &d, w, h) : RTK_ERR_NOMEM;
+    if (st == RTK_OK)
+        st = rtk_render_film(scene, &cam, &constant_integrator, NULL, f, state, 1, 3, 2, 0, px, NULL);
+    snprintf(name, sizeof name, "constant radiance gives the constant in every pixel, borders included [%s]", label);
+    if (st != RTK_OK) {
+        check(r, 0, name, "render failed: %s", rtk_error_message());
+    } else {
+        uint32_t bad = 0, black = 0, worst_x = 0, worst_y = 0;
+        double worst = 0.0;
+        for (uint32_t i = 0; i < w * h; i++) {
+            const float *v = px + (size_t)i * RTK_FILM_CHANNELS;
+            if (rad < 0.5f && v[0] == 0.0f && v[1] == 0.0f && v[2] == 0.0f) {
+                black++;
+                continue;
+            }
+            for (int c = 0; c < 3; c++) {
+                double err = fabs((double)v[c] - constant_radiance[c]) / constant_radiance[c];
+                if (!(err <= 1e-5)) {
+                    bad++;
+                    if (!(err <= worst))
+                        worst = err, worst_x = i % w, worst_y = i / w;
+                    break;
+                }
+            }
+        }
+        check(r, bad == 0, name, "%u of %u pixels off, worst relative error %g at (%u, %u)", bad, w * h, worst,
+              worst_x, worst_y);
+        if (black)
+            fprintf(r->out, "# [%s] radius %g < 0.5: %u of %u pixels got no sample weight and stay black\n", label,
+                    rad, black, w * h);
+    }
+    free(px);
+    rtk_scene_free(scene);
+}
+
+/* |eval| of a wrapped filter, to splat sum |w| next to sum w. */
+typedef struct abs_filter {
+    const rtk_filter_fns *f;
+    const void *state;
+} abs_filter;
+
+static float abs_filter_eval(const void *state, float dx, float dy)
+{
+    const abs_filter *a = state;
+    return fabsf(a->f->eval(a->state, dx, dy));
+}
+
+/* Summed filter weight per pixel at 1 spp, samples placed exactly as the
+ * renderer places them; printed as a note. The film divides by this sum:
+ * sum|w| / sum w bounds how far a pixel can leave the range of its
+ * samples' values (1 for a filter without negative lobes), and where the
+ * sum is near 0 or negative it turns noise into arbitrary values. */
+static void note_weight_sums(runner *r, const rtk_filter_fns *f, void *state, float rad, const char *label)
+{
+    const uint32_t w = 128, h = 128;
+    const abs_filter wrap = {f, state};
+    const rtk_filter_fns abs_fns = {.size = sizeof(rtk_filter_fns), .eval = abs_filter_eval};
+    rtk_film film[2];
+    rtk_film_tile tile[2];
+    int ready = 0;
+    for (; ready < 2; ready++) {
+        if (rtk_film_init(&film[ready], w, h, 1) != RTK_OK)
+            break;
+        if (rtk_film_tile_init(&tile[ready], &film[ready], 0, 0, w, h, rad) != RTK_OK) {
+            rtk_film_free(&film[ready]);
+            break;
+        }
+    }
+    if (ready == 2) {
+        rtk_ctx ctx;
+        memset(&ctx, 0, sizeof ctx);
+        ctx.seed = 3;
+        const float one = 1.0f;
+        for (uint32_t y = 0; y < h; y++)
+            for (uint32_t x = 0; x < w; x++) {
+                rtk_ctx_start_sample(&ctx, (uint64_t)y * w + x, 0);
+                rtk_vec2 j = rtk_sample_2d(&ctx);
+                float fx = (float)x + j.x, fy = (float)y + j.y;
+                rtk_film_tile_splat(&tile[0], &film[0], fx, fy, &one, f, state, rad);
+                rtk_film_tile_splat(&tile[1], &film[1], fx, fy, &one, &abs_fns, &wrap, rad);
+            }
+        rtk_film_merge(&film[0], &tile[0]);
+        rtk_film_merge(&film[1], &tile[1]);
+        double amplification = 1.0;
+        uint32_t nonpositive = 0;
+        for (uint32_t i = 0; i < w * h; i++) {
+            if (film[0].weight[i] <= 0.0)
+                nonpositive++;
+            else
+                amplification = fmax(amplification, film[1].weight[i] / film[0].weight[i]);
+        }
+        fprintf(r->out, "# [%s] summed weight at 1 spp, %ux%u pixels: %u <= 0, elsewhere sum|w| / sum w <= %.3g\n",
+                label, w, h, nonpositive, amplification);
+    }
+    for (int i = 0; i < ready; i++) {
+        rtk_film_tile_free(&tile[i]);
+        rtk_film_free(&film[i]);
+    }
+}
 
 static void conform_filter(runner *r, const rtk_plugin *p)
 {
@@ -2082,6 +2335,8 @@ static void conform_filter(runner *r, const rtk_plugin *p)
         snprintf(name, sizeof name, "weights integrate to the closed form [%s]", label);
         check(r, isfinite(closed) && closed != 0.0 && fabs(sum - closed) <= 2e-3 * fabs(closed) + 1e-9, name,
               "numeric integral %.9g, closed form %.9g", sum, closed);
+        check_constant_render(r, f, state, rad, label);
+        note_weight_sums(r, f, state, rad, label);
         f->destroy(state);
     }
 }

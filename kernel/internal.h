@@ -158,9 +158,28 @@ typedef struct rtk_material {
 /* Material defaults: white diffuse, alpha 1, ior 1.5, no textures. */
 rtk_material rtk_material_default(void);
 
+/* One placement of an instanced mesh. Transforms are 3x4, row-major:
+ * x' = m[0] x + m[1] y + m[2] z + m[3], and so on. */
+typedef struct rtk_instance {
+    uint32_t mesh;        /* index into scene->meshes */
+    int mirrored;         /* negative determinant: the front side flips (glTF) */
+    double to_world[12];  /* object -> world */
+    double to_object[12]; /* world -> object, the inverse */
+    rtk_bounds bounds;    /* the mesh's bounds in world space */
+    rtk_bvh_node box;     /* the same as a node, for the slab test in top-level leaves */
+} rtk_instance;
+
 /* The scene. Positions are indexed; normals and uvs are stored per
  * triangle corner (3 per triangle) so that OBJ's separate indices and
- * glTF's shared ones fit the same arrays. */
+ * glTF's shared ones fit the same arrays.
+ *
+ * Two-level instancing: a mesh placed more than once (a glTF mesh used by
+ * several nodes, or a file instanced in the config) is a scene of its own
+ * in object space, with its own BVH (the bottom level), in meshes[];
+ * instances[] place it, and a top-level BVH over the instances' world
+ * boxes finds them. The scene's own triangles are world space and have
+ * their own BVH beside it. A scene without instances is traced as before,
+ * with no top level. */
 struct rtk_scene {
     char *path;                  /* file it came from, for messages */
     uint32_t needs;              /* RTK_NEED_* it was loaded for */
@@ -197,6 +216,17 @@ struct rtk_scene {
     /* Point, spot and directional lights (lights.c). */
     rtk_punctual_light *punctual;
     uint32_t punctual_count;
+    /* Instancing (instance.c). */
+    struct rtk_scene **meshes;   /* instanced meshes, each owned by this scene */
+    uint32_t mesh_count, mesh_cap;
+    rtk_instance *instances;
+    uint32_t instance_count, instance_cap;
+    const struct rtk_scene *owner; /* a mesh: the scene whose materials and
+                                      textures it shares (glTF), else NULL */
+    int finished;                /* rtk_scene_finish has run */
+    rtk_bvh_node *tlas_nodes;    /* top level over the instances, or NULL */
+    uint32_t tlas_node_count, tlas_depth;
+    uint32_t *tlas_order;        /* top-level leaf slot -> instance */
 };
 
 /* Empty scene that keeps the data in needs (RTK_NEED_*). [caller frees] */
@@ -221,6 +251,54 @@ rtk_status rtk_scene_add_texture(rtk_scene *scene, const char *name, const char 
  * geometric ones, computes bounds, decodes textures when needed. */
 rtk_status rtk_scene_finish(rtk_scene *scene);
 
+/* ---- instancing (instance.c) ---- */
+
+/* A new, empty mesh for scene to instance; it shares scene's materials and
+ * textures (same material indices) and is finished with it. [owned by scene] */
+rtk_status rtk_scene_add_mesh(rtk_scene *scene, const char *name, uint32_t *index);
+/* Places mesh by to_world (3x4 row-major, see rtk_instance). Rejects a
+ * non-finite or singular transform, naming where. */
+rtk_status rtk_scene_add_instance(rtk_scene *scene, uint32_t mesh, const double to_world[12], const char *where);
+/* Places the model in path (loaded once per path, with scene's needs, its
+ * own materials and textures) by to_world. */
+rtk_status rtk_scene_instance_file(rtk_scene *scene, const char *path, const double to_world[12],
+                                   const char *where);
+/* Finishes the meshes not yet finished, drops instances of empty meshes
+ * (one warning), computes the instances' world boxes and grows the
+ * scene's bounds by them. Run by rtk_scene_finish and after adding
+ * instances to a finished scene. */
+rtk_status rtk_instances_finish(rtk_scene *scene);
+/* Builds the BVH of every mesh (through the cache in dir, NULL = off) and
+ * the top level over the instances with the same accelerator, which must
+ * use the kernel's traversal. */
+rtk_status rtk_instances_build(rtk_scene *scene, const rtk_plugin *accelerator, const rtk_params *params,
+                               uint32_t threads, const char *dir, int *from_cache);
+/* Frees meshes, instances and the top level. */
+void rtk_instances_free(rtk_scene *scene);
+/* Two-level traversal: the scene's own triangles, then the instances.
+ * Equal distances go to the own triangles, then to the lowest instance,
+ * then to the lowest triangle id. work, if not NULL, gets the counts of
+ * both levels. [any thread] */
+int rtk_instances_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work);
+int rtk_instances_any(const rtk_scene *s, const rtk_ray *ray, rtk_trace_work *work);
+/* rtk_surface_at for a hit on an instance: the mesh's surface in world space. */
+void rtk_instance_surface(const rtk_scene *s, const rtk_ray *ray, const rtk_hit *hit, rtk_surface *out);
+/* The ray in instance in's object space (transformed in double, t kept as
+ * the parameter); 0 when it is not a usable ray there (a transform too
+ * small or large for float). */
+int rtk_instance_local_ray(const rtk_instance *in, const rtk_ray *r, rtk_ray *out);
+/* World-space corners of triangle prim of instance inst, in the mesh's
+ * order (so the winding turns around when the instance is mirrored). */
+void rtk_instance_triangle(const rtk_scene *s, uint32_t inst, uint32_t prim, rtk_vec3 *a, rtk_vec3 *b, rtk_vec3 *c);
+/* Bytes of geometry, BVH and instance records (the top level included),
+ * counting each mesh once. */
+void rtk_scene_memory(const rtk_scene *s, size_t *geometry, size_t *bvh, size_t *instances);
+
+/* Places a config's instances in scene (each model loaded once), then
+ * finishes them: world boxes, and the emitter table again when the scene
+ * keeps lights. (render.c) */
+rtk_status rtk_config_place_instances(const struct rtk_config *cfg, rtk_scene *scene);
+
 /* Loads path by extension (.obj, .gltf, .glb) keeping what needs asks for. */
 rtk_status rtk_scene_load(const char *path, uint32_t needs, rtk_scene **out);
 /* Format loaders (C++ adapters); they fill scene and call nothing else. */
@@ -238,9 +316,15 @@ void rtk_bvh_release(rtk_scene *scene);
 /* Structural check of a builder's output against args (every primitive in
  * exactly one leaf, indices in range, no cycles, bounds enclosing). */
 rtk_status rtk_bvh_validate(const rtk_build_args *args, uint32_t *depth);
-/* Traversal. Return 1 on hit. */
+/* Traversal of the whole scene, instances included. Return 1 on hit. */
 int rtk_bvh_closest(const rtk_scene *scene, const rtk_ray *ray, rtk_hit *hit);
 int rtk_bvh_any(const rtk_scene *scene, const rtk_ray *ray);
+/* Traversal of the scene's own triangles only (hit->inst is not set);
+ * work, if not NULL, receives the counts. */
+int rtk_bvh_closest_own(const rtk_scene *scene, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work);
+int rtk_bvh_any_own(const rtk_scene *scene, const rtk_ray *ray, rtk_trace_work *work);
+/* 1 when the accelerator supplies its own traversal (closest and any). */
+int rtk_accelerator_traverses_itself(const rtk_plugin *accelerator);
 /* 1 if ray has finite origin/direction, non-zero direction, tmin <= tmax. */
 int rtk_ray_valid(const rtk_ray *ray);
 
@@ -271,6 +355,15 @@ void rtk_ctx_start_sample(rtk_ctx *ctx, uint64_t pixel, uint32_t sample);
 
 /* ---- config (config.c) ---- */
 
+/* One entry of a config's instances list: a model and where its copies go. */
+typedef struct rtk_config_instance {
+    char *file;              /* resolved against the config's directory */
+    char where[1100];        /* "scene.cfg:12: instances[0]", for messages */
+    double to_world[12];     /* the first copy's transform (3x4 row-major) */
+    uint32_t grid[3];        /* copies along x, y, z */
+    double spacing[3];       /* offset between copies */
+} rtk_config_instance;
+
 /* One plugin slot of a config. */
 typedef struct rtk_plugin_slot {
     const rtk_plugin *plugin;
@@ -292,6 +385,8 @@ struct rtk_config {
     char *cache_dir;             /* BVH cache directory, NULL = caching off */
     rtk_punctual_light *lights;  /* the config's punctual lights */
     uint32_t light_count;
+    rtk_config_instance *instances; /* models placed beside the scene */
+    uint32_t instance_count;
     rtk_plugin_slot integrator, accelerator, filter;
 };
 

@@ -252,6 +252,29 @@ static rtk_status with_context(rtk_status st, const char *what)
     return rtk_error(st, "%s: %s", what, msg);
 }
 
+rtk_status rtk_config_place_instances(const rtk_config *cfg, rtk_scene *scene)
+{
+    rtk_status st = RTK_OK;
+    for (uint32_t e = 0; e < cfg->instance_count && st == RTK_OK; e++) {
+        const rtk_config_instance *in = &cfg->instances[e];
+        for (uint32_t k = 0; k < in->grid[2] && st == RTK_OK; k++)
+            for (uint32_t j = 0; j < in->grid[1] && st == RTK_OK; j++)
+                for (uint32_t i = 0; i < in->grid[0] && st == RTK_OK; i++) {
+                    double m[12];
+                    memcpy(m, in->to_world, sizeof m);
+                    m[3] += i * in->spacing[0];
+                    m[7] += j * in->spacing[1];
+                    m[11] += k * in->spacing[2];
+                    st = rtk_scene_instance_file(scene, in->file, m, in->where);
+                }
+    }
+    if (st == RTK_OK)
+        st = rtk_instances_finish(scene);
+    if (st == RTK_OK && (scene->needs & RTK_NEED_LIGHTS))
+        st = rtk_lights_build(scene);
+    return st;
+}
+
 RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *options, rtk_render_report *report)
 {
     rtk_render_options defaults;
@@ -291,10 +314,21 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     st = rtk_scene_load(cfg->scene_path, needs, &scene);
     for (uint32_t i = 0; st == RTK_OK && i < cfg->light_count; i++)
         st = rtk_scene_add_punctual(scene, &cfg->lights[i]);
+    if (st == RTK_OK && cfg->instance_count)
+        st = rtk_config_place_instances(cfg, scene);
     if (st != RTK_OK)
         goto done;
     report->load_seconds = rtk_now() - t;
     report->triangles = scene->triangle_count;
+    if (report_has(report, offsetof(rtk_render_report, instance_bytes) + sizeof report->instance_bytes)) {
+        report->instances = scene->instance_count;
+        report->meshes = scene->mesh_count;
+        report->placed_triangles = 0;
+        for (uint32_t i = 0; i < scene->instance_count; i++)
+            report->placed_triangles += scene->meshes[scene->instances[i].mesh]->triangle_count;
+        for (uint32_t i = 0; i < scene->mesh_count; i++)
+            report->triangles += scene->meshes[i]->triangle_count;
+    }
 
     t = rtk_now();
     rtk_bvh_cache_use cache;
@@ -309,6 +343,15 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     }
     report->bvh_nodes = scene->node_count;
     report->bvh_depth = scene->bvh_depth;
+    if (report_has(report, offsetof(rtk_render_report, instance_bytes) + sizeof report->instance_bytes)) {
+        for (uint32_t i = 0; i < scene->mesh_count; i++) {
+            report->bvh_nodes += scene->meshes[i]->node_count;
+            if (scene->meshes[i]->bvh_depth + scene->tlas_depth + 1 > report->bvh_depth)
+                report->bvh_depth = scene->meshes[i]->bvh_depth + scene->tlas_depth + 1;
+        }
+        report->bvh_nodes += scene->tlas_node_count;
+        rtk_scene_memory(scene, &report->geometry_bytes, &report->bvh_bytes, &report->instance_bytes);
+    }
 
     rtk_camera_desc cam;
     if (cfg->has_camera)
@@ -404,7 +447,12 @@ done:
 RTK_API void rtk_render_report_print(const rtk_render_report *r, FILE *f)
 {
     double total = r->render_seconds > 0.0 ? r->render_seconds : 1e-9;
-    fprintf(f, "load    %8.3f s   %u triangles\n", r->load_seconds, r->triangles);
+    int has_memory = report_has(r, offsetof(rtk_render_report, instance_bytes) + sizeof r->instance_bytes);
+    fprintf(f, "load    %8.3f s   %u triangles", r->load_seconds, r->triangles);
+    if (has_memory && r->instances)
+        fprintf(f, "; %u instance%s of %u mesh%s place %llu triangles", r->instances, r->instances == 1 ? "" : "s",
+                r->meshes, r->meshes == 1 ? "" : "es", (unsigned long long)r->placed_triangles);
+    fputc('\n', f);
     const char *cache = "";
     if (report_has(r, offsetof(rtk_render_report, bvh_cache_file) + sizeof r->bvh_cache_file) &&
         r->bvh_cache_file[0])
@@ -420,5 +468,10 @@ RTK_API void rtk_render_report_print(const rtk_render_report *r, FILE *f)
             (unsigned long long)r->rays, (double)r->rays / total * 1e-6, (unsigned long long)r->invalid_rays,
             (unsigned long long)r->bad_samples);
     fprintf(f, "mean    %.6f %.6f %.6f (linear RGB)\n", r->mean[0], r->mean[1], r->mean[2]);
-    fprintf(f, "memory  %.1f MiB peak\n", (double)r->peak_rss_bytes / (1024.0 * 1024.0));
+    const double mib = 1024.0 * 1024.0;
+    fprintf(f, "memory  %.1f MiB peak", (double)r->peak_rss_bytes / mib);
+    if (has_memory)
+        fprintf(f, "; geometry %.1f MiB, BVH %.1f MiB, instances %.2f MiB", (double)r->geometry_bytes / mib,
+                (double)r->bvh_bytes / mib, (double)r->instance_bytes / mib);
+    fputc('\n', f);
 }

@@ -9,7 +9,7 @@ RTK_API int rtk_trace(rtk_ctx *ctx, const rtk_ray *ray, rtk_hit *hit)
     ctx->rays++;
     if (!rtk_ray_valid(ray)) {
         ctx->invalid_rays++;
-        hit->prim = RTK_INVALID_ID;
+        hit->prim = hit->inst = RTK_INVALID_ID;
         hit->t = INFINITY;
         hit->u = hit->v = 0.0f;
         return 0;
@@ -32,7 +32,7 @@ RTK_API int rtk_trace_measure(rtk_ctx *ctx, const rtk_ray *ray, rtk_hit *hit, rt
     ctx->rays++;
     if (!rtk_ray_valid(ray)) {
         ctx->invalid_rays++;
-        hit->prim = RTK_INVALID_ID;
+        hit->prim = hit->inst = RTK_INVALID_ID;
         hit->t = INFINITY;
         hit->u = hit->v = 0.0f;
         work->nodes = work->triangles = 0;
@@ -76,6 +76,10 @@ static rtk_vec3 lerp3(const float *corner, float u, float v)
 
 RTK_API void rtk_surface_at(const rtk_scene *s, const rtk_ray *ray, const rtk_hit *hit, rtk_surface *out)
 {
+    if (hit->inst != RTK_INVALID_ID && hit->inst < s->instance_count) {
+        rtk_instance_surface(s, ray, hit, out);
+        return;
+    }
     rtk_vec3 a, b, c;
     rtk_scene_triangle(s, hit->prim, &a, &b, &c);
     float u = hit->u, v = hit->v, w = 1.0f - u - v;

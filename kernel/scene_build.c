@@ -70,12 +70,15 @@ void rtk_scene_free(rtk_scene *scene)
     free(scene->normals);
     free(scene->uvs);
     free(scene->tri_material);
-    for (uint32_t i = 0; i < scene->material_count; i++)
-        free(scene->materials[i].name);
-    free(scene->materials);
-    for (uint32_t i = 0; i < scene->texture_count; i++)
-        rtk_texture_free(&scene->textures[i]);
-    free(scene->textures);
+    if (!scene->owner) { /* a glTF mesh shares its file's materials */
+        for (uint32_t i = 0; i < scene->material_count; i++)
+            free(scene->materials[i].name);
+        free(scene->materials);
+        for (uint32_t i = 0; i < scene->texture_count; i++)
+            rtk_texture_free(&scene->textures[i]);
+        free(scene->textures);
+    }
+    rtk_instances_free(scene);
     free(scene->nodes);
     free(scene->prim_ids);
     free(scene->tri_verts);
@@ -430,9 +433,12 @@ rtk_status rtk_scene_finish(rtk_scene *scene)
     if (dropped)
         rtk_log(RTK_LOG_WARN, "%s: dropped %u degenerate (zero-area) triangle%s", scene->path, dropped,
                 dropped == 1 ? "" : "s");
-    if (!kept)
-        rtk_log(RTK_LOG_WARN, "%s: the scene has no triangles", scene->path);
     shrink_arrays(scene);
+    scene->finished = 1;
+    if ((status = rtk_instances_finish(scene)) != RTK_OK)
+        return status;
+    if (!kept && !scene->instance_count && !scene->owner)
+        rtk_log(RTK_LOG_WARN, "%s: the scene has no triangles", scene->path);
 
     if (keeps_textures(scene)) {
         status = decode_textures(scene);

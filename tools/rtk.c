@@ -1,6 +1,8 @@
-/* rtk: the command-line front end. render, plugins, conform, bench. */
+/* rtk: the command-line front end. render, plugins, conform, bench, diff. */
 #include <rtk/host.h>
 
+#include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -12,6 +14,9 @@ static const char usage_text[] =
     "       rtk conform PLUGIN            run the conformance checks on a plugin (.so path or name)\n"
     "       rtk bench MESH.obj|CONFIG.cfg [options]\n"
     "                                     time accelerators on BENCH.md's standard recipe\n"
+    "       rtk diff A B [options]        compare image A with the reference B (any format\n"
+    "                                     OpenImageIO reads): RMSE, MSE, relMSE, MAPE, SMAPE,\n"
+    "                                     PSNR and mean error A - B per channel and overall\n"
     "\n"
     "render options:\n"
     "  --set KEY=VALUE          override a config setting, e.g. --set integrator.rays=64\n"
@@ -28,6 +33,16 @@ static const char usage_text[] =
     "  --camera EX,EY,EZ,LX,LY,LZ,FOV  eye, look-at, vertical fov (default: the recipe's)\n"
     "  --runs N                 builds and timed passes, median reported (default 5)\n"
     "  --csv FILE               also write one row per accelerator x threads\n"
+    "diff options:\n"
+    "  --epsilon E              e in relMSE (a-b)^2/(b^2+e), MAPE |a-b|/(|b|+e) and\n"
+    "                           SMAPE 2|a-b|/(|a|+|b|+e); a number > 0 (default 0.01)\n"
+    "  --error-image FILE       also write the per-pixel error: .exr gets floats |A - B| per\n"
+    "                           channel, other formats a heat map of the relative error\n"
+    "                           (grey <= 0.001, blue 0.01, yellow 0.1, red >= 1, magenta NaN/Inf)\n"
+    "  --csv                    print CSV: a header, then one row per channel and overall\n"
+    "  PSNR takes 1.0 as the peak. NaN/Inf samples are counted and left out. Exit status:\n"
+    "  0 compared, 1 the error image could not be written, 2 usage or input error\n"
+    "  (a file missing or unreadable, the sizes differ)\n"
     "options for every command:\n"
     "  --plugin-path DIR        also search DIR for plugins (may repeat)\n"
     "  -v, --verbose            print debug messages\n"
@@ -229,6 +244,162 @@ static int cmd_bench(rtk_registry *reg, int argc, char **argv, int quiet)
     return 0;
 }
 
+/* A metric value as rtk diff prints it: %.9g, or nan / inf / -inf. */
+static void print_number(double v)
+{
+    if (isnan(v))
+        fputs("nan", stdout);
+    else if (isinf(v))
+        fputs(v > 0 ? "inf" : "-inf", stdout);
+    else
+        printf("%.9g", v);
+}
+
+/* One line of rtk diff's text output: key, then "NAME value" for each
+ * channel and overall; the value is the uint64_t or double at offset. */
+static void print_diff_line(const rtk_diff_result *r, const char *key, size_t offset, int is_count)
+{
+    printf("%-20s", key);
+    for (uint32_t c = 0; c <= r->channel_count; c++) {
+        const rtk_diff_channel *ch = c < r->channel_count ? &r->channels[c] : &r->overall;
+        const char *field = (const char *)ch + offset;
+        printf(" %s ", ch->name);
+        if (is_count) {
+            uint64_t n;
+            memcpy(&n, field, sizeof n);
+            printf("%llu", (unsigned long long)n);
+        } else {
+            double v;
+            memcpy(&v, field, sizeof v);
+            print_number(v);
+        }
+    }
+    putchar('\n');
+}
+
+static void print_diff_csv(const rtk_diff_result *r)
+{
+    printf("channel,samples,excluded,nonfinite_test,nonfinite_reference,rmse,mse,relmse,mape,smape,psnr,"
+           "mean_error,epsilon,psnr_peak\n");
+    for (uint32_t c = 0; c <= r->channel_count; c++) {
+        const rtk_diff_channel *ch = c < r->channel_count ? &r->channels[c] : &r->overall;
+        printf("%s,%llu,%llu,%llu,%llu", ch->name, (unsigned long long)ch->samples,
+               (unsigned long long)ch->excluded, (unsigned long long)ch->nonfinite_a,
+               (unsigned long long)ch->nonfinite_b);
+        const double v[] = {ch->rmse, ch->mse, ch->relmse, ch->mape, ch->smape, ch->psnr, ch->mean_error,
+                            r->epsilon, r->peak};
+        for (size_t k = 0; k < sizeof v / sizeof v[0]; k++) {
+            putchar(',');
+            print_number(v[k]);
+        }
+        putchar('\n');
+    }
+}
+
+static void print_diff_text(const rtk_diff_result *r, const char *test, const char *reference)
+{
+    printf("%-20s %s\n%-20s %s\n", "test", test, "reference", reference);
+    printf("%-20s %ux%u\n", "size", r->width, r->height);
+    printf("%-20s ", "epsilon");
+    print_number(r->epsilon);
+    printf("\n%-20s ", "psnr_peak");
+    print_number(r->peak);
+    printf("\n%-20s", "overall_channels");
+    for (uint32_t c = 0; c < r->colour_channels; c++)
+        printf(" %s", r->channels[c].name);
+    putchar('\n');
+    static const struct {
+        const char *key;
+        size_t offset;
+        int is_count;
+    } lines[] = {
+        {"samples", offsetof(rtk_diff_channel, samples), 1},
+        {"excluded", offsetof(rtk_diff_channel, excluded), 1},
+        {"nonfinite_test", offsetof(rtk_diff_channel, nonfinite_a), 1},
+        {"nonfinite_reference", offsetof(rtk_diff_channel, nonfinite_b), 1},
+        {"rmse", offsetof(rtk_diff_channel, rmse), 0},
+        {"mse", offsetof(rtk_diff_channel, mse), 0},
+        {"relmse", offsetof(rtk_diff_channel, relmse), 0},
+        {"mape", offsetof(rtk_diff_channel, mape), 0},
+        {"smape", offsetof(rtk_diff_channel, smape), 0},
+        {"psnr", offsetof(rtk_diff_channel, psnr), 0},
+        {"mean_error", offsetof(rtk_diff_channel, mean_error), 0},
+    };
+    for (size_t k = 0; k < sizeof lines / sizeof lines[0]; k++)
+        print_diff_line(r, lines[k].key, lines[k].offset, lines[k].is_count);
+}
+
+/* rtk diff: args are everything after the word "diff". */
+static int cmd_diff(int argc, char **argv)
+{
+    const char *files[2] = {NULL, NULL};
+    int csv = 0;
+    rtk_diff_options o;
+    memset(&o, 0, sizeof o);
+    o.size = sizeof o;
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        int takes_value = strcmp(a, "--epsilon") == 0 || strcmp(a, "--error-image") == 0;
+        if (takes_value && i + 1 >= argc)
+            return usage_error("%s needs a value", a);
+        const char *v = takes_value ? argv[++i] : NULL;
+        if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
+            fputs(usage_text, stdout);
+            return 0;
+        } else if (strcmp(a, "-v") == 0 || strcmp(a, "--verbose") == 0) {
+            rtk_log_set_level(RTK_LOG_DEBUG);
+        } else if (strcmp(a, "--csv") == 0) {
+            csv = 1;
+        } else if (strcmp(a, "--error-image") == 0) {
+            o.error_image = v;
+        } else if (strcmp(a, "--epsilon") == 0) {
+            char *end;
+            o.epsilon = strtod(v, &end);
+            if (end == v || *end || !(o.epsilon > 0.0) || isinf(o.epsilon))
+                return usage_error("--epsilon needs a finite number > 0, not '%s'", v);
+        } else if (a[0] == '-' && a[1] != '\0') {
+            return usage_error("unknown diff option '%s'", a);
+        } else if (!files[0]) {
+            files[0] = a;
+        } else if (!files[1]) {
+            files[1] = a;
+        } else {
+            return usage_error("unexpected argument '%s'", a);
+        }
+    }
+    if (!files[1])
+        return usage_error("%s needs two images: the one to check, then the reference", "diff");
+    rtk_diff_result r;
+    memset(&r, 0, sizeof r);
+    r.size = sizeof r;
+    rtk_status st = rtk_diff_files(files[0], files[1], &o, &r);
+    if (!r.compared) {
+        fprintf(stderr, "rtk: error: %s\n", rtk_error_message());
+        return 2;
+    }
+    if (csv)
+        print_diff_csv(&r);
+    else
+        print_diff_text(&r, files[0], files[1]);
+    uint64_t excluded = 0, in_test = 0, in_reference = 0;
+    for (uint32_t c = 0; c < r.channel_count; c++) {
+        excluded += r.channels[c].excluded;
+        in_test += r.channels[c].nonfinite_a;
+        in_reference += r.channels[c].nonfinite_b;
+    }
+    if (excluded)
+        fprintf(stderr,
+                "rtk: warning: %llu samples with NaN or Inf left out of the metrics (%llu in '%s', %llu in "
+                "'%s'); see the excluded line\n",
+                (unsigned long long)excluded, (unsigned long long)in_test, files[0],
+                (unsigned long long)in_reference, files[1]);
+    if (st != RTK_OK) {
+        fprintf(stderr, "rtk: error: %s\n", rtk_error_message());
+        return 1;
+    }
+    return 0;
+}
+
 static int cmd_conform(rtk_registry *reg, const char *what)
 {
     const char *path = what;
@@ -323,6 +494,10 @@ int main(int argc, char **argv)
             if (strcmp(a, "bench") == 0) {
                 /* bench has options of its own (--threads takes a list). */
                 status = cmd_bench(reg, argc - i - 1, argv + i + 1, quiet);
+                goto out;
+            }
+            if (strcmp(a, "diff") == 0) {
+                status = cmd_diff(argc - i - 1, argv + i + 1);
                 goto out;
             }
         } else if (!target) {

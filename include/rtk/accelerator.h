@@ -32,7 +32,10 @@ typedef struct rtk_build_args {
     uint32_t node_count;           /* out: nodes used */
     uint32_t *prim_order;          /* out: permutation of 0 .. prim_count - 1 */
     uint32_t thread_count;         /* threads the builder may use */
-    const rtk_vec3 *vertices;      /* 3 per primitive: its triangle's corners */
+    const rtk_vec3 *vertices;      /* 3 per primitive: its triangle's corners; NULL
+                                      when the primitives are instances (the top
+                                      level of an instanced scene), whose boxes
+                                      are all there is */
 } rtk_build_args;
 
 /* Function table of an accelerator. */

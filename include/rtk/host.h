@@ -92,6 +92,12 @@ typedef struct rtk_render_report {
     char output[1024];       /* the file written */
     int bvh_from_cache;      /* 1: the BVH was loaded from bvh_cache_file */
     char bvh_cache_file[1024]; /* cache file loaded or written, "" when none */
+    uint32_t instances;      /* placed meshes (two-level instancing), 0 when none */
+    uint32_t meshes;         /* distinct instanced meshes */
+    uint64_t placed_triangles; /* triangles the instances place (each counted per instance) */
+    size_t geometry_bytes;   /* vertices, triangles, normals, uvs; each mesh once */
+    size_t bvh_bytes;        /* every BVH: the scene's, each mesh's once */
+    size_t instance_bytes;   /* instance records and the top-level BVH */
 } rtk_render_report;
 
 /* Loads the scene, builds the BVH, renders and writes the image(s). */
@@ -128,6 +134,67 @@ typedef struct rtk_bench_options {
  * prints a table (and ratios to embree when it is among them) to out. */
 RTK_API rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk_bench_options *options,
                              FILE *out);
+
+/* Image comparison behind `rtk diff` (kernel/diff.c). a is the image under
+ * test, b the reference. Over the N sample pairs of a channel where both
+ * values are finite, with e = epsilon:
+ *   mean_error = sum(a - b) / N            mse = sum((a - b)^2) / N
+ *   rmse = sqrt(mse)                       relmse = sum((a - b)^2 / (b^2 + e)) / N
+ *   mape = sum(|a - b| / (|b| + e)) / N    smape = sum(2 |a - b| / (|a| + |b| + e)) / N
+ *   psnr = 10 log10(peak^2 / mse), peak 1.0 (+inf when mse = 0)
+ * Sums are kept in double; every metric is NaN when N = 0. */
+#define RTK_DIFF_EPSILON 1e-2
+#define RTK_DIFF_MAX_CHANNELS 16
+
+/* Metrics of one channel, or of the colour channels pooled. */
+typedef struct rtk_diff_channel {
+    char name[32];
+    uint64_t samples;      /* pairs compared (N) */
+    uint64_t excluded;     /* pairs left out because a or b is NaN or Inf */
+    uint64_t nonfinite_a;  /* samples where a is NaN or Inf */
+    uint64_t nonfinite_b;  /* samples where b is NaN or Inf */
+    double mean_error, mse, rmse, relmse, mape, smape, psnr;
+} rtk_diff_channel;
+
+/* How to compare; zero fields mean the defaults. */
+typedef struct rtk_diff_options {
+    uint32_t size;              /* sizeof(rtk_diff_options) */
+    double epsilon;             /* > 0; 0: RTK_DIFF_EPSILON */
+    uint32_t colour_channels;   /* the first N channels are pooled into overall; 0: up to 3 */
+    const char *error_image;    /* also write the per-pixel error here (see rtk_diff_buffers) */
+} rtk_diff_options;
+
+/* What a comparison found. */
+typedef struct rtk_diff_result {
+    uint32_t size;              /* sizeof(rtk_diff_result), set by the caller */
+    int compared;               /* 1 once the metrics are filled in */
+    uint32_t width, height;
+    uint32_t channel_count;
+    uint32_t colour_channels;   /* channels [0, colour_channels) make overall */
+    double epsilon;
+    double peak;                /* PSNR peak: 1.0 */
+    rtk_diff_channel channels[RTK_DIFF_MAX_CHANNELS];
+    rtk_diff_channel overall;   /* every finite pair of the colour channels, pooled */
+} rtk_diff_result;
+
+/* Compares a with b, each width x height pixels of channel_count
+ * interleaved floats (rows from the top); names (may be NULL: R, G, B, A,
+ * C4, ...) label the channels. The error image, when asked for, is written
+ * through rtk_image_write (temporary file, then rename): for .exr, plain
+ * floats |a - b| per channel; for any other extension, a heat map of the
+ * pixel's mean relative error |a - b| / (|b| + e) over the colour channels
+ * on a log ramp: grey <= 1e-3, blue 1e-2, yellow 1e-1, red >= 1, magenta
+ * where a value is NaN or Inf. */
+RTK_API rtk_status rtk_diff_buffers(const float *a, const float *b, uint32_t width, uint32_t height,
+                                    uint32_t channel_count, const char *const *names,
+                                    const rtk_diff_options *options, rtk_diff_result *out);
+
+/* Reads two image files (any format OpenImageIO reads; 8/16-bit data
+ * decoded to linear, greyscale replicated to RGB, missing alpha = 1) and
+ * compares R, G, B, A with overall over R, G, B. Errors name the file and
+ * the reason, or both files and both sizes when the sizes differ. */
+RTK_API rtk_status rtk_diff_files(const char *test, const char *reference,
+                                  const rtk_diff_options *options, rtk_diff_result *out);
 
 RTK_EXTERN_C_END
 

@@ -16,10 +16,12 @@ typedef struct rtk_light_sample {
     rtk_vec3 n;     /* unit normal of the emitting side */
     rtk_rgb le;     /* emitted radiance at p (towards the n side) */
     float pdf_area; /* density of choosing p, per unit area over all emitters */
-    uint32_t prim;  /* the emitting triangle */
+    uint32_t prim;  /* the emitting triangle, as in rtk_hit */
+    uint32_t inst;  /* its instance, as in rtk_hit (RTK_INVALID_ID: the scene's own) */
 } rtk_light_sample;
 
-/* Number of emitting triangles. [any thread] */
+/* Number of emitting triangles (an instanced emitter counts once per
+ * instance). [any thread] */
 RTK_API uint32_t rtk_scene_light_count(const rtk_scene *scene);
 
 /* Chooses an emitting triangle in proportion to its emitted power
@@ -28,10 +30,10 @@ RTK_API uint32_t rtk_scene_light_count(const rtk_scene *scene);
  * [any thread] */
 RTK_API int rtk_scene_sample_light(const rtk_scene *scene, float u_pick, rtk_vec2 u, rtk_light_sample *out);
 
-/* Area density with which rtk_scene_sample_light picks points of triangle
- * prim (0 when prim does not emit), for multiple importance sampling.
- * [any thread] */
-RTK_API float rtk_scene_light_pdf(const rtk_scene *scene, uint32_t prim);
+/* Area density with which rtk_scene_sample_light picks points of the
+ * triangle a hit landed on (0 when it does not emit or hit is a miss), for
+ * multiple importance sampling. [any thread] */
+RTK_API float rtk_scene_light_pdf(const rtk_scene *scene, const rtk_hit *hit);
 
 /* Kinds of punctual light (from the config or glTF KHR_lights_punctual). */
 typedef enum rtk_punctual_type {

@@ -9,7 +9,9 @@
 
 RTK_EXTERN_C_BEGIN
 
-#define RTK_ABI_MAJOR 2
+/* 3.0: rtk_hit and rtk_light_sample carry the instance hit, and
+ * rtk_scene_light_pdf takes the hit (two-level instancing). */
+#define RTK_ABI_MAJOR 3
 #define RTK_ABI_MINOR 0
 
 /* Name of the one symbol a plugin exports. */

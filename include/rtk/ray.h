@@ -17,11 +17,16 @@ typedef struct rtk_ray {
     float tmax;
 } rtk_ray;
 
-/* Closest hit: distance, barycentrics of vertices 1 and 2, triangle id
- * (in the scene's original order), or prim == RTK_INVALID_ID on a miss. */
+/* Closest hit: distance, barycentrics of vertices 1 and 2, triangle id,
+ * or prim == RTK_INVALID_ID on a miss. inst is RTK_INVALID_ID for the
+ * scene's own (world-space) triangles, where prim is the id in the
+ * scene's original order; for a hit on an instanced mesh it is the
+ * instance and prim the triangle's id within that mesh. Pass the whole
+ * hit to the services that take it (rtk_surface_at, rtk_scene_light_pdf). */
 typedef struct rtk_hit {
     float t, u, v;
     uint32_t prim;
+    uint32_t inst;
 } rtk_hit;
 
 /* Watertight ray/triangle test (Woop, Benthin, Wald 2013): no cracks on

@@ -52,10 +52,11 @@ RTK_API void rtk_surface_at(const rtk_scene *scene, const rtk_ray *ray, const rt
 /* Bounds of all geometry (empty bounds for an empty scene). [any thread] */
 RTK_API rtk_bounds rtk_scene_bounds(const rtk_scene *scene);
 
-/* Number of triangles after loading. [any thread] */
+/* Number of the scene's own (world-space, not instanced) triangles after
+ * loading; instanced meshes are not counted. [any thread] */
 RTK_API uint32_t rtk_scene_triangle_count(const rtk_scene *scene);
 
-/* Vertices of triangle prim in world space. [any thread] */
+/* Vertices of the scene's own triangle prim in world space. [any thread] */
 RTK_API void rtk_scene_triangle(const rtk_scene *scene, uint32_t prim, rtk_vec3 *a, rtk_vec3 *b,
                                 rtk_vec3 *c);
 

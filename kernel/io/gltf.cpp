@@ -327,8 +327,12 @@ class Loader {
         : path_(path), scene_(scene), model_(model), dir_(take(rtk_path_dirname(path))),
           want_normals_((scene->needs & RTK_NEED_NORMALS) != 0),
           want_uvs_((scene->needs & (RTK_NEED_UVS | RTK_NEED_TEXTURES)) != 0),
-          on_path_(model.nodes.size(), 0)
+          on_path_(model.nodes.size(), 0), mesh_uses_(model.meshes.size(), 0),
+          mesh_index_(model.meshes.size(), RTK_INVALID_ID)
     {
+        for (const tinygltf::Node &node : model.nodes)
+            if (node.mesh >= 0 && size_t(node.mesh) < mesh_uses_.size())
+                mesh_uses_[size_t(node.mesh)]++;
     }
 
     rtk_status run();
@@ -340,6 +344,11 @@ class Loader {
     std::string dir_;
     bool want_normals_, want_uvs_;
     std::vector<char> on_path_;
+    /* Nodes using each mesh: a mesh used by more than one is instanced
+     * (one copy in object space, its own BVH) instead of flattened. */
+    std::vector<size_t> mesh_uses_;
+    std::vector<uint32_t> mesh_index_; /* glTF mesh -> rtk mesh, RTK_INVALID_ID until made */
+    size_t flat_instances_ = 0;         /* instances with a singular transform, not placed */
     size_t visits_ = 0;
     size_t skipped_primitives_ = 0, ragged_primitives_ = 0;
     bool ortho_warned_ = false, other_uv_sets_ = false;
@@ -353,7 +362,8 @@ class Loader {
     rtk_status local_matrix(int index, Mat4 *out);
     void take_camera(int index, const Mat4 &world);
     rtk_status take_light(int index, const Mat4 &world);
-    rtk_status add_primitive(int mesh, int primitive, const Mat4 &world);
+    rtk_status add_primitive(int mesh, int primitive, const Mat4 &world, rtk_scene *dst);
+    rtk_status add_instance(int node, int mesh, const Mat4 &world);
     rtk_status view(int accessor, const Where &where, const std::vector<int> &components, int type, View *out);
     rtk_status fail(const Where &where, int accessor, const char *fmt, ...) RTK_PRINTF(4, 5);
     std::string node_label(int index) const { return label("node", size_t(index), model_.nodes[size_t(index)].name); }
@@ -697,7 +707,7 @@ rtk_status Loader::take_light(int index, const Mat4 &world)
     return rtk_scene_add_punctual(scene_, &l);
 }
 
-rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world)
+rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, rtk_scene *dst)
 {
     const tinygltf::Primitive &prim = model_.meshes[size_t(mesh)].primitives[size_t(index)];
     const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
@@ -728,7 +738,7 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world)
         return status;
     const int pos_accessor = attr->second;
     const size_t nverts = pos.count;
-    if (nverts >= size_t(RTK_INVALID_ID) - scene_->vertex_count)
+    if (nverts >= size_t(RTK_INVALID_ID) - dst->vertex_count)
         return rtk_error(RTK_ERR_NOMEM, "%s: more vertices than rtk can index", path_);
 
     View nrm, tex;
@@ -772,7 +782,7 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world)
     if (n < 3)
         return RTK_OK;
 
-    const uint32_t base = scene_->vertex_count;
+    const uint32_t base = dst->vertex_count;
     for (size_t i = 0; i < nverts; i++) {
         const unsigned char *p = pos.data + i * pos.stride;
         double v[3] = {read_float(p), read_float(p + 4), read_float(p + 8)};
@@ -781,7 +791,7 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world)
                         v[1], v[2]);
         double w[3];
         transform(world, v[0], v[1], v[2], 1.0, w);
-        if ((status = rtk_scene_add_vertex(scene_, w[0], w[1], w[2], NULL)) != RTK_OK)
+        if ((status = rtk_scene_add_vertex(dst, w[0], w[1], w[2], NULL)) != RTK_OK)
             return status;
     }
 
@@ -836,12 +846,42 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world)
             if (!uvs.empty())
                 std::memcpy(tuv + k * 2, &uvs[size_t(v[k]) * 2], 2 * sizeof(float));
         }
-        status = rtk_scene_add_triangle(scene_, base + v[0], base + v[1], base + v[2], normals.empty() ? NULL : tn,
+        status = rtk_scene_add_triangle(dst, base + v[0], base + v[1], base + v[2], normals.empty() ? NULL : tn,
                                         uvs.empty() ? NULL : tuv, material);
         if (status != RTK_OK)
             return status;
     }
     return RTK_OK;
+}
+
+/* A node using a mesh that other nodes use too: the mesh is made once, in
+ * object space, and placed by the node's world transform. */
+rtk_status Loader::add_instance(int node, int mesh, const Mat4 &world)
+{
+    rtk_status status;
+    uint32_t &index = mesh_index_[size_t(mesh)];
+    if (index == RTK_INVALID_ID) {
+        std::string name = std::string(path_) + ": " + mesh_label(mesh);
+        if ((status = rtk_scene_add_mesh(scene_, name.c_str(), &index)) != RTK_OK)
+            return status;
+        rtk_scene *dst = scene_->meshes[index];
+        for (size_t p = 0; p < model_.meshes[size_t(mesh)].primitives.size(); p++) {
+            if ((status = add_primitive(mesh, int(p), identity(), dst)) != RTK_OK)
+                return status;
+        }
+    }
+    double det;
+    normal_matrix(world, &det);
+    if (det == 0.0 || !std::isfinite(det)) {
+        flat_instances_++; /* a zero scale hides the node; flattening would drop it too */
+        return RTK_OK;
+    }
+    double to_world[12];
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 4; c++)
+            to_world[r * 4 + c] = world[size_t(c * 4 + r)];
+    std::string where = std::string(path_) + ": " + node_label(node);
+    return rtk_scene_add_instance(scene_, index, to_world, where.c_str());
 }
 
 rtk_status Loader::visit(int index, const Mat4 &parent, int depth)
@@ -872,9 +912,14 @@ rtk_status Loader::visit(int index, const Mat4 &parent, int depth)
         if (size_t(node.mesh) >= model_.meshes.size())
             return rtk_error(RTK_ERR_PARSE, "%s: %s uses mesh %d, but the file has %zu meshes", path_,
                              node_label(index).c_str(), node.mesh, model_.meshes.size());
-        for (size_t p = 0; p < model_.meshes[size_t(node.mesh)].primitives.size(); p++) {
-            if ((status = add_primitive(node.mesh, int(p), world)) != RTK_OK)
+        if (mesh_uses_[size_t(node.mesh)] > 1) {
+            if ((status = add_instance(index, node.mesh, world)) != RTK_OK)
                 return status;
+        } else {
+            for (size_t p = 0; p < model_.meshes[size_t(node.mesh)].primitives.size(); p++) {
+                if ((status = add_primitive(node.mesh, int(p), world, scene_)) != RTK_OK)
+                    return status;
+            }
         }
     }
     on_path_[size_t(index)] = 1;
@@ -921,6 +966,9 @@ rtk_status Loader::run()
     if (skipped_primitives_)
         rtk_log(RTK_LOG_WARN, "%s: skipped %zu point and line primitive%s (only triangles are rendered)", path_,
                 skipped_primitives_, skipped_primitives_ == 1 ? "" : "s");
+    if (flat_instances_)
+        rtk_log(RTK_LOG_DEBUG, "%s: %zu node%s with a zero-scale transform not placed", path_, flat_instances_,
+                flat_instances_ == 1 ? "" : "s");
     if (ragged_primitives_)
         rtk_log(RTK_LOG_WARN, "%s: %zu TRIANGLES primitive%s had an index count that is not a multiple of 3; "
                 "the extra indices were ignored", path_, ragged_primitives_, ragged_primitives_ == 1 ? "" : "s");

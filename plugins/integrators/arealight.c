@@ -115,7 +115,7 @@ static void arealight_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rt
         rtk_hit bh;
         if (!rtk_trace(ctx, &br, &bh))
             continue;
-        float pdf_area = rtk_scene_light_pdf(scene, bh.prim);
+        float pdf_area = rtk_scene_light_pdf(scene, &bh);
         if (pdf_area <= 0.0f)
             continue;
         rtk_surface e;

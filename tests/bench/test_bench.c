@@ -122,7 +122,7 @@ static void test_ao(void)
     rtk_scene_add_vertex(s, 0, 1, 0, &c);
     rtk_scene_add_triangle(s, a, b, c, NULL, NULL, RTK_INVALID_ID);
     rtk_ray primary = {{0.25f, 0.25f, 1.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, INFINITY};
-    rtk_hit hit = {1.0f, 0.25f, 0.25f, 0};
+    rtk_hit hit = {1.0f, 0.25f, 0.25f, 0, RTK_INVALID_ID};
     rtk_ray ao[8];
     rtk_bench_ao_rays(s, &primary, &hit, 7, 2.0, 8, ao);
     int ok = 1;
