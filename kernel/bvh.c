@@ -190,6 +190,8 @@ static inline __attribute__((always_inline)) int binary_closest(const rtk_scene 
                 if (!leaf_hit(s, slot, &ray, &t, &u, &v))
                     continue;
                 uint32_t prim = s->prim_ids[slot];
+                if (s->has_cutouts && !rtk_alpha_opaque(s, prim, u, v))
+                    continue;
                 /* Equal distances go to the lowest id, whatever the tree. */
                 if (t < ray.tmax || (t == ray.tmax && prim < hit->prim)) {
                     ray.tmax = t;
@@ -248,7 +250,8 @@ static inline __attribute__((always_inline)) int binary_any(const rtk_scene *s, 
                 float t, u, v;
                 if (work)
                     work->triangles++;
-                if (leaf_hit(s, n->offset + i, ray, &t, &u, &v))
+                if (leaf_hit(s, n->offset + i, ray, &t, &u, &v) &&
+                    (!s->has_cutouts || rtk_alpha_opaque(s, s->prim_ids[n->offset + i], u, v)))
                     return 1;
             }
         } else {
@@ -505,6 +508,10 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
         st = rtk_error(st, "accelerator '%s' failed: %s", plugin->name, msg);
         goto fail;
     }
+    if (own && s->has_cutouts)
+        rtk_warn_once("own traversal cutouts", "accelerator '%s' traverses with its own code, which does not test "
+                      "alpha: cutout materials (foliage, fences) render as solid; pick median, sah or lbvh to see "
+                      "through them", plugin->name);
     if (own) {
         /* The plugin answers every trace; a tree it also emitted is checked
          * and kept for statistics only. */

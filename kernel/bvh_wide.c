@@ -603,7 +603,8 @@ RTK_INLINE int scalar_traverse(const rtk_scene *s, const rtk_ray *ray_in, rtk_hi
                     if (t->prim[lane] == RTK_INVALID_ID)
                         continue;
                     float tt, u, v;
-                    if (!scalar_lane(t, lane, &ray, &tt, &u, &v))
+                    if (!scalar_lane(t, lane, &ray, &tt, &u, &v) ||
+                        (s->has_cutouts && !rtk_alpha_opaque(s, t->prim[lane], u, v)))
                         continue;
                     if (any)
                         return 1;
@@ -732,9 +733,10 @@ RTK_INLINE int lane_scalar(const rtk_wide_tris *b, int lane, const rtk_ray *ray,
 }
 
 /* Tests a leaf's blocks; for closest hit updates hit and returns 1 when
- * it changed, for any hit returns 1 on the first hit. */
-RTK_INLINE int leaf_test(const rtk_wide_bvh *w, uint32_t ref, const tri_ray *r, const rtk_ray *ray, rtk_hit *hit,
-                         int any, rtk_trace_work *work)
+ * it changed, for any hit returns 1 on the first hit. Hits on cutout
+ * triangles count only where their alpha is opaque. */
+RTK_INLINE int leaf_test(const rtk_scene *s, const rtk_wide_bvh *w, uint32_t ref, const tri_ray *r,
+                         const rtk_ray *ray, rtk_hit *hit, int any, rtk_trace_work *work)
 {
     const rtk_wide_tris *b = &w->tris[(ref & ~RTK_WIDE_LEAF) >> RTK_WIDE_LEAF_SHIFT];
     const rtk_wide_tris *end = b + (ref & (RTK_WIDE_LEAF_BLOCKS - 1)) + 1;
@@ -747,20 +749,25 @@ RTK_INLINE int leaf_test(const rtk_wide_bvh *w, uint32_t ref, const tri_ray *r, 
         __m128 t, u, v;
         int scalar;
         int mask = tri_test4(b, r, ray->tmin, any ? ray->tmax : hit->t, &t, &u, &v, &scalar);
-        if (any && mask)
+        if (any && mask && !s->has_cutouts)
             return 1;
         if (mask) {
             float ft[4], fu[4], fv[4];
             _mm_storeu_ps(ft, t), _mm_storeu_ps(fu, u), _mm_storeu_ps(fv, v);
             for (; mask; mask &= mask - 1) {
                 int i = __builtin_ctz((unsigned)mask);
+                if (s->has_cutouts && !rtk_alpha_opaque(s, b->prim[i], fu[i], fv[i]))
+                    continue;
+                if (any)
+                    return 1;
                 changed |= record_hit(hit, ft[i], fu[i], fv[i], b->prim[i]);
             }
         }
         for (; scalar; scalar &= scalar - 1) {
             int i = __builtin_ctz((unsigned)scalar);
             float st, su, sv;
-            if (!lane_scalar(b, i, ray, any ? ray->tmax : hit->t, &st, &su, &sv))
+            if (!lane_scalar(b, i, ray, any ? ray->tmax : hit->t, &st, &su, &sv) ||
+                (s->has_cutouts && !rtk_alpha_opaque(s, b->prim[i], su, sv)))
                 continue;
             if (any)
                 return 1;
@@ -825,7 +832,7 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
             else
                 cur = push_sorted(n, mask, dist, stack, &top);
         }
-        if (leaf_test(w, cur, &tr, ray, hit, any, work)) {
+        if (leaf_test(s, w, cur, &tr, ray, hit, any, work)) {
             if (any)
                 return 1;
             tmax_w = widen(hit->t);
@@ -844,11 +851,11 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
 /* ---- AVX2: the eight children at once ---- */
 
 /* Leaves out of line: the node loop keeps its registers. */
-static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf(const rtk_wide_bvh *w, uint32_t ref, const tri_ray *r,
-                                                               const rtk_ray *ray, rtk_hit *hit, int any,
-                                                               rtk_trace_work *work)
+static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf(const rtk_scene *s, const rtk_wide_bvh *w,
+                                                               uint32_t ref, const tri_ray *r, const rtk_ray *ray,
+                                                               rtk_hit *hit, int any, rtk_trace_work *work)
 {
-    return leaf_test(w, ref, r, ray, hit, any, work);
+    return leaf_test(s, w, ref, r, ray, hit, any, work);
 }
 
 RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, int any,
@@ -912,7 +919,7 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
                 }
             }
         }
-        if (avx2_leaf(w, cur, &tr, ray, hit, any, work)) {
+        if (avx2_leaf(s, w, cur, &tr, ray, hit, any, work)) {
             if (any)
                 return 1;
             tmax_w = widen(hit->t);

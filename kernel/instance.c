@@ -42,6 +42,7 @@ rtk_status rtk_scene_add_mesh(rtk_scene *scene, const char *name, uint32_t *inde
     if (!mesh)
         return RTK_ERR_NOMEM;
     mesh->owner = scene;
+    mesh->cutout_materials = scene->cutout_materials;
     rtk_status st = append_mesh(scene, mesh, index);
     if (st != RTK_OK)
         rtk_scene_free(mesh);

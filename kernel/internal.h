@@ -103,6 +103,7 @@ typedef struct rtk_texture {
     int srgb;          /* colour data stored sRGB-encoded */
     int decoded;       /* 1 after a decode attempt */
     int missing;       /* decode failed: lookups return white */
+    int has_alpha;     /* some texel's alpha is below 1 */
     int width, height;
     float *rgba;       /* linear RGBA, row 0 = top of the image */
 } rtk_texture;
@@ -158,6 +159,21 @@ typedef struct rtk_material {
 /* Material defaults: white diffuse, alpha 1, ior 1.5, no textures. */
 rtk_material rtk_material_default(void);
 
+/* ---- alpha cutouts (alpha.c) ---- */
+
+/* 1 when m cuts out (MASK; BLEND with a texture, at 0.5), with its cutoff. */
+int rtk_material_cutout(const rtk_material *m, float *cutoff);
+/* Coverage of a texel of an alpha texture: its alpha channel when the
+ * image has one that is not all 1, else its first channel (grey masks). */
+float rtk_texture_coverage(const rtk_texture *tex, const float texel[4]);
+/* Coverage of material m at texture coordinates (u, v): alpha factor x
+ * the alpha texture, if decoded. */
+float rtk_material_alpha(const struct rtk_scene *s, const rtk_material *m, float u, float v);
+/* Whether a hit at barycentrics (u, v) on triangle prim counts: 1 unless
+ * its material cuts out and the coverage there is below the cutoff.
+ * Traversal calls it only when scene->has_cutouts. [any thread] */
+int rtk_alpha_opaque(const struct rtk_scene *s, uint32_t prim, float u, float v);
+
 /* One placement of an instanced mesh. Transforms are 3x4, row-major:
  * x' = m[0] x + m[1] y + m[2] z + m[3], and so on. */
 typedef struct rtk_instance {
@@ -198,6 +214,8 @@ struct rtk_scene {
     rtk_camera_desc camera;
     float camera_aspect;         /* the file camera's aspect, 0 if unknown */
     uint32_t dropped_degenerate; /* triangles dropped as zero-area */
+    int cutout_materials;        /* a material that cuts out was added: materials and uvs are kept */
+    int has_cutouts;             /* some triangle's material cuts out: traversal tests alpha */
     rtk_bounds bounds;
     /* BVH (bvh.c) */
     rtk_bvh_node *nodes;

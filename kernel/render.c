@@ -252,6 +252,22 @@ static rtk_status with_context(rtk_status st, const char *what)
     return rtk_error(st, "%s: %s", what, msg);
 }
 
+/* Images the scene and its meshes refer to, and how many were decoded
+ * (each file once: glTF meshes share their file's textures). */
+static void count_textures(const rtk_scene *s, uint32_t *total, uint32_t *decoded)
+{
+    *total = *decoded = 0;
+    for (uint32_t m = 0; m <= s->mesh_count; m++) {
+        const rtk_scene *x = m == 0 ? s : s->meshes[m - 1];
+        if (m > 0 && x->owner)
+            continue;
+        for (uint32_t i = 0; i < x->texture_count; i++) {
+            ++*total;
+            *decoded += x->textures[i].decoded && !x->textures[i].missing;
+        }
+    }
+}
+
 rtk_status rtk_config_place_instances(const rtk_config *cfg, rtk_scene *scene)
 {
     rtk_status st = RTK_OK;
@@ -329,6 +345,8 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
         for (uint32_t i = 0; i < scene->mesh_count; i++)
             report->triangles += scene->meshes[i]->triangle_count;
     }
+    if (report_has(report, offsetof(rtk_render_report, textures_decoded) + sizeof report->textures_decoded))
+        count_textures(scene, &report->textures, &report->textures_decoded);
 
     t = rtk_now();
     rtk_bvh_cache_use cache;
@@ -452,6 +470,8 @@ RTK_API void rtk_render_report_print(const rtk_render_report *r, FILE *f)
     if (has_memory && r->instances)
         fprintf(f, "; %u instance%s of %u mesh%s place %llu triangles", r->instances, r->instances == 1 ? "" : "s",
                 r->meshes, r->meshes == 1 ? "" : "es", (unsigned long long)r->placed_triangles);
+    if (report_has(r, offsetof(rtk_render_report, textures_decoded) + sizeof r->textures_decoded) && r->textures)
+        fprintf(f, "; %u of %u textures decoded", r->textures_decoded, r->textures);
     fputc('\n', f);
     const char *cache = "";
     if (report_has(r, offsetof(rtk_render_report, bvh_cache_file) + sizeof r->bvh_cache_file) &&

@@ -95,15 +95,19 @@ RTK_API void rtk_surface_at(const rtk_scene *s, const rtk_ray *ray, const rtk_hi
         if (rtk_vec3_dot(ns, ns) > 0.0f && isfinite(ns.x) && isfinite(ns.y) && isfinite(ns.z))
             out->ns = rtk_vec3_dot(ns, ng) < 0.0f ? rtk_vec3_neg(ns) : ns;
     }
+    /* Cutouts make a scene keep uvs and materials the integrator did not
+     * ask for; it still gets the neutral values it was promised. */
+    const int uvs = s->uvs && (s->needs & RTK_NEED_UVS);
+    const int materials = s->tri_material && (s->needs & (RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS));
     out->uv.x = out->uv.y = 0.0f;
-    if (s->uvs) {
+    if (uvs) {
         const float *t = s->uvs + 6 * (size_t)hit->prim;
         out->uv.x = w * t[0] + u * t[2] + v * t[4];
         out->uv.y = w * t[1] + u * t[3] + v * t[5];
     }
     rtk_material m = rtk_material_default();
     out->material = RTK_INVALID_ID;
-    if (s->tri_material) {
+    if (materials) {
         uint32_t id = s->tri_material[hit->prim];
         if (id < s->material_count) {
             m = s->materials[id];
@@ -120,7 +124,7 @@ RTK_API void rtk_surface_at(const rtk_scene *s, const rtk_ray *ray, const rtk_hi
     out->roughness = m.roughness;
     out->transmission = m.transmission;
     out->illum = m.illum;
-    if (s->textures && s->uvs) {
+    if (s->textures && uvs && (s->needs & RTK_NEED_TEXTURES)) {
         float texel[4];
         if (m.base_tex >= 0 && (uint32_t)m.base_tex < s->texture_count && s->textures[m.base_tex].decoded) {
             rtk_texture_lookup(&s->textures[m.base_tex], out->uv.x, out->uv.y, texel);
@@ -131,7 +135,7 @@ RTK_API void rtk_surface_at(const rtk_scene *s, const rtk_ray *ray, const rtk_hi
         if (m.alpha_tex >= 0 && m.alpha_tex != m.base_tex && (uint32_t)m.alpha_tex < s->texture_count &&
             s->textures[m.alpha_tex].decoded) {
             rtk_texture_lookup(&s->textures[m.alpha_tex], out->uv.x, out->uv.y, texel);
-            out->alpha *= texel[0];
+            out->alpha *= rtk_texture_coverage(&s->textures[m.alpha_tex], texel);
         }
         if (m.emission_tex >= 0 && (uint32_t)m.emission_tex < s->texture_count && s->textures[m.emission_tex].decoded) {
             rtk_texture_lookup(&s->textures[m.emission_tex], out->uv.x, out->uv.y, texel);

@@ -139,9 +139,11 @@ static rtk_status grow_triangles(rtk_scene *scene)
         return RTK_ERR_NOMEM;
     if (keeps_normals(scene) && !resize(&scene->normals, (size_t)cap * 9, sizeof(float)))
         return RTK_ERR_NOMEM;
-    if (keeps_uvs(scene) && !resize(&scene->uvs, (size_t)cap * 6, sizeof(float)))
+    /* Cutout materials need materials and uvs whatever the integrator
+     * reads: traversal tests their alpha. */
+    if ((keeps_uvs(scene) || scene->cutout_materials) && !resize(&scene->uvs, (size_t)cap * 6, sizeof(float)))
         return RTK_ERR_NOMEM;
-    if (keeps_materials(scene) && !resize(&scene->tri_material, cap, sizeof(uint32_t)))
+    if ((keeps_materials(scene) || scene->cutout_materials) && !resize(&scene->tri_material, cap, sizeof(uint32_t)))
         return RTK_ERR_NOMEM;
     scene->triangle_cap = cap;
     return RTK_OK;
@@ -178,8 +180,33 @@ rtk_status rtk_scene_add_triangle(rtk_scene *scene, uint32_t a, uint32_t b, uint
     return RTK_OK;
 }
 
+/* The first material that cuts out: from now on the scene keeps materials
+ * and uvs; triangles added before it get none (they cannot use it). */
+static rtk_status keep_cutout_data(rtk_scene *scene)
+{
+    scene->cutout_materials = 1;
+    size_t cap = scene->triangle_cap, n = scene->triangle_count;
+    if (!scene->uvs && cap) {
+        if (!(scene->uvs = rtk_calloc(cap * 6, sizeof(float))))
+            return RTK_ERR_NOMEM;
+    }
+    if (!scene->tri_material && cap) {
+        if (!(scene->tri_material = rtk_alloc(cap * sizeof(uint32_t))))
+            return RTK_ERR_NOMEM;
+        for (size_t t = 0; t < n; t++)
+            scene->tri_material[t] = RTK_INVALID_ID;
+    }
+    return RTK_OK;
+}
+
 rtk_status rtk_scene_add_material(rtk_scene *scene, const rtk_material *material, uint32_t *index)
 {
+    float cutoff;
+    if (!scene->cutout_materials && rtk_material_cutout(material, &cutoff)) {
+        rtk_status status = keep_cutout_data(scene);
+        if (status != RTK_OK)
+            return status;
+    }
     if (scene->material_count == scene->material_cap) {
         uint32_t cap = grown_capacity(scene->material_cap, 16);
         if (!cap)
@@ -228,15 +255,17 @@ rtk_status rtk_scene_add_texture(rtk_scene *scene, const char *name, const char 
     tex.srgb = srgb;
     tex.name = rtk_strdup(name ? name : path ? path : "embedded image");
     tex.path = rtk_strdup(path);
-    /* Encoded bytes are kept only when they may be decoded later. */
-    if (bytes && byte_count && keeps_textures(scene)) {
+    /* Encoded bytes are kept: a cutout material may need the image even
+     * when the integrator reads no texture (rtk_scene_finish frees those
+     * that were not decoded). */
+    if (bytes && byte_count) {
         tex.bytes = rtk_alloc(byte_count);
         if (tex.bytes) {
             memcpy(tex.bytes, bytes, byte_count);
             tex.byte_count = byte_count;
         }
     }
-    if (!tex.name || (path && !tex.path) || (bytes && byte_count && keeps_textures(scene) && !tex.bytes)) {
+    if (!tex.name || (path && !tex.path) || (bytes && byte_count && !tex.bytes)) {
         free(tex.name);
         free(tex.path);
         free(tex.bytes);
@@ -366,30 +395,52 @@ static void shrink_arrays(rtk_scene *scene)
         scene->triangle_cap = (uint32_t)t;
 }
 
-/* Decodes the textures of materials that some triangle uses. */
+/* Decodes the textures of materials that some triangle uses: every one
+ * when the integrator reads textures, else only the alpha textures of
+ * cutout materials; notes whether any used material cuts out. */
 static rtk_status decode_textures(rtk_scene *scene)
 {
-    if (!scene->texture_count || !scene->tri_material)
+    if (!scene->tri_material)
         return RTK_OK;
     unsigned char *used = rtk_calloc(scene->material_count ? scene->material_count : 1, 1);
     if (!used)
         return RTK_ERR_NOMEM;
     for (uint32_t t = 0; t < scene->triangle_count; t++) {
-        if (scene->tri_material[t] != RTK_INVALID_ID)
+        if (scene->tri_material[t] < scene->material_count)
             used[scene->tri_material[t]] = 1;
     }
     for (uint32_t m = 0; m < scene->material_count; m++) {
         if (!used[m])
             continue;
         const rtk_material *mat = &scene->materials[m];
+        float cutoff;
+        int cutout = rtk_material_cutout(mat, &cutoff);
+        scene->has_cutouts |= cutout;
         const int tex[4] = {mat->base_tex, mat->alpha_tex, mat->normal_tex, mat->emission_tex};
         for (int k = 0; k < 4; k++) {
-            if (tex[k] >= 0)
+            if (tex[k] >= 0 && (uint32_t)tex[k] < scene->texture_count &&
+                (keeps_textures(scene) || (cutout && k == 1)))
                 rtk_texture_decode(&scene->textures[tex[k]]);
         }
     }
     free(used);
     return RTK_OK;
+}
+
+/* Without texture-reading integrators, images no cutout needed are never
+ * decoded: their encoded bytes go. */
+static void drop_unused_images(rtk_scene *scene)
+{
+    if (keeps_textures(scene) || scene->owner)
+        return;
+    for (uint32_t i = 0; i < scene->texture_count; i++) {
+        rtk_texture *t = &scene->textures[i];
+        if (!t->decoded && t->bytes) {
+            free(t->bytes);
+            t->bytes = NULL;
+            t->byte_count = 0;
+        }
+    }
 }
 
 rtk_status rtk_scene_finish(rtk_scene *scene)
@@ -440,11 +491,9 @@ rtk_status rtk_scene_finish(rtk_scene *scene)
     if (!kept && !scene->instance_count && !scene->owner)
         rtk_log(RTK_LOG_WARN, "%s: the scene has no triangles", scene->path);
 
-    if (keeps_textures(scene)) {
-        status = decode_textures(scene);
-        if (status != RTK_OK)
-            return status;
-    }
+    if ((status = decode_textures(scene)) != RTK_OK)
+        return status;
+    drop_unused_images(scene);
     if (scene->needs & RTK_NEED_LIGHTS)
         return rtk_lights_build(scene);
     return RTK_OK;

@@ -38,6 +38,9 @@ void rtk_texture_decode(rtk_texture *tex)
     }
     if (bad)
         rtk_log(RTK_LOG_WARN, "texture '%s' has %zu non-finite values: replaced by 0", name, bad);
+    tex->has_alpha = 0;
+    for (size_t i = 3; i < count && !tex->has_alpha; i += 4)
+        tex->has_alpha = image.rgba[i] < 1.0f;
     tex->width = image.width;
     tex->height = image.height;
     tex->rgba = image.rgba;

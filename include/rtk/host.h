@@ -98,6 +98,8 @@ typedef struct rtk_render_report {
     size_t geometry_bytes;   /* vertices, triangles, normals, uvs; each mesh once */
     size_t bvh_bytes;        /* every BVH: the scene's, each mesh's once */
     size_t instance_bytes;   /* instance records and the top-level BVH */
+    uint32_t textures;       /* images the scene's materials refer to */
+    uint32_t textures_decoded; /* of those, decoded (integrator reads textures, or alpha cutouts) */
 } rtk_render_report;
 
 /* Loads the scene, builds the BVH, renders and writes the image(s). */

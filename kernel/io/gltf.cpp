@@ -749,7 +749,8 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, rtk_sce
         if (nrm.count != nverts)
             return fail(where, attr->second, "%zu normals for %zu positions", nrm.count, nverts);
     }
-    if (want_uvs_ && (attr = prim.attributes.find("TEXCOORD_0")) != prim.attributes.end()) {
+    /* Texture coordinates also serve the alpha of cutout materials. */
+    if ((want_uvs_ || dst->cutout_materials) && (attr = prim.attributes.find("TEXCOORD_0")) != prim.attributes.end()) {
         where.what = "TEXCOORD_0";
         if ((status = view(attr->second, where,
                            {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,

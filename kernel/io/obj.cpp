@@ -188,7 +188,7 @@ struct Corner {
 struct Reader {
     const char *path;
     rtk_scene *scene;
-    bool want_normals, want_uvs;
+    bool want_normals;
     uint32_t base;               /* scene vertex index of this file's vertex 1 */
     uint32_t vertex_count = 0;   /* `v` lines so far */
     size_t normal_count = 0, uv_count = 0;
@@ -435,7 +435,9 @@ void Reader::add_face(const tinyobj::index_t *indices, int count)
     for (size_t t = 0; t < triangles.size(); t += 3) {
         const Corner *c[3] = {&corners[triangles[t]], &corners[triangles[t + 1]], &corners[triangles[t + 2]]};
         float n[9], uv[6];
-        bool has_n = want_normals, has_uv = want_uvs;
+        /* Texture coordinates go to the scene when it keeps them: for
+         * the integrator, or for the alpha of cutout materials. */
+        bool has_n = want_normals, has_uv = true;
         for (int k = 0; k < 3; k++) {
             if (has_n && c[k]->vn >= 0)
                 std::memcpy(n + k * 3, &normals[size_t(c[k]->vn) * 3], 3 * sizeof(float));
@@ -469,8 +471,9 @@ void on_normal(void *user, tinyobj::real_t x, tinyobj::real_t y, tinyobj::real_t
 void on_texcoord(void *user, tinyobj::real_t u, tinyobj::real_t v, tinyobj::real_t)
 {
     Reader &r = *static_cast<Reader *>(user);
-    if (r.want_uvs)
-        r.uvs.insert(r.uvs.end(), {float(u), 1.0f - float(v)}); /* OBJ's v points up; the texture service's down */
+    /* Kept whatever the integrator needs: a cutout material (map_d) may
+     * come later in the file and needs them for its alpha. */
+    r.uvs.insert(r.uvs.end(), {float(u), 1.0f - float(v)}); /* OBJ's v points up; the texture service's down */
     r.uv_count++;
 }
 
@@ -519,7 +522,6 @@ rtk_status load(const char *path, rtk_scene *scene)
     r.path = path;
     r.scene = scene;
     r.want_normals = (scene->needs & RTK_NEED_NORMALS) != 0;
-    r.want_uvs = (scene->needs & (RTK_NEED_UVS | RTK_NEED_TEXTURES)) != 0;
     r.base = scene->vertex_count;
     MtlReader mtl(dir_of(path), &r.info);
     tinyobj::callback_t cb;

@@ -176,15 +176,17 @@ static void test_obj_quad(void)
     CHECK(s->bounds.lower.x == 0 && s->bounds.upper.x == 1 && s->bounds.upper.y == 1 && s->bounds.upper.z == 0);
     rtk_scene_free(s);
 
-    /* Without needs, nothing optional is kept or decoded. */
+    /* Without needs, nothing optional is kept or decoded but what the
+     * cutout material (map_d) needs for traversal: materials, uvs and its
+     * alpha texture. */
     s = load(obj, 0);
     CHECK(s != NULL);
     if (!s)
         return;
     CHECK(s->triangle_count == 3);
-    CHECK(!s->normals && !s->uvs && !s->tri_material);
+    CHECK(!s->normals && s->uvs && s->tri_material && s->has_cutouts);
     for (uint32_t i = 0; i < s->texture_count; i++)
-        CHECK(s->textures[i].decoded == 0);
+        CHECK(s->textures[i].decoded == ((int)i == s->materials[1].alpha_tex));
     rtk_scene_free(s);
 
     /* A UTF-8 byte order mark is skipped, not taken for part of a statement. */
@@ -453,8 +455,10 @@ static void test_glb(void)
     }
     rtk_scene_free(s);
 
+    /* Without needs the MASK material's image is still decoded: traversal
+     * tests its alpha. */
     s = load(glb, 0);
-    CHECK(s && s->texture_count == 1 && s->textures[0].bytes == NULL && s->textures[0].decoded == 0);
+    CHECK(s && s->texture_count == 1 && s->textures[0].decoded == 1 && s->has_cutouts);
     rtk_scene_free(s);
 }
 
