@@ -69,8 +69,8 @@ static const rtk_param_desc film_params[] = {
 static const char *const film_special[] = {"aovs", NULL};
 
 static const rtk_param_desc sampler_params[] = {
-    {.name = "type", .type = RTK_PARAM_STRING, .def_string = "independent", .choices = "independent",
-     .doc = "sample generator"},
+    {.name = "type", .type = RTK_PARAM_STRING, .def_string = "independent", .choices = "independent|stratified|sobol",
+     .doc = "sample generator: independent (PCG32), stratified (jittered strata) or sobol (Owen-scrambled)"},
     {.name = "seed", .type = RTK_PARAM_INT, .def = 0, .min = 0, .max = 9223372036854775807.0,
      .doc = "seed of the sample streams"},
 };

@@ -26,6 +26,7 @@ typedef struct render_job {
     const void *fstate;
     float radius;
     uint32_t spp;
+    rtk_sampler_type sampler;
     uint64_t seed;
     rtk_film film;
     uint32_t tiles_x, tiles_y, tile_count;
@@ -115,7 +116,7 @@ static void *worker(void *arg)
     rtk_ctx ctx;
     memset(&ctx, 0, sizeof ctx);
     ctx.scene = job->scene;
-    ctx.seed = job->seed;
+    rtk_ctx_set_sampler(&ctx, job->sampler, job->seed, job->spp);
     uint64_t bad = 0;
     for (;;) {
         uint32_t i = atomic_fetch_add(&job->next_tile, 1);
@@ -193,6 +194,15 @@ rtk_status rtk_render_film(const rtk_scene *scene, const rtk_camera *camera, con
                            const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
                            uint64_t seed, uint32_t threads, int progress, float *pixels, rtk_render_stats *stats)
 {
+    return rtk_render_film_sampled(scene, camera, ifn, istate, ffn, fstate, spp, RTK_SAMPLER_INDEPENDENT, seed,
+                                   threads, progress, pixels, stats);
+}
+
+rtk_status rtk_render_film_sampled(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
+                                   const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
+                                   rtk_sampler_type sampler, uint64_t seed, uint32_t threads, int progress,
+                                   float *pixels, rtk_render_stats *stats)
+{
     render_job job;
     memset(&job, 0, sizeof job);
     pthread_mutex_init(&job.merge_lock, NULL);
@@ -212,6 +222,7 @@ rtk_status rtk_render_film(const rtk_scene *scene, const rtk_camera *camera, con
     job.filter = ffn;
     job.fstate = fstate;
     job.spp = spp;
+    job.sampler = sampler;
     job.seed = seed;
     job.tiles_x = (camera->width + TILE_SIZE - 1) / TILE_SIZE;
     job.tiles_y = (camera->height + TILE_SIZE - 1) / TILE_SIZE;
@@ -305,6 +316,21 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
         return rtk_error(RTK_ERR_INVALID, "%s: film.aovs needs an EXR output (film.output = \"%s\"): use a .exr name",
                          cfg->path, cfg->output);
 
+    rtk_sampler_type sampler = RTK_SAMPLER_INDEPENDENT;
+    if (cfg->sampler_type && !rtk_sampler_type_from_name(cfg->sampler_type, &sampler))
+        return rtk_error(RTK_ERR_INVALID, "%s: sampler.type = \"%s\": expected independent, stratified or sobol",
+                         cfg->path, cfg->sampler_type);
+    if (sampler == RTK_SAMPLER_SOBOL && (cfg->spp & (cfg->spp - 1)) != 0) {
+        uint32_t below = 1;
+        while (below <= cfg->spp / 2)
+            below *= 2;
+        char key[1100];
+        snprintf(key, sizeof key, "sobol spp %u %s", cfg->spp, cfg->path);
+        rtk_warn_once(key,
+                      "%s: sampler.type = \"sobol\" with film.spp = %u, not a power of two: only whole "
+                      "power-of-two runs of a pixel's samples are stratified nets; use %u or %u",
+                      cfg->path, cfg->spp, below, below * 2);
+    }
     const rtk_integrator_fns *ifn = cfg->integrator.plugin->functions;
     const rtk_filter_fns *ffn = cfg->filter.plugin->functions;
     void *istate = NULL, *fstate = NULL;
@@ -398,8 +424,8 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     }
     rtk_render_stats stats;
     t = rtk_now();
-    st = rtk_render_film(scene, &camera, ifn, istate, ffn, fstate, cfg->spp, cfg->seed, threads,
-                         options->progress && !options->quiet, pixels, &stats);
+    st = rtk_render_film_sampled(scene, &camera, ifn, istate, ffn, fstate, cfg->spp, sampler, cfg->seed, threads,
+                                 options->progress && !options->quiet, pixels, &stats);
     if (st != RTK_OK) {
         st = with_context(st, cfg->path);
         goto done;
