@@ -63,6 +63,9 @@ static const rtk_param_desc film_params[] = {
     {.name = "output", .type = RTK_PARAM_STRING, .def_string = "",
      .doc = "image file (.exr or .png), default <config name>.png next to the config"},
     {.name = "half", .type = RTK_PARAM_BOOL, .def = 0, .doc = "store EXR channels as half floats"},
+    {.name = "reconstruction", .type = RTK_PARAM_STRING, .def_string = "splat", .choices = "splat|importance",
+     .doc = "splat: each sample weighted into every pixel the filter reaches; importance: samples placed by the "
+            "filter (weights f / pdf), each into its own pixel"},
     {.name = "aovs", .type = RTK_PARAM_STRING,
      .doc = "extra EXR layers: a list of \"albedo\", \"normal\", \"depth\""},
 };
@@ -879,6 +882,7 @@ static rtk_status read_film(const loader *ld, const config_setting_t *root, rtk_
     cfg->height = (uint32_t)rtk_params_int(params, "height");
     cfg->spp = (uint32_t)rtk_params_int(params, "spp");
     cfg->half = rtk_params_bool(params, "half");
+    cfg->importance = strcmp(rtk_params_string(params, "reconstruction"), "importance") == 0;
     const char *output = rtk_params_string(params, "output");
     const config_setting_t *at = member(group, "output");
     if (at && !output[0]) {

@@ -438,6 +438,7 @@ struct rtk_config {
     uint32_t width, height, spp;
     char *output;                /* resolved path of the image */
     int half;                    /* EXR as half floats */
+    int importance;              /* film.reconstruction = "importance" */
     int aov_albedo, aov_normal, aov_depth;
     char *sampler_type;          /* "independent", "stratified" or "sobol" */
     uint64_t seed;
@@ -458,6 +459,10 @@ typedef struct rtk_film {
     uint32_t channels;           /* 3 (rgb) + optional AOV channels */
     double *sum;                 /* channels per pixel, weighted sums */
     double *weight;              /* per pixel */
+    /* With a filter that has negative lobes: the same sums with |weight|,
+     * for pixels whose signed weights nearly cancel (see rtk_film_resolve);
+     * NULL otherwise. */
+    double *abs_sum, *abs_weight;
 } rtk_film;
 
 RTK_EXTERN_C_END

@@ -27,6 +27,8 @@ typedef struct render_job {
     float radius;
     uint32_t spp;
     rtk_sampler_type sampler;
+    rtk_reconstruction recon;
+    rtk_filter_sampler fsampler; /* RTK_RECON_IMPORTANCE */
     uint64_t seed;
     rtk_film film;
     uint32_t tiles_x, tiles_y, tile_count;
@@ -84,7 +86,14 @@ static void render_tile(render_job *job, uint32_t index, rtk_ctx *ctx, uint64_t 
             for (uint32_t s = 0; s < job->spp; s++) {
                 rtk_ctx_start_sample(ctx, pixel, s);
                 rtk_vec2 jitter = rtk_sample_2d(ctx);
-                float fx = (float)x + jitter.x, fy = (float)y + jitter.y;
+                float fx = (float)x + jitter.x, fy = (float)y + jitter.y, fw = 1.0f;
+                if (job->recon == RTK_RECON_IMPORTANCE) {
+                    /* The filter places the sample around the pixel centre. */
+                    float dx, dy;
+                    rtk_filter_sampler_sample(&job->fsampler, jitter, &dx, &dy, &fw);
+                    fx = (float)x + 0.5f + dx;
+                    fy = (float)y + 0.5f + dy;
+                }
                 rtk_ray ray = rtk_camera_ray(&job->camera, fx, fy);
                 rtk_li_result r;
                 memset(&r, 0, sizeof r);
@@ -98,7 +107,10 @@ static void render_tile(render_job *job, uint32_t index, rtk_ctx *ctx, uint64_t 
                 values[3] = r.albedo.r, values[4] = r.albedo.g, values[5] = r.albedo.b;
                 values[6] = r.normal.x, values[7] = r.normal.y, values[8] = r.normal.z;
                 values[9] = isfinite(r.depth) ? r.depth : 0.0f;
-                rtk_film_tile_splat(&tile, &job->film, fx, fy, values, job->filter, job->fstate, job->radius);
+                if (job->recon == RTK_RECON_IMPORTANCE)
+                    rtk_film_tile_add(&tile, (int)x, (int)y, fw, values);
+                else
+                    rtk_film_tile_splat(&tile, &job->film, fx, fy, values, job->filter, job->fstate, job->radius);
             }
         }
     }
@@ -203,6 +215,15 @@ rtk_status rtk_render_film_sampled(const rtk_scene *scene, const rtk_camera *cam
                                    rtk_sampler_type sampler, uint64_t seed, uint32_t threads, int progress,
                                    float *pixels, rtk_render_stats *stats)
 {
+    return rtk_render_film_mode(scene, camera, ifn, istate, ffn, fstate, spp, sampler, RTK_RECON_SPLAT, seed, threads,
+                                progress, pixels, stats);
+}
+
+rtk_status rtk_render_film_mode(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
+                                const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
+                                rtk_sampler_type sampler, rtk_reconstruction recon, uint64_t seed, uint32_t threads,
+                                int progress, float *pixels, rtk_render_stats *stats)
+{
     render_job job;
     memset(&job, 0, sizeof job);
     pthread_mutex_init(&job.merge_lock, NULL);
@@ -212,7 +233,13 @@ rtk_status rtk_render_film_sampled(const rtk_scene *scene, const rtk_camera *cam
         st = rtk_error(RTK_ERR_PLUGIN, "filter reports radius %g, expected (0, 64]", job.radius);
         goto done;
     }
-    st = rtk_film_init(&job.film, camera->width, camera->height, RTK_FILM_CHANNELS);
+    job.recon = recon;
+    if (recon == RTK_RECON_IMPORTANCE && (st = rtk_filter_sampler_init(&job.fsampler, ffn, fstate, job.radius)) != RTK_OK)
+        goto done;
+    /* Negative lobes (and importance sampling, whose weights f / pdf take
+     * the sign of f) can cancel a pixel's weights: keep |weight| sums. */
+    st = rtk_film_init(&job.film, camera->width, camera->height, RTK_FILM_CHANNELS,
+                       rtk_filter_has_negative_lobes(ffn, fstate, job.radius));
     if (st != RTK_OK)
         goto done;
     job.scene = scene;
@@ -238,6 +265,7 @@ rtk_status rtk_render_film_sampled(const rtk_scene *scene, const rtk_camera *cam
     }
 done:
     rtk_film_free(&job.film);
+    rtk_filter_sampler_free(&job.fsampler);
     pthread_mutex_destroy(&job.merge_lock);
     return st;
 }
@@ -424,8 +452,9 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     }
     rtk_render_stats stats;
     t = rtk_now();
-    st = rtk_render_film_sampled(scene, &camera, ifn, istate, ffn, fstate, cfg->spp, sampler, cfg->seed, threads,
-                                 options->progress && !options->quiet, pixels, &stats);
+    st = rtk_render_film_mode(scene, &camera, ifn, istate, ffn, fstate, cfg->spp, sampler,
+                              cfg->importance ? RTK_RECON_IMPORTANCE : RTK_RECON_SPLAT, cfg->seed, threads,
+                              options->progress && !options->quiet, pixels, &stats);
     if (st != RTK_OK) {
         st = with_context(st, cfg->path);
         goto done;

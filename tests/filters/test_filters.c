@@ -362,7 +362,8 @@ static const rtk_integrator_fns constant = {.size = sizeof(rtk_integrator_fns), 
  * pixel is off by its float rounding (2^-24) plus the error of the two
  * double sums, under 2n 2^-53 sum|w| / |sum w| for n terms: 1e-5 holds
  * unless a pixel's summed weight is 0 or cancels below n 2e-11 of sum|w|. */
-static void check_constant(const char *name, const filter *fl, uint32_t w, uint32_t h, uint32_t spp)
+static void check_constant(const char *name, const filter *fl, uint32_t w, uint32_t h, uint32_t spp,
+                           rtk_reconstruction recon)
 {
     const float want[3] = {0.3f, 1.7f, 42.0f};
     rtk_scene *scene = rtk_scene_new("constant", 0);
@@ -371,7 +372,8 @@ static void check_constant(const char *name, const filter *fl, uint32_t w, uint3
     float *px = malloc(sizeof(float) * RTK_FILM_CHANNELS * w * h);
     rtk_status st = scene && px ? rtk_camera_init(&cam, &d, w, h) : RTK_ERR_NOMEM;
     if (st == RTK_OK)
-        st = rtk_render_film(scene, &cam, &constant, NULL, fl->f, fl->state, spp, 9, 2, 0, px, NULL);
+        st = rtk_render_film_mode(scene, &cam, &constant, NULL, fl->f, fl->state, spp, RTK_SAMPLER_INDEPENDENT, recon, 9,
+                                  2, 0, px, NULL);
     uint32_t bad = 0, border_bad = 0;
     double worst = 0.0;
     for (uint32_t i = 0; st == RTK_OK && i < w * h; i++) {
@@ -387,9 +389,9 @@ static void check_constant(const char *name, const filter *fl, uint32_t w, uint3
         }
     }
     check(st == RTK_OK && bad == 0,
-          "%s: constant radiance at %ux%u, %u spp is the constant in every pixel (worst relative error %.3g; "
+          "%s, %s: constant radiance at %ux%u, %u spp is the constant in every pixel (worst relative error %.3g; "
           "%u pixels off, %u on the border)",
-          name, w, h, spp, worst, bad, border_bad);
+          name, recon == RTK_RECON_IMPORTANCE ? "importance" : "splat", w, h, spp, worst, bad, border_bad);
     free(px);
     rtk_scene_free(scene);
 }
@@ -417,9 +419,11 @@ static void test_every_filter(void)
             for (int b = 0; b < 8; b++)
                 finite &= isfinite(fl.f->eval(fl.state, odd[a], odd[b])) && isfinite(fl.f->eval(fl.state, odd[a], 0.25f));
         check(finite, "%s: eval is finite for NaN, inf, huge and denormal offsets", name);
-        check_constant(name, &fl, 37, 29, 1);
-        check_constant(name, &fl, 37, 29, 4);
-        check_constant(name, &fl, 16, 16, 2);
+        for (int recon = RTK_RECON_SPLAT; recon <= RTK_RECON_IMPORTANCE; recon++) {
+            check_constant(name, &fl, 37, 29, 1, (rtk_reconstruction)recon);
+            check_constant(name, &fl, 37, 29, 4, (rtk_reconstruction)recon);
+            check_constant(name, &fl, 16, 16, 2, (rtk_reconstruction)recon);
+        }
         fl.f->destroy(fl.state);
     }
     for (int k = 0; k < 5; k++)
