@@ -35,7 +35,7 @@ float rtk_material_alpha(const rtk_scene *s, const rtk_material *m, float u, flo
     if (!tex->decoded || tex->missing)
         return alpha;
     float texel[4];
-    rtk_texture_lookup(tex, u, v, texel);
+    rtk_texture_sample(tex, m->alpha_wrap, u, v, 0.0f, texel);
     return alpha * (m->alpha_tex == m->base_tex ? texel[3] : rtk_texture_coverage(tex, texel));
 }
 

@@ -85,3 +85,12 @@ rtk_ray rtk_camera_ray(const rtk_camera *cam, float fx, float fy)
     r.tmax = INFINITY;
     return r;
 }
+
+void rtk_camera_differential(const rtk_camera *cam, float fx, float fy, rtk_ray_differential *out)
+{
+    rtk_ray rx = rtk_camera_ray(cam, fx + 1.0f, fy), ry = rtk_camera_ray(cam, fx, fy + 1.0f);
+    out->rx_org = rx.org;
+    out->rx_dir = rx.dir;
+    out->ry_org = ry.org;
+    out->ry_dir = ry.dir;
+}

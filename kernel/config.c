@@ -1,10 +1,10 @@
 /* Config loading: libconfig text, then the --set overrides, then every
  * value checked against a schema, then the plugins resolved. The kernel's
- * own settings (scene, camera, film, sampler, threads) are described with
- * the same rtk_param_desc tables as plugin parameters, so every slot gets
- * the same checks and "did you mean" suggestions. Every error names the
- * config file and line, or the --set entry it came from, and happens
- * before any scene data is read. */
+ * own settings (scene, camera, film, sampler, textures, threads) are
+ * described with the same rtk_param_desc tables as plugin parameters, so
+ * every slot gets the same checks and "did you mean" suggestions. Every
+ * error names the config file and line, or the --set entry it came from,
+ * and happens before any scene data is read. */
 #include "bvh_cache.h"
 #include "internal.h"
 
@@ -27,6 +27,7 @@ static const rtk_param_desc top_params[] = {
     {.name = "camera", .type = RTK_PARAM_STRING, .doc = "group: position, look_at, up, fov"},
     {.name = "film", .type = RTK_PARAM_STRING, .doc = "group: width, height, spp, output, half, aovs"},
     {.name = "sampler", .type = RTK_PARAM_STRING, .doc = "group: type, seed"},
+    {.name = "textures", .type = RTK_PARAM_STRING, .doc = "group: filter"},
     {.name = "threads", .type = RTK_PARAM_INT, .def = 0, .min = 0, .max = 1024,
      .doc = "render threads, 0 = one per core"},
     {.name = "cache", .type = RTK_PARAM_STRING, .def_string = "",
@@ -44,8 +45,8 @@ static const rtk_param_desc top_params[] = {
     {.name = "integrator", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"headlight\"; and its parameters"},
     {.name = "filter", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"box\"; and its parameters"},
 };
-static const char *const top_special[] = {"camera", "film", "sampler", "plugin_path", "lights", "instances",
-                                          "accelerator", "integrator", "filter", NULL};
+static const char *const top_special[] = {"camera", "film", "sampler", "textures", "plugin_path", "lights",
+                                          "instances", "accelerator", "integrator", "filter", NULL};
 
 static const rtk_param_desc camera_params[] = {
     {.name = "position", .type = RTK_PARAM_STRING, .required = 1, .doc = "eye point [x, y, z]"},
@@ -76,6 +77,11 @@ static const rtk_param_desc sampler_params[] = {
      .doc = "sample generator: independent (PCG32), stratified (jittered strata) or sobol (Owen-scrambled)"},
     {.name = "seed", .type = RTK_PARAM_INT, .def = 0, .min = 0, .max = 9223372036854775807.0,
      .doc = "seed of the sample streams"},
+};
+
+static const rtk_param_desc textures_params[] = {
+    {.name = "filter", .type = RTK_PARAM_STRING, .def_string = "bilinear", .choices = "nearest|bilinear|trilinear",
+     .doc = "texture filter: nearest texel, bilinear, or trilinear between MIP levels picked by ray differentials"},
 };
 
 static const rtk_param_desc light_params[] = {
@@ -113,6 +119,8 @@ static const rtk_plugin film_schema = {RTK_PLUGIN_HEADER, .name = "film", .param
                                        .param_count = RTK_COUNTOF(film_params)};
 static const rtk_plugin sampler_schema = {RTK_PLUGIN_HEADER, .name = "sampler", .params = sampler_params,
                                           .param_count = RTK_COUNTOF(sampler_params)};
+static const rtk_plugin textures_schema = {RTK_PLUGIN_HEADER, .name = "textures", .params = textures_params,
+                                           .param_count = RTK_COUNTOF(textures_params)};
 static const rtk_plugin light_schema = {RTK_PLUGIN_HEADER, .name = "lights", .params = light_params,
                                         .param_count = RTK_COUNTOF(light_params)};
 static const rtk_plugin instance_schema = {RTK_PLUGIN_HEADER, .name = "instances", .params = instance_params,
@@ -920,6 +928,24 @@ static rtk_status read_sampler(const loader *ld, const config_setting_t *root, r
     return cfg->sampler_type ? RTK_OK : RTK_ERR_NOMEM;
 }
 
+static rtk_status read_textures(const loader *ld, const config_setting_t *root, rtk_config *cfg)
+{
+    const config_setting_t *group = member(root, "textures");
+    rtk_status status = expect_group(ld, group, "filter = \"trilinear\";");
+    if (status != RTK_OK)
+        return status;
+    rtk_params *params = NULL;
+    slot_spec spec = {.label = "textures", .schema = &textures_schema};
+    if ((status = fill_params(ld, group, &spec, &params)) != RTK_OK)
+        return status;
+    const char *name = rtk_params_string(params, "filter");
+    if (!rtk_texture_filter_from_name(name, &cfg->texture_filter))
+        status = fail(ld, member(group, "filter"), RTK_ERR_INVALID,
+                      "textures: filter = \"%s\": expected nearest, bilinear or trilinear", name);
+    rtk_params_destroy(params);
+    return status;
+}
+
 /* cache: a directory (relative to the config), "off", or the default. */
 static rtk_status read_cache(const loader *ld, const config_setting_t *root, const rtk_params *params,
                              rtk_config *cfg)
@@ -1214,7 +1240,7 @@ static rtk_status load(loader *ld, rtk_config *cfg)
     if ((status = read_top(ld, root, cfg)) != RTK_OK || (status = read_plugin_path(ld, root)) != RTK_OK ||
         (status = read_camera(ld, root, cfg)) != RTK_OK || (status = read_film(ld, root, cfg)) != RTK_OK ||
         (status = read_sampler(ld, root, cfg)) != RTK_OK || (status = read_lights(ld, root, cfg)) != RTK_OK ||
-        (status = read_instances(ld, root, cfg)) != RTK_OK ||
+        (status = read_instances(ld, root, cfg)) != RTK_OK || (status = read_textures(ld, root, cfg)) != RTK_OK ||
         (status = load_slot(ld, root, "accelerator", RTK_KIND_ACCELERATOR, "median", &cfg->accelerator)) != RTK_OK ||
         (status = load_slot(ld, root, "integrator", RTK_KIND_INTEGRATOR, "headlight", &cfg->integrator)) != RTK_OK ||
         (status = load_slot(ld, root, "filter", RTK_KIND_FILTER, "box", &cfg->filter)) != RTK_OK)

@@ -2524,6 +2524,7 @@ static void conform_integrator(runner *r, const rtk_plugin *p)
         rtk_scene_free(scene);
         f->destroy(state);
     }
+    rtk_conform_profile(p, r->out, &r->passed, &r->failed);
 }
 
 rtk_status rtk_conform_run(const char *path, const rtk_conform_options *options, FILE *out, int *passed,

@@ -1,7 +1,8 @@
 /* The accelerator conformance checks by group, for callers that want some
  * of them at a different size than `rtk conform` runs them (tests/hard
- * traces the icosphere with a million rays). Kernel-internal: the public
- * entry point stays rtk_conform (include/rtk/host.h). */
+ * traces the icosphere with a million rays), and the integrator profiles'
+ * exact tests (conform_integrators.c). Kernel-internal: the public entry
+ * point stays rtk_conform (include/rtk/host.h). */
 #ifndef RTK_CONFORM_HARD_H
 #define RTK_CONFORM_HARD_H
 
@@ -39,6 +40,11 @@ typedef struct rtk_conform_options {
  * options only concern accelerators. */
 rtk_status rtk_conform_run(const char *path, const rtk_conform_options *options, FILE *out, int *passed,
                            int *failed);
+
+/* Runs the exact tests of the profile integrator p declares
+ * (rtk_plugin.conform), one line per check to out, counting into *passed
+ * and *failed; a note when p declares none. */
+void rtk_conform_profile(const rtk_plugin *p, FILE *out, int *passed, int *failed);
 
 RTK_EXTERN_C_END
 

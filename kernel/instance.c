@@ -499,7 +499,8 @@ static rtk_vec3 world_normal(const rtk_instance *in, rtk_vec3 n)
     return rtk_vec3_normalize(to_float3(w));
 }
 
-void rtk_instance_surface(const rtk_scene *s, const rtk_ray *ray, const rtk_hit *hit, rtk_surface *out)
+void rtk_instance_surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differential *diff, const rtk_hit *hit,
+                          rtk_surface *out)
 {
     const rtk_instance *in = &s->instances[hit->inst];
     rtk_ray lr;
@@ -511,7 +512,18 @@ void rtk_instance_surface(const rtk_scene *s, const rtk_ray *ray, const rtk_hit 
     lr.tmax = ray->tmax;
     rtk_hit local = *hit;
     local.inst = RTK_INVALID_ID;
-    rtk_surface_at(s->meshes[in->mesh], &lr, &local, out);
+    /* The differential rays go to object space as the ray does; the
+     * footprint measured there is the world one (an affine invariant). */
+    rtk_ray_differential ld;
+    rtk_ray lx, ly;
+    int local_diff = 0;
+    if (diff) {
+        rtk_ray rx = {diff->rx_org, 0.0f, diff->rx_dir, INFINITY}, ry = {diff->ry_org, 0.0f, diff->ry_dir, INFINITY};
+        local_diff = rtk_instance_local_ray(in, &rx, &lx) && rtk_instance_local_ray(in, &ry, &ly);
+        if (local_diff)
+            ld.rx_org = lx.org, ld.rx_dir = lx.dir, ld.ry_org = ly.org, ld.ry_dir = ly.dir;
+    }
+    rtk_surface_at_footprint(s->meshes[in->mesh], &lr, local_diff ? &ld : NULL, &local, out);
     double p[3];
     apply_point(in->to_world, out->p.x, out->p.y, out->p.z, p);
     out->p = to_float3(p);

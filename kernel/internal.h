@@ -91,8 +91,43 @@ rtk_camera_desc rtk_camera_frame(rtk_bounds bounds, float fov_deg, float aspect)
 rtk_status rtk_camera_init(rtk_camera *cam, const rtk_camera_desc *desc, uint32_t width, uint32_t height);
 /* Ray through film position (fx, fy) in pixels, (0,0) the top-left corner. */
 rtk_ray rtk_camera_ray(const rtk_camera *cam, float fx, float fy);
+/* Differentials of that ray: the rays through (fx + 1, fy) and (fx, fy + 1). */
+void rtk_camera_differential(const rtk_camera *cam, float fx, float fy, rtk_ray_differential *out);
 
 /* ---- textures (texture.c, io/image.cpp) ---- */
+
+/* How lookups filter a texture (config textures.filter). Zero is bilinear. */
+typedef enum rtk_texture_filter {
+    RTK_TEX_BILINEAR = 0,  /* the 4 nearest texels of level 0 */
+    RTK_TEX_NEAREST = 1,   /* the nearest texel of level 0 */
+    RTK_TEX_TRILINEAR = 2  /* bilinear in the two MIP levels around the footprint's level of detail */
+} rtk_texture_filter;
+
+/* How texture coordinates outside [0, 1] reach the image, along one axis.
+ * Zero is repeat. */
+typedef enum rtk_wrap {
+    RTK_WRAP_REPEAT = 0,  /* glTF REPEAT, MTL default */
+    RTK_WRAP_CLAMP = 1,   /* glTF CLAMP_TO_EDGE, MTL -clamp on */
+    RTK_WRAP_MIRROR = 2   /* glTF MIRRORED_REPEAT */
+} rtk_wrap;
+
+/* The wrap modes of one use of a texture (a material slot): s along u,
+ * t along v (glTF sampler wrapS, wrapT). Zeroed = repeat. */
+typedef struct rtk_tex_wrap {
+    uint8_t s, t; /* rtk_wrap */
+} rtk_tex_wrap;
+
+/* One level of a MIP pyramid. */
+typedef struct rtk_texture_level {
+    int width, height;
+    float *rgba;       /* linear RGBA, row 0 = top */
+} rtk_texture_level;
+
+/* Texture-space footprint of a pixel at a hit: the change of (u, v) to
+ * the pixel's right (x) and lower (y) neighbour. */
+typedef struct rtk_uv_footprint {
+    float dudx, dvdx, dudy, dvdy;
+} rtk_uv_footprint;
 
 /* An image referenced by a material; decoded only when a plugin needs it. */
 typedef struct rtk_texture {
@@ -104,13 +139,33 @@ typedef struct rtk_texture {
     int decoded;       /* 1 after a decode attempt */
     int missing;       /* decode failed: lookups return white */
     int has_alpha;     /* some texel's alpha is below 1 */
+    int normal_map_checked; /* used as a normal map: 1 usable, -1 grey (a height map), 0 not checked */
     int width, height;
     float *rgba;       /* linear RGBA, row 0 = top of the image */
+    rtk_texture_filter filter; /* how lookups filter it */
+    int levels;        /* MIP levels in mip (trilinear filter only), else 0 */
+    rtk_texture_level *mip; /* level 0 is rgba itself, then halved down to 1x1 */
 } rtk_texture;
 
-/* Decodes tex if not yet tried; on failure warns once and marks it missing. */
+/* Decodes tex if not yet tried; on failure warns once and marks it missing.
+ * Builds the MIP pyramid when tex->filter is trilinear. */
 void rtk_texture_decode(rtk_texture *tex);
-/* Bilinear lookup with repeat wrapping; white when missing. [any thread] */
+/* Sets how tex is filtered: builds its MIP pyramid (if decoded) for
+ * trilinear, drops it otherwise. RTK_ERR_NOMEM leaves it bilinear. */
+rtk_status rtk_texture_set_filter(rtk_texture *tex, rtk_texture_filter filter);
+/* rtk_texture_set_filter on every texture of scene and of its meshes. */
+rtk_status rtk_scene_set_texture_filter(rtk_scene *scene, rtk_texture_filter filter);
+/* The filter a config names ("nearest", "bilinear", "trilinear"); 0 if none. */
+int rtk_texture_filter_from_name(const char *name, rtk_texture_filter *filter);
+/* Level of detail of footprint fp on tex: log2 of the longer of the
+ * footprint's two sides measured in level-0 texels; 0 when it is not
+ * positive and finite, a large value when it is infinite. */
+float rtk_texture_lod(const rtk_texture *tex, const rtk_uv_footprint *fp);
+/* The texture at (u, v) with its filter and the given wrap modes, at
+ * level of detail lod (read only by trilinear; <= 0 is level 0); white
+ * when missing, texel (0, 0) for non-finite (u, v). [any thread] */
+void rtk_texture_sample(const rtk_texture *tex, rtk_tex_wrap wrap, float u, float v, float lod, float rgba[4]);
+/* rtk_texture_sample at level 0 with repeat wrapping. [any thread] */
 void rtk_texture_lookup(const rtk_texture *tex, float u, float v, float rgba[4]);
 void rtk_texture_free(rtk_texture *tex);
 
@@ -154,10 +209,23 @@ typedef struct rtk_material {
     rtk_alpha_mode alpha_mode;
     float alpha_cutoff;   /* for RTK_ALPHA_MASK, default 0.5 */
     int base_tex, alpha_tex, normal_tex, emission_tex;
+    /* Wrap modes per texture slot: a glTF sampler or MTL -clamp belongs to
+     * the use, not the image, so one decoded image serves every use. */
+    rtk_tex_wrap base_wrap, alpha_wrap, normal_wrap, emission_wrap;
 } rtk_material;
 
 /* Material defaults: white diffuse, alpha 1, ior 1.5, no textures. */
 rtk_material rtk_material_default(void);
+
+/* ---- normal maps (normalmap.c) ---- */
+
+/* Checks once (at load) that tex can serve as a tangent-space normal map:
+ * a grey image is a height map, warned about and not used. */
+int rtk_normal_map_usable(rtk_texture *tex);
+/* Bends the shading normal ns (unit, on the triangle's authored side) by
+ * m's normal map at texture coordinates uv, in the tangent frame derived
+ * from triangle prim's positions and uvs; returns 1 when it did. */
+int rtk_apply_normal_map(const struct rtk_scene *s, const rtk_material *m, uint32_t prim, rtk_vec2 uv, rtk_vec3 *ns);
 
 /* ---- alpha cutouts (alpha.c) ---- */
 
@@ -299,8 +367,10 @@ void rtk_instances_free(rtk_scene *scene);
  * both levels. [any thread] */
 int rtk_instances_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work);
 int rtk_instances_any(const rtk_scene *s, const rtk_ray *ray, rtk_trace_work *work);
-/* rtk_surface_at for a hit on an instance: the mesh's surface in world space. */
-void rtk_instance_surface(const rtk_scene *s, const rtk_ray *ray, const rtk_hit *hit, rtk_surface *out);
+/* rtk_surface_at_footprint for a hit on an instance (diff may be NULL):
+ * the mesh's surface in world space. */
+void rtk_instance_surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differential *diff, const rtk_hit *hit,
+                          rtk_surface *out);
 /* The ray in instance in's object space (transformed in double, t kept as
  * the parameter); 0 when it is not a usable ray there (a transform too
  * small or large for float). */
@@ -398,6 +468,10 @@ struct rtk_ctx {
     uint64_t sample_hash;      /* of (seed, pixel, stratified pass) */
     uint32_t pass_sample;      /* stratified: sample index within its pass of spp */
     uint32_t dim;              /* dimensions drawn so far in this sample */
+    /* The current sample's camera ray (render.c), for its differentials:
+     * the film position it went through; camera NULL when there is none. */
+    const rtk_camera *camera;
+    float film_x, film_y;
 };
 
 /* Picks ctx's generator, seed and samples per pixel (0 taken as 1). A
@@ -448,6 +522,7 @@ struct rtk_config {
     uint32_t light_count;
     rtk_config_instance *instances; /* models placed beside the scene */
     uint32_t instance_count;
+    rtk_texture_filter texture_filter; /* textures.filter */
     rtk_plugin_slot integrator, accelerator, filter;
 };
 

@@ -89,7 +89,9 @@ rtk_status rtk_plugin_check(const rtk_plugin *p, const char *path, rtk_plugin_ki
 {
     if (!p)
         return rtk_error(RTK_ERR_PLUGIN, "%s: rtk_plugin_entry() returned NULL", path);
-    if (p->size < sizeof(rtk_plugin) - sizeof(p->functions))
+    /* The 3.0 descriptor ends at functions; later fields (conform) are
+     * read only where size covers them. */
+    if (p->size < offsetof(rtk_plugin, conform))
         return rtk_error(RTK_ERR_PLUGIN, "%s: descriptor is %u bytes, too small to be an rtk plugin",
                          path, p->size);
     if (p->abi_major != RTK_ABI_MAJOR)

@@ -95,6 +95,7 @@ static void render_tile(render_job *job, uint32_t index, rtk_ctx *ctx, uint64_t 
                     fy = (float)y + 0.5f + dy;
                 }
                 rtk_ray ray = rtk_camera_ray(&job->camera, fx, fy);
+                ctx->film_x = fx, ctx->film_y = fy; /* for rtk_ctx_camera_differential */
                 rtk_li_result r;
                 memset(&r, 0, sizeof r);
                 r.depth = INFINITY;
@@ -128,6 +129,7 @@ static void *worker(void *arg)
     rtk_ctx ctx;
     memset(&ctx, 0, sizeof ctx);
     ctx.scene = job->scene;
+    ctx.camera = &job->camera;
     rtk_ctx_set_sampler(&ctx, job->sampler, job->seed, job->spp);
     uint64_t bad = 0;
     for (;;) {
@@ -386,6 +388,8 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
         st = rtk_scene_add_punctual(scene, &cfg->lights[i]);
     if (st == RTK_OK && cfg->instance_count)
         st = rtk_config_place_instances(cfg, scene);
+    if (st == RTK_OK)
+        st = rtk_scene_set_texture_filter(scene, cfg->texture_filter);
     if (st != RTK_OK)
         goto done;
     report->load_seconds = rtk_now() - t;

@@ -1,5 +1,13 @@
 /* Kernel services over a loaded scene: tracing with counters, surface
- * interaction (normals, uvs, materials, textures), scene queries. */
+ * interaction (normals, uvs, materials, textures), ray differentials and
+ * texture footprints, scene queries.
+ *
+ * Footprints (Igehy 1999, pbrt-v3 section 10.1): a hit's differential
+ * rays meet the triangle's plane at p + dp/dx and p + dp/dy; those offsets
+ * in barycentrics give du/dx, dv/dx, du/dy, dv/dy, and a texture's level
+ * of detail is log2 of the longer footprint side in its texels
+ * (rtk_texture_lod). Barycentric changes are affine invariants, so a hit
+ * on an instance is measured in the mesh's object space. */
 #include "bvh_wide.h"
 
 #include <math.h>
@@ -46,6 +54,14 @@ RTK_API const rtk_scene *rtk_ctx_scene(const rtk_ctx *ctx)
     return ctx->scene;
 }
 
+RTK_API int rtk_ctx_camera_differential(const rtk_ctx *ctx, rtk_ray_differential *out)
+{
+    if (!ctx->camera)
+        return 0;
+    rtk_camera_differential(ctx->camera, ctx->film_x, ctx->film_y, out);
+    return 1;
+}
+
 RTK_API rtk_bounds rtk_scene_bounds(const rtk_scene *scene)
 {
     return scene->bounds;
@@ -74,10 +90,98 @@ static rtk_vec3 lerp3(const float *corner, float u, float v)
                          w * corner[2] + u * corner[5] + v * corner[8]);
 }
 
-RTK_API void rtk_surface_at(const rtk_scene *s, const rtk_ray *ray, const rtk_hit *hit, rtk_surface *out)
+static int finite3d(const double v[3])
+{
+    return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
+}
+
+static double dot3d(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void to3d(rtk_vec3 v, double out[3])
+{
+    out[0] = v.x, out[1] = v.y, out[2] = v.z;
+}
+
+/* Where the ray (o, d) meets the plane through p with normal n, minus p;
+ * 0 when it runs parallel to the plane or the point is not finite. */
+static int plane_offset(rtk_vec3 p, rtk_vec3 n, rtk_vec3 o, rtk_vec3 d, double out[3])
+{
+    double pd[3], nd[3], od[3], dd[3];
+    to3d(p, pd), to3d(n, nd), to3d(o, od), to3d(d, dd);
+    double den = dot3d(nd, dd);
+    if (den == 0.0)
+        return 0;
+    double po[3] = {pd[0] - od[0], pd[1] - od[1], pd[2] - od[2]};
+    double t = dot3d(nd, po) / den;
+    for (int k = 0; k < 3; k++)
+        out[k] = od[k] + t * dd[k] - pd[k];
+    return finite3d(out);
+}
+
+/* Change of the barycentrics of vertices 1 and 2 of triangle (a, b, c)
+ * for a point moving by dp in its plane (least squares on the edges). */
+static int bary_change(rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, const double dp[3], double db[2])
+{
+    double e1[3] = {(double)b.x - a.x, (double)b.y - a.y, (double)b.z - a.z};
+    double e2[3] = {(double)c.x - a.x, (double)c.y - a.y, (double)c.z - a.z};
+    double g11 = dot3d(e1, e1), g12 = dot3d(e1, e2), g22 = dot3d(e2, e2);
+    double det = g11 * g22 - g12 * g12;
+    if (!(det > 0.0))
+        return 0;
+    double r1 = dot3d(e1, dp), r2 = dot3d(e2, dp);
+    db[0] = (g22 * r1 - g12 * r2) / det;
+    db[1] = (g11 * r2 - g12 * r1) / det;
+    return isfinite(db[0]) && isfinite(db[1]);
+}
+
+/* The uv footprint at p on the scene's own triangle prim, (a, b, c) with
+ * normal n, for differentials d; 0 when it cannot be measured. */
+static int uv_footprint(const rtk_scene *s, uint32_t prim, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, rtk_vec3 p, rtk_vec3 n,
+                        const rtk_ray_differential *d, rtk_uv_footprint *fp)
+{
+    double dpx[3], dpy[3], bx[2], by[2];
+    if (!plane_offset(p, n, d->rx_org, d->rx_dir, dpx) || !plane_offset(p, n, d->ry_org, d->ry_dir, dpy) ||
+        !bary_change(a, b, c, dpx, bx) || !bary_change(a, b, c, dpy, by))
+        return 0;
+    const float *t = s->uvs + 6 * (size_t)prim;
+    double du1 = (double)t[2] - t[0], du2 = (double)t[4] - t[0];
+    double dv1 = (double)t[3] - t[1], dv2 = (double)t[5] - t[1];
+    fp->dudx = (float)(bx[0] * du1 + bx[1] * du2);
+    fp->dvdx = (float)(bx[0] * dv1 + bx[1] * dv2);
+    fp->dudy = (float)(by[0] * du1 + by[1] * du2);
+    fp->dvdy = (float)(by[0] * dv1 + by[1] * dv2);
+    return isfinite(fp->dudx) && isfinite(fp->dvdx) && isfinite(fp->dudy) && isfinite(fp->dvdy);
+}
+
+/* Whether texture slot tex of the scene is decoded, so lookups read it. */
+static int usable(const rtk_scene *s, int tex)
+{
+    return tex >= 0 && (uint32_t)tex < s->texture_count && s->textures[tex].decoded;
+}
+
+/* Texture tex at uv with wrap; at the footprint's level of detail when
+ * fp is not NULL and the texture is filtered trilinearly. */
+static void lookup(const rtk_scene *s, int tex, rtk_tex_wrap wrap, rtk_vec2 uv, const rtk_uv_footprint *fp,
+                   float texel[4])
+{
+    const rtk_texture *t = &s->textures[tex];
+    float lod = fp && t->filter == RTK_TEX_TRILINEAR ? rtk_texture_lod(t, fp) : 0.0f;
+    rtk_texture_sample(t, wrap, uv.x, uv.y, lod, texel);
+}
+
+static int same_wrap(rtk_tex_wrap a, rtk_tex_wrap b)
+{
+    return a.s == b.s && a.t == b.t;
+}
+
+static void surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differential *diff, const rtk_hit *hit,
+                    rtk_surface *out)
 {
     if (hit->inst != RTK_INVALID_ID && hit->inst < s->instance_count) {
-        rtk_instance_surface(s, ray, hit, out);
+        rtk_instance_surface(s, ray, diff, hit, out);
         return;
     }
     rtk_vec3 a, b, c;
@@ -126,20 +230,228 @@ RTK_API void rtk_surface_at(const rtk_scene *s, const rtk_ray *ray, const rtk_hi
     out->illum = m.illum;
     if (s->textures && uvs && (s->needs & RTK_NEED_TEXTURES)) {
         float texel[4];
-        if (m.base_tex >= 0 && (uint32_t)m.base_tex < s->texture_count && s->textures[m.base_tex].decoded) {
-            rtk_texture_lookup(&s->textures[m.base_tex], out->uv.x, out->uv.y, texel);
+        rtk_uv_footprint footprint;
+        const rtk_uv_footprint *fp = NULL;
+        const int slots[3] = {m.base_tex, m.alpha_tex, m.emission_tex};
+        int mip = 0;
+        for (int k = 0; k < 3; k++)
+            mip |= usable(s, slots[k]) && s->textures[slots[k]].filter == RTK_TEX_TRILINEAR;
+        if (diff && mip && uv_footprint(s, hit->prim, a, b, c, out->p, ng, diff, &footprint))
+            fp = &footprint;
+        int alpha_done = 0;
+        if (usable(s, m.base_tex)) {
+            lookup(s, m.base_tex, m.base_wrap, out->uv, fp, texel);
             out->base_color = rtk_rgb_mul(out->base_color, rtk_rgb_make(texel[0], texel[1], texel[2]));
-            if (m.alpha_tex == m.base_tex)
+            if (m.alpha_tex == m.base_tex && same_wrap(m.alpha_wrap, m.base_wrap)) {
                 out->alpha *= texel[3];
+                alpha_done = 1;
+            }
         }
-        if (m.alpha_tex >= 0 && m.alpha_tex != m.base_tex && (uint32_t)m.alpha_tex < s->texture_count &&
-            s->textures[m.alpha_tex].decoded) {
-            rtk_texture_lookup(&s->textures[m.alpha_tex], out->uv.x, out->uv.y, texel);
-            out->alpha *= rtk_texture_coverage(&s->textures[m.alpha_tex], texel);
+        if (!alpha_done && usable(s, m.alpha_tex)) {
+            lookup(s, m.alpha_tex, m.alpha_wrap, out->uv, fp, texel);
+            out->alpha *= m.alpha_tex == m.base_tex ? texel[3] : rtk_texture_coverage(&s->textures[m.alpha_tex], texel);
         }
-        if (m.emission_tex >= 0 && (uint32_t)m.emission_tex < s->texture_count && s->textures[m.emission_tex].decoded) {
-            rtk_texture_lookup(&s->textures[m.emission_tex], out->uv.x, out->uv.y, texel);
+        if (usable(s, m.emission_tex)) {
+            lookup(s, m.emission_tex, m.emission_wrap, out->uv, fp, texel);
             out->emission = rtk_rgb_mul(out->emission, rtk_rgb_make(texel[0], texel[1], texel[2]));
         }
+        /* The normal map bends the normal on the authored side (so a
+         * two-sided leaf seen from behind shows the mirror of its front),
+         * which then turns to the ray's side; a bent normal that would
+         * face away from the ray is not used. */
+        rtk_vec3 n = out->front_face ? out->ns : rtk_vec3_neg(out->ns);
+        if (rtk_apply_normal_map(s, &m, hit->prim, out->uv, &n)) {
+            if (!out->front_face)
+                n = rtk_vec3_neg(n);
+            if (rtk_vec3_dot(n, out->ng) > 0.0f)
+                out->ns = n;
+        }
     }
+}
+
+RTK_API void rtk_surface_at(const rtk_scene *s, const rtk_ray *ray, const rtk_hit *hit, rtk_surface *out)
+{
+    surface(s, ray, NULL, hit, out);
+}
+
+RTK_API void rtk_surface_at_footprint(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differential *diff,
+                                      const rtk_hit *hit, rtk_surface *out)
+{
+    surface(s, ray, diff, hit, out);
+}
+
+/* dn/dx and dn/dy (world space) of the shading normal of sf, the surface
+ * at hit, for a point moving by dpdx and dpdy: the corner normals'
+ * barycentric blend changes with the point (pbrt-v3 ignores the change of
+ * the normalisation too). Zero without per-vertex normals. */
+static void normal_change(const rtk_scene *scene, const rtk_hit *hit, const rtk_surface *sf, const double dpdx[3],
+                          const double dpdy[3], double dndx[3], double dndy[3])
+{
+    for (int k = 0; k < 3; k++)
+        dndx[k] = dndy[k] = 0.0;
+    const rtk_scene *s = scene;
+    const rtk_instance *in = NULL;
+    if (hit->inst != RTK_INVALID_ID && hit->inst < scene->instance_count) {
+        in = &scene->instances[hit->inst];
+        s = scene->meshes[in->mesh];
+    }
+    if (!s->normals || hit->prim >= s->triangle_count)
+        return;
+    double dx[3], dy[3];
+    for (int r = 0; r < 3; r++) {
+        /* Object space: the linear part of to_object. */
+        dx[r] = in ? in->to_object[4 * r] * dpdx[0] + in->to_object[4 * r + 1] * dpdx[1] +
+                         in->to_object[4 * r + 2] * dpdx[2]
+                   : dpdx[r];
+        dy[r] = in ? in->to_object[4 * r] * dpdy[0] + in->to_object[4 * r + 1] * dpdy[1] +
+                         in->to_object[4 * r + 2] * dpdy[2]
+                   : dpdy[r];
+    }
+    rtk_vec3 a, b, c;
+    rtk_scene_triangle(s, hit->prim, &a, &b, &c);
+    double bx[2], by[2];
+    if (!bary_change(a, b, c, dx, bx) || !bary_change(a, b, c, dy, by))
+        return;
+    const float *n = s->normals + 9 * (size_t)hit->prim;
+    double w = 1.0 - (double)hit->u - (double)hit->v;
+    double nx[3], ny[3], n0[3];
+    for (int k = 0; k < 3; k++) {
+        double e1 = (double)n[3 + k] - n[k], e2 = (double)n[6 + k] - n[k];
+        nx[k] = bx[0] * e1 + bx[1] * e2;
+        ny[k] = by[0] * e1 + by[1] * e2;
+        n0[k] = w * n[k] + hit->u * (double)n[3 + k] + hit->v * (double)n[6 + k];
+    }
+    /* To world space as rtk_instance_surface maps normals: the inverse
+     * transpose, then divided by the length it gives the normal. */
+    double wn[3], wx[3], wy[3];
+    for (int k = 0; k < 3; k++) {
+        const double *m = in ? in->to_object : NULL;
+        wn[k] = m ? m[k] * n0[0] + m[4 + k] * n0[1] + m[8 + k] * n0[2] : n0[k];
+        wx[k] = m ? m[k] * nx[0] + m[4 + k] * nx[1] + m[8 + k] * nx[2] : nx[k];
+        wy[k] = m ? m[k] * ny[0] + m[4 + k] * ny[1] + m[8 + k] * ny[2] : ny[k];
+    }
+    double len = sqrt(dot3d(wn, wn));
+    if (!(len > 0.0))
+        return;
+    double ns[3];
+    to3d(sf->ns, ns);
+    double scale = (dot3d(wn, ns) < 0.0 ? -1.0 : 1.0) / len;
+    for (int k = 0; k < 3; k++) {
+        dndx[k] = wx[k] * scale;
+        dndy[k] = wy[k] * scale;
+    }
+    if (!finite3d(dndx) || !finite3d(dndy))
+        for (int k = 0; k < 3; k++)
+            dndx[k] = dndy[k] = 0.0;
+}
+
+/* What both specular propagations share: the hit, where the differential
+ * rays meet its tangent plane, wo, the incoming directions' change dwo/dx,
+ * dwo/dy, and the normal's change. */
+typedef struct specular_diff {
+    rtk_vec3 p, ng;
+    double dpdx[3], dpdy[3];
+    double wo[3], dwodx[3], dwody[3];
+    double dndx[3], dndy[3];
+} specular_diff;
+
+static void unit3d(rtk_vec3 v, double out[3])
+{
+    to3d(v, out);
+    double len = sqrt(dot3d(out, out));
+    for (int k = 0; k < 3; k++)
+        out[k] = len > 0.0 ? out[k] / len : 0.0;
+}
+
+static int specular_setup(const rtk_scene *scene, const rtk_ray *ray, const rtk_ray_differential *diff,
+                          const rtk_hit *hit, const rtk_surface *sf, specular_diff *sd)
+{
+    if (!plane_offset(sf->p, sf->ng, diff->rx_org, diff->rx_dir, sd->dpdx) ||
+        !plane_offset(sf->p, sf->ng, diff->ry_org, diff->ry_dir, sd->dpdy))
+        return 0;
+    sd->p = sf->p;
+    sd->ng = sf->ng;
+    double d[3], dx[3], dy[3];
+    unit3d(ray->dir, d);
+    unit3d(diff->rx_dir, dx);
+    unit3d(diff->ry_dir, dy);
+    for (int k = 0; k < 3; k++) {
+        sd->wo[k] = -d[k];
+        sd->dwodx[k] = -dx[k] - sd->wo[k];
+        sd->dwody[k] = -dy[k] - sd->wo[k];
+    }
+    normal_change(scene, hit, sf, sd->dpdx, sd->dpdy, sd->dndx, sd->dndy);
+    return 1;
+}
+
+/* The new differentials: origins the tangent-plane offsets from the origin
+ * the new ray gets (rtk_offset_ray_origin on wi's side, as integrators
+ * spawn it), so that the offset, up to 2^-16 near the origin, does not
+ * count as footprint. */
+static int specular_finish(const specular_diff *sd, const double wi[3], const double dirx[3], const double diry[3],
+                           rtk_ray_differential *out)
+{
+    double n[3], o[3], ox[3], oy[3];
+    to3d(sd->ng, n);
+    to3d(rtk_offset_ray_origin(sd->p, dot3d(wi, n) >= 0.0 ? sd->ng : rtk_vec3_neg(sd->ng)), o);
+    for (int k = 0; k < 3; k++) {
+        ox[k] = o[k] + sd->dpdx[k];
+        oy[k] = o[k] + sd->dpdy[k];
+    }
+    if (!finite3d(ox) || !finite3d(oy) || !finite3d(dirx) || !finite3d(diry))
+        return 0;
+    out->rx_org = rtk_vec3_make((float)ox[0], (float)ox[1], (float)ox[2]);
+    out->ry_org = rtk_vec3_make((float)oy[0], (float)oy[1], (float)oy[2]);
+    out->rx_dir = rtk_vec3_make((float)dirx[0], (float)dirx[1], (float)dirx[2]);
+    out->ry_dir = rtk_vec3_make((float)diry[0], (float)diry[1], (float)diry[2]);
+    return 1;
+}
+
+RTK_API int rtk_differential_reflect(const rtk_scene *scene, const rtk_ray *ray, const rtk_ray_differential *diff,
+                                     const rtk_hit *hit, const rtk_surface *s, rtk_vec3 wi,
+                                     rtk_ray_differential *out)
+{
+    specular_diff sd;
+    if (!diff || !specular_setup(scene, ray, diff, hit, s, &sd))
+        return 0;
+    double ns[3], w[3], dirx[3], diry[3];
+    to3d(s->ns, ns);
+    unit3d(wi, w);
+    double dn = dot3d(sd.wo, ns);
+    double ddnx = dot3d(sd.dwodx, ns) + dot3d(sd.wo, sd.dndx);
+    double ddny = dot3d(sd.dwody, ns) + dot3d(sd.wo, sd.dndy);
+    for (int k = 0; k < 3; k++) {
+        dirx[k] = w[k] - sd.dwodx[k] + 2.0 * (dn * sd.dndx[k] + ddnx * ns[k]);
+        diry[k] = w[k] - sd.dwody[k] + 2.0 * (dn * sd.dndy[k] + ddny * ns[k]);
+    }
+    return specular_finish(&sd, w, dirx, diry, out);
+}
+
+RTK_API int rtk_differential_refract(const rtk_scene *scene, const rtk_ray *ray, const rtk_ray_differential *diff,
+                                     const rtk_hit *hit, const rtk_surface *s, rtk_vec3 wi, float eta,
+                                     rtk_ray_differential *out)
+{
+    specular_diff sd;
+    if (!diff || !(eta > 0.0f) || !specular_setup(scene, ray, diff, hit, s, &sd))
+        return 0;
+    double ns[3], w[3], dirx[3], diry[3];
+    to3d(s->ns, ns);
+    unit3d(wi, w);
+    /* The normal on wo's side, as the refraction formula has it. */
+    if (dot3d(sd.wo, ns) < 0.0)
+        for (int k = 0; k < 3; k++)
+            ns[k] = -ns[k], sd.dndx[k] = -sd.dndx[k], sd.dndy[k] = -sd.dndy[k];
+    double e = eta, dn = dot3d(sd.wo, ns), cos_t = fabs(dot3d(w, ns));
+    if (!(cos_t > 0.0))
+        return 0;
+    /* wi = -eta wo + mu n with mu = eta (wo.n) - cos_t, differentiated. */
+    double mu = e * dn - cos_t;
+    double ddnx = dot3d(sd.dwodx, ns) + dot3d(sd.wo, sd.dndx);
+    double ddny = dot3d(sd.dwody, ns) + dot3d(sd.wo, sd.dndy);
+    double k_mu = e - e * e * dn / cos_t;
+    for (int k = 0; k < 3; k++) {
+        dirx[k] = w[k] - e * sd.dwodx[k] + mu * sd.dndx[k] + k_mu * ddnx * ns[k];
+        diry[k] = w[k] - e * sd.dwody[k] + mu * sd.dndy[k] + k_mu * ddny * ns[k];
+    }
+    return specular_finish(&sd, w, dirx, diry, out);
 }

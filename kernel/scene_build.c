@@ -419,8 +419,11 @@ static rtk_status decode_textures(rtk_scene *scene)
         const int tex[4] = {mat->base_tex, mat->alpha_tex, mat->normal_tex, mat->emission_tex};
         for (int k = 0; k < 4; k++) {
             if (tex[k] >= 0 && (uint32_t)tex[k] < scene->texture_count &&
-                (keeps_textures(scene) || (cutout && k == 1)))
+                (keeps_textures(scene) || (cutout && k == 1))) {
                 rtk_texture_decode(&scene->textures[tex[k]]);
+                if (k == 2)
+                    rtk_normal_map_usable(&scene->textures[tex[k]]);
+            }
         }
     }
     free(used);

@@ -10,9 +10,13 @@
 RTK_EXTERN_C_BEGIN
 
 /* 3.0: rtk_hit and rtk_light_sample carry the instance hit, and
- * rtk_scene_light_pdf takes the hit (two-level instancing). */
+ * rtk_scene_light_pdf takes the hit (two-level instancing).
+ * 3.1: ray differentials and texture footprints (rtk_ray_differential,
+ * rtk_ctx_camera_differential, rtk_surface_at_footprint,
+ * rtk_differential_reflect, rtk_differential_refract); rtk_plugin.conform
+ * (the exact-test profile of an integrator). */
 #define RTK_ABI_MAJOR 3
-#define RTK_ABI_MINOR 0
+#define RTK_ABI_MINOR 1
 
 /* Name of the one symbol a plugin exports. */
 #define RTK_PLUGIN_ENTRY_NAME "rtk_plugin_entry"
@@ -35,6 +39,12 @@ typedef struct rtk_plugin {
     const rtk_param_desc *params; /* parameter schema */
     uint32_t param_count;
     const void *functions;        /* the kind's function table */
+    /* 3.1: integrators: the exact-test profile rtk conform runs, "ao",
+     * "arealight", "whitted", "headlight", or NULL for the generic checks
+     * only; a profile fixes the parameter names it sets (ao: rays, distance;
+     * arealight: light_samples, mis; whitted: max_depth; headlight: ambient)
+     * and leaves the others at their defaults. */
+    const char *conform;
 } rtk_plugin;
 
 /* Signature of the entry point. */

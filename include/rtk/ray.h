@@ -29,6 +29,15 @@ typedef struct rtk_hit {
     uint32_t inst;
 } rtk_hit;
 
+/* A ray's differentials (Igehy 1999; pbrt's RayDifferential): the rays
+ * through the film positions one pixel to the right (rx) and one pixel
+ * down (ry) of the ray's own, carried along specular bounces. They give a
+ * hit its footprint, which picks the texture level of detail. */
+typedef struct rtk_ray_differential {
+    rtk_vec3 rx_org, rx_dir;
+    rtk_vec3 ry_org, ry_dir;
+} rtk_ray_differential;
+
 /* Watertight ray/triangle test (Woop, Benthin, Wald 2013): no cracks on
  * shared edges, no scale-dependent epsilon. Returns 1 and fills t, u, v
  * when the ray hits triangle (a, b, c) with tmin <= t <= tmax. [any thread] */

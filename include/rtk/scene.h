@@ -49,6 +49,39 @@ RTK_API const rtk_scene *rtk_ctx_scene(const rtk_ctx *ctx);
 RTK_API void rtk_surface_at(const rtk_scene *scene, const rtk_ray *ray, const rtk_hit *hit,
                             rtk_surface *out);
 
+/* rtk_surface_at with the pixel's footprint: diff holds the differentials
+ * of ray (rtk_ctx_camera_differential for the camera ray,
+ * rtk_differential_reflect or _refract after a specular bounce). With the
+ * config's textures.filter = "trilinear", textures are read at the level
+ * of detail log2 of the footprint's larger side in texels; otherwise, and
+ * with diff NULL, it is rtk_surface_at. [any thread] (ABI 3.1) */
+RTK_API void rtk_surface_at_footprint(const rtk_scene *scene, const rtk_ray *ray, const rtk_ray_differential *diff,
+                                      const rtk_hit *hit, rtk_surface *out);
+
+/* The differentials of the current sample's camera ray, the ray rtk_render
+ * passed to li: the camera's rays through the film positions one pixel
+ * right and one pixel down. Returns 0 when the context has no camera
+ * (li called by a test or the conformance runner). [ctx's thread] (ABI 3.1) */
+RTK_API int rtk_ctx_camera_differential(const rtk_ctx *ctx, rtk_ray_differential *out);
+
+/* Differentials of the ray that leaves surface s (filled by
+ * rtk_surface_at_footprint for ray, diff, hit) in the mirror direction wi
+ * about s->ns, from rtk_offset_ray_origin(s->p, s->ng): origins that
+ * origin moved as far as diff's rays meet the tangent plane from s->p,
+ * directions mirrored about the normal as it changes across the footprint
+ * (pbrt-v3 section 10.1.3). Returns 0, out untouched, when diff's rays miss
+ * the tangent plane. [any thread] (ABI 3.1) */
+RTK_API int rtk_differential_reflect(const rtk_scene *scene, const rtk_ray *ray, const rtk_ray_differential *diff,
+                                     const rtk_hit *hit, const rtk_surface *s, rtk_vec3 wi,
+                                     rtk_ray_differential *out);
+
+/* The same for the ray refracted through s into wi (its origin offset
+ * along -s->ng), eta being the index of refraction on the ray's side over
+ * the index on wi's side. [any thread] (ABI 3.1) */
+RTK_API int rtk_differential_refract(const rtk_scene *scene, const rtk_ray *ray, const rtk_ray_differential *diff,
+                                     const rtk_hit *hit, const rtk_surface *s, rtk_vec3 wi, float eta,
+                                     rtk_ray_differential *out);
+
 /* Bounds of all geometry (empty bounds for an empty scene). [any thread] */
 RTK_API rtk_bounds rtk_scene_bounds(const rtk_scene *scene);
 

@@ -357,7 +357,8 @@ class Loader {
 
     rtk_status check_extensions();
     rtk_status add_materials();
-    rtk_status add_texture(size_t material, const char *slot, int index, int srgb, int *out);
+    rtk_status add_texture(size_t material, const char *slot, int index, int srgb, int *out, rtk_tex_wrap *wrap);
+    rtk_tex_wrap sampler_wrap(size_t material, const char *slot, const tinygltf::Texture &tex);
     rtk_status visit(int index, const Mat4 &parent, int depth);
     rtk_status local_matrix(int index, Mat4 *out);
     void take_camera(int index, const Mat4 &world);
@@ -445,7 +446,35 @@ rtk_status Loader::check_extensions()
     return RTK_OK;
 }
 
-rtk_status Loader::add_texture(size_t material, const char *slot, int index, int srgb, int *out)
+/* One axis of a glTF sampler: 10497 REPEAT (the default), 33071
+ * CLAMP_TO_EDGE, 33648 MIRRORED_REPEAT. */
+static uint8_t wrap_mode(int gl)
+{
+    if (gl == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE)
+        return RTK_WRAP_CLAMP;
+    if (gl == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT)
+        return RTK_WRAP_MIRROR;
+    return RTK_WRAP_REPEAT;
+}
+
+/* The wrap modes of tex's sampler; repeat without one. */
+rtk_tex_wrap Loader::sampler_wrap(size_t material, const char *slot, const tinygltf::Texture &tex)
+{
+    rtk_tex_wrap wrap = {RTK_WRAP_REPEAT, RTK_WRAP_REPEAT};
+    if (tex.sampler < 0)
+        return wrap;
+    if (size_t(tex.sampler) >= model_.samplers.size()) {
+        rtk_log(RTK_LOG_WARN, "%s: %s %s: sampler %d does not exist; repeat wrapping", path_,
+                label("material", material, model_.materials[material].name).c_str(), slot, tex.sampler);
+        return wrap;
+    }
+    const tinygltf::Sampler &sm = model_.samplers[size_t(tex.sampler)];
+    wrap.s = wrap_mode(sm.wrapS);
+    wrap.t = wrap_mode(sm.wrapT);
+    return wrap;
+}
+
+rtk_status Loader::add_texture(size_t material, const char *slot, int index, int srgb, int *out, rtk_tex_wrap *wrap)
 {
     *out = -1;
     if (index < 0)
@@ -457,6 +486,8 @@ rtk_status Loader::add_texture(size_t material, const char *slot, int index, int
         return RTK_OK;
     }
     const tinygltf::Texture &tex = model_.textures[size_t(index)];
+    /* Per use: the image is one texture whatever sampler reads it. */
+    *wrap = sampler_wrap(material, slot, tex);
     int source = tex.source;
     /* Image-format extensions (EXT_texture_webp ...) name their own source. */
     for (const auto &ext : tex.extensions) {
@@ -559,12 +590,17 @@ rtk_status Loader::add_materials()
             other_uv_sets_ = true;
         }
         rtk_status status;
-        if ((status = add_texture(i, "baseColorTexture", pbr.baseColorTexture.index, 1, &m.base_tex)) != RTK_OK ||
-            (status = add_texture(i, "emissiveTexture", src.emissiveTexture.index, 1, &m.emission_tex)) != RTK_OK ||
-            (status = add_texture(i, "normalTexture", src.normalTexture.index, 0, &m.normal_tex)) != RTK_OK)
+        if ((status = add_texture(i, "baseColorTexture", pbr.baseColorTexture.index, 1, &m.base_tex, &m.base_wrap)) !=
+                RTK_OK ||
+            (status = add_texture(i, "emissiveTexture", src.emissiveTexture.index, 1, &m.emission_tex,
+                                  &m.emission_wrap)) != RTK_OK ||
+            (status = add_texture(i, "normalTexture", src.normalTexture.index, 0, &m.normal_tex, &m.normal_wrap)) !=
+                RTK_OK)
             return status;
-        if (m.alpha_mode != RTK_ALPHA_OPAQUE)
+        if (m.alpha_mode != RTK_ALPHA_OPAQUE) {
             m.alpha_tex = m.base_tex;
+            m.alpha_wrap = m.base_wrap;
+        }
         if ((status = rtk_scene_add_material(scene_, &m, &materials_[i])) != RTK_OK)
             return status;
     }

@@ -245,11 +245,15 @@ int64_t Reader::resolve(int raw, size_t count, bool optional, const char *what, 
     return i;
 }
 
-rtk_status add_texture(rtk_scene *scene, const std::string &name, const std::string &dir, int srgb, int *index)
+/* Adds map `name` of a material; its -clamp option sets the slot's wrap
+ * (on: clamp to the edge on both axes, off: repeat). */
+rtk_status add_texture(rtk_scene *scene, const std::string &name, const tinyobj::texture_option_t &option,
+                       const std::string &dir, int srgb, int *index, rtk_tex_wrap *wrap)
 {
     *index = -1;
     if (name.empty())
         return RTK_OK;
+    wrap->s = wrap->t = option.clamp ? RTK_WRAP_CLAMP : RTK_WRAP_REPEAT;
     std::string file = name;
     for (char &c : file) {
         if (c == '\\')
@@ -277,11 +281,16 @@ rtk_status add_material(rtk_scene *scene, const tinyobj::material_t &src, const 
     m.alpha = clean(src.dissolve, 1.0f);
     m.illum = src.illum;
     rtk_status status;
-    if ((status = add_texture(scene, src.diffuse_texname, info.dir, 1, &m.base_tex)) != RTK_OK ||
-        (status = add_texture(scene, src.alpha_texname, info.dir, 0, &m.alpha_tex)) != RTK_OK ||
-        (status = add_texture(scene, src.emissive_texname, info.dir, 1, &m.emission_tex)) != RTK_OK ||
-        (status = add_texture(scene, src.normal_texname.empty() ? src.bump_texname : src.normal_texname, info.dir,
-                              0, &m.normal_tex)) != RTK_OK)
+    const bool normal = !src.normal_texname.empty();
+    if ((status = add_texture(scene, src.diffuse_texname, src.diffuse_texopt, info.dir, 1, &m.base_tex,
+                              &m.base_wrap)) != RTK_OK ||
+        (status = add_texture(scene, src.alpha_texname, src.alpha_texopt, info.dir, 0, &m.alpha_tex, &m.alpha_wrap)) !=
+            RTK_OK ||
+        (status = add_texture(scene, src.emissive_texname, src.emissive_texopt, info.dir, 1, &m.emission_tex,
+                              &m.emission_wrap)) != RTK_OK ||
+        (status = add_texture(scene, normal ? src.normal_texname : src.bump_texname,
+                              normal ? src.normal_texopt : src.bump_texopt, info.dir, 0, &m.normal_tex,
+                              &m.normal_wrap)) != RTK_OK)
         return status;
     /* A map_d cuts out (foliage, fences); a constant d < 1 is translucency. */
     if (m.alpha < 1.0f)

@@ -54,8 +54,11 @@ static void ao_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_re
     rtk_hit hit;
     if (!rtk_trace(ctx, ray, &hit))
         return;
+    /* Textures only matter with albedo: then the pixel footprint picks their detail. */
+    rtk_ray_differential diff;
+    int has_diff = a->albedo && rtk_ctx_camera_differential(ctx, &diff);
     rtk_surface s;
-    rtk_surface_at(rtk_ctx_scene(ctx), ray, &hit, &s);
+    rtk_surface_at_footprint(rtk_ctx_scene(ctx), ray, has_diff ? &diff : NULL, &hit, &s);
     rtk_vec3 b1, b2;
     basis(s.ns, &b1, &b2);
     rtk_ray r;
@@ -114,6 +117,7 @@ static const rtk_plugin ao_plugin = {
     .params = ao_params,
     .param_count = RTK_COUNTOF(ao_params),
     .functions = &ao_fns,
+    .conform = "ao",
 };
 
 RTK_PLUGIN_ENTRY(ao_plugin)

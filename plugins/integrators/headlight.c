@@ -37,8 +37,11 @@ static void headlight_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rt
     rtk_hit hit;
     if (!rtk_trace(ctx, ray, &hit))
         return;
+    /* The camera ray's pixel footprint picks the texture detail. */
+    rtk_ray_differential diff;
+    int has_diff = rtk_ctx_camera_differential(ctx, &diff);
     rtk_surface s;
-    rtk_surface_at(rtk_ctx_scene(ctx), ray, &hit, &s);
+    rtk_surface_at_footprint(rtk_ctx_scene(ctx), ray, has_diff ? &diff : NULL, &hit, &s);
     rtk_vec3 d = rtk_vec3_normalize(ray->dir);
     float c = fabsf(rtk_vec3_dot(s.ns, d));
     float k = h->ambient + (1.0f - h->ambient) * c;
@@ -75,6 +78,7 @@ static const rtk_plugin headlight_plugin = {
     .params = headlight_params,
     .param_count = RTK_COUNTOF(headlight_params),
     .functions = &headlight_fns,
+    .conform = "headlight",
 };
 
 RTK_PLUGIN_ENTRY(headlight_plugin)

@@ -8,6 +8,9 @@
  * metallic 1 with roughness 0 is a mirror of reflectance baseColor. The
  * GGX lobe uses F0 = Ks + metallic (baseColor - Ks) and roughness
  * sqrt(2 / (Ns + 2)) for MTL (illum >= 0) or the glTF roughness.
+ * The camera ray's differentials follow every mirror and refraction
+ * bounce (pbrt-v3's specular differentials), so textures seen in a
+ * mirror or through glass are filtered as if seen directly.
  *
  * Parameters:
  *   max_depth  int [0, 64]    5      mirror and refraction bounces
@@ -141,14 +144,18 @@ static rtk_rgb direct(rtk_ctx *ctx, const rtk_surface *s, rtk_vec3 wo)
     return sum;
 }
 
-static rtk_rgb trace(const whitted *w, rtk_ctx *ctx, const rtk_ray *ray, int depth, float weight, rtk_li_result *aov)
+/* Radiance along ray; diff: its differentials, or NULL. */
+static rtk_rgb trace(const whitted *w, rtk_ctx *ctx, const rtk_ray *ray, const rtk_ray_differential *diff, int depth,
+                     float weight, rtk_li_result *aov)
 {
     rtk_rgb black = rtk_rgb_make(0, 0, 0);
     rtk_hit hit;
     if (weight < 1e-4f || !rtk_trace(ctx, ray, &hit))
         return black;
+    const rtk_scene *scene = rtk_ctx_scene(ctx);
     rtk_surface s;
-    rtk_surface_at(rtk_ctx_scene(ctx), ray, &hit, &s);
+    rtk_surface_at_footprint(scene, ray, diff, &hit, &s);
+    rtk_ray_differential next;
     if (aov) {
         aov->albedo = s.base_color;
         aov->normal = s.ns;
@@ -162,8 +169,9 @@ static rtk_rgb trace(const whitted *w, rtk_ctx *ctx, const rtk_ray *ray, int dep
         if (depth < w->max_depth) {
             rtk_rgb R = s.illum >= 0 ? s.specular : s.base_color;
             rtk_ray r = {rtk_offset_ray_origin(s.p, s.ng), 0.0f, reflect(wo, s.ns), INFINITY};
+            int has = diff && rtk_differential_reflect(scene, ray, diff, &hit, &s, r.dir, &next);
             float m = fmaxf(R.r, fmaxf(R.g, R.b));
-            L = rtk_rgb_add(L, rtk_rgb_mul(R, trace(w, ctx, &r, depth + 1, weight * m, NULL)));
+            L = rtk_rgb_add(L, rtk_rgb_mul(R, trace(w, ctx, &r, has ? &next : NULL, depth + 1, weight * m, NULL)));
         }
         return L;
     }
@@ -179,14 +187,16 @@ static rtk_rgb trace(const whitted *w, rtk_ctx *ctx, const rtk_ray *ray, int dep
         float cos_i = fminf(1.0f, fmaxf(0.0f, rtk_vec3_dot(wo, s.ns)));
         float F = fresnel_dielectric(cos_i, eta_i, eta_t);
         rtk_ray r = {rtk_offset_ray_origin(s.p, s.ng), 0.0f, reflect(wo, s.ns), INFINITY};
-        through = rtk_rgb_scale(trace(w, ctx, &r, depth + 1, weight * t * F, NULL), F);
+        int has = diff && rtk_differential_reflect(scene, ray, diff, &hit, &s, r.dir, &next);
+        through = rtk_rgb_scale(trace(w, ctx, &r, has ? &next : NULL, depth + 1, weight * t * F, NULL), F);
         if (F < 1.0f) {
             float eta = eta_i / eta_t;
             float cos_t = sqrtf(fmaxf(0.0f, 1.0f - eta * eta * (1.0f - cos_i * cos_i)));
             rtk_vec3 dir = rtk_vec3_add(rtk_vec3_scale(wo, -eta), rtk_vec3_scale(s.ns, eta * cos_i - cos_t));
             rtk_ray tr = {rtk_offset_ray_origin(s.p, rtk_vec3_neg(s.ng)), 0.0f, dir, INFINITY};
-            through = rtk_rgb_add(through, rtk_rgb_scale(trace(w, ctx, &tr, depth + 1, weight * t * (1.0f - F), NULL),
-                                                         1.0f - F));
+            has = diff && rtk_differential_refract(scene, ray, diff, &hit, &s, dir, eta, &next);
+            rtk_rgb Lt = trace(w, ctx, &tr, has ? &next : NULL, depth + 1, weight * t * (1.0f - F), NULL);
+            through = rtk_rgb_add(through, rtk_rgb_scale(Lt, 1.0f - F));
         }
     }
     return rtk_rgb_add(L, rtk_rgb_add(rtk_rgb_scale(through, t), rtk_rgb_scale(surface, 1.0f - t)));
@@ -194,7 +204,9 @@ static rtk_rgb trace(const whitted *w, rtk_ctx *ctx, const rtk_ray *ray, int dep
 
 static void whitted_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
 {
-    out->radiance = trace(state, ctx, ray, 0, 1.0f, out);
+    rtk_ray_differential diff;
+    int has_diff = rtk_ctx_camera_differential(ctx, &diff);
+    out->radiance = trace(state, ctx, ray, has_diff ? &diff : NULL, 0, 1.0f, out);
 }
 
 static void whitted_destroy(void *state)
@@ -227,6 +239,7 @@ static const rtk_plugin whitted_plugin = {
     .params = whitted_params,
     .param_count = RTK_COUNTOF(whitted_params),
     .functions = &whitted_fns,
+    .conform = "whitted",
 };
 
 RTK_PLUGIN_ENTRY(whitted_plugin)
