@@ -1,4 +1,4 @@
-/* rtk: the command-line front end. render, plugins, conform, bench, diff. */
+/* rtk: the command-line front end. render, plugins, conform, bench, diff, sweep. */
 #include <rtk/host.h>
 
 #include <math.h>
@@ -17,6 +17,9 @@ static const char usage_text[] =
     "       rtk diff A B [options]        compare image A with the reference B (any format\n"
     "                                     OpenImageIO reads): RMSE, MSE, relMSE, MAPE, SMAPE,\n"
     "                                     PSNR and mean error A - B per channel and overall\n"
+    "       rtk sweep CONFIG [options]    speed against error: render every combination of the\n"
+    "                                     axes at each spp and seed, compare with a reference,\n"
+    "                                     write CSV, table and plot (see sweep options)\n"
     "\n"
     "render options:\n"
     "  --set KEY=VALUE          override a config setting, e.g. --set integrator.rays=64\n"
@@ -43,6 +46,34 @@ static const char usage_text[] =
     "  PSNR takes 1.0 as the peak. NaN/Inf samples are counted and left out. Exit status:\n"
     "  0 compared, 1 the error image could not be written, 2 usage or input error\n"
     "  (a file missing or unreadable, the sizes differ)\n"
+    "sweep options (each LIST is comma-separated; every value is applied as --set KEY=VALUE):\n"
+    "  --samplers LIST          sampler.type values, e.g. independent,stratified,sobol\n"
+    "  --filters LIST           filter.plugin values, e.g. box,gaussian,mitchell\n"
+    "  --accelerators LIST      accelerator.plugin values, e.g. sah,lbvh\n"
+    "  --param KEY=LIST         any setting, e.g. integrator.rays=1,4 (may repeat)\n"
+    "                           combinations: every tuple, in the order the axes are given\n"
+    "  --spp LIST               increasing samples per pixel (default 1,2,4,8,16,32,64)\n"
+    "  --seeds K                runs per combination and spp, seeds 1..K (default 4)\n"
+    "  --threads N              render threads (default: the config's)\n"
+    "  --target-relmse E        error target of the time-to-error column (default 1e-3)\n"
+    "  --out DIR                sweep.csv, sweep.txt, sweep.dat, sweep.gp, sweep.png and the\n"
+    "                           cached reference go here (default ./sweep)\n"
+    "  --reference FILE         compare with this image instead of rendering a reference\n"
+    "  --reference-spp N        the rendered reference's spp (default 64 x the largest spp,\n"
+    "                           at least 4096, at most 65536); independent sampler, seed\n"
+    "                           2654435761; cached in DIR under a hash of the config text,\n"
+    "                           the overrides and the spp, and reused while it matches\n"
+    "  --reference-filter F     the reference's filter (default box); 'same': each\n"
+    "                           combination's own filter, one reference per filter\n"
+    "  --plot / --no-plot       plotting needs gnuplot: --plot fails without it; by default\n"
+    "                           a missing gnuplot leaves the script and data, exit 0\n"
+    "  --bvh-cache              use the config's BVH cache (default off: build_s is a build)\n"
+    "  --set KEY=VALUE          override a config setting in every render (may repeat)\n"
+    "  -q, --quiet              no progress bar\n"
+    "  Prints per combination the RMSE and relMSE convergence slopes (log-log least squares\n"
+    "  over the upper half of the spp values) and the render time to the target relMSE\n"
+    "  (log-log interpolation between measured points; 'not reached' past them). Exit\n"
+    "  status: 0 done, 1 a render, file or plot failed, 2 usage error\n"
     "options for every command:\n"
     "  --plugin-path DIR        also search DIR for plugins (may repeat)\n"
     "  -v, --verbose            print debug messages\n"
@@ -400,6 +431,159 @@ static int cmd_diff(int argc, char **argv)
     return 0;
 }
 
+#define SWEEP_MAX_AXES 64
+#define SWEEP_MAX_VALUES 256
+
+/* rtk sweep: args are everything after the word "sweep"; base holds the
+ * --set overrides given before it. */
+static int cmd_sweep(rtk_registry *reg, int argc, char **argv, const char *const *base, size_t base_count, int quiet,
+                     int allow)
+{
+    const char *path = NULL;
+    static rtk_sweep_axis axes[SWEEP_MAX_AXES];
+    static char *values[SWEEP_MAX_AXES][SWEEP_MAX_VALUES];
+    static char origins[SWEEP_MAX_AXES][216];
+    static uint32_t spp[SWEEP_MAX_VALUES];
+    char *spp_items[SWEEP_MAX_VALUES];
+    const char **overrides = calloc(base_count + (size_t)argc + 1, sizeof *overrides);
+    if (!overrides) {
+        fprintf(stderr, "rtk: out of memory\n");
+        return 1;
+    }
+    int status = 0;
+    rtk_sweep_options o;
+    memset(&o, 0, sizeof o);
+    o.size = sizeof o;
+    o.allow_config_plugins = allow;
+    o.axes = axes;
+    o.overrides = overrides;
+    for (size_t k = 0; k < base_count; k++)
+        overrides[o.override_count++] = base[k];
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        static const char *const valued[] = {"--samplers", "--filters", "--accelerators", "--param", "--spp",
+                                             "--seeds", "--threads", "--target-relmse", "--out", "--reference",
+                                             "--reference-spp", "--reference-filter", "--set", "--plugin-path"};
+        int takes_value = 0;
+        for (size_t k = 0; k < sizeof valued / sizeof valued[0]; k++)
+            takes_value |= strcmp(a, valued[k]) == 0;
+        if (takes_value && i + 1 >= argc) {
+            status = usage_error("%s needs a value", a);
+            goto out;
+        }
+        char *v = takes_value ? argv[++i] : NULL;
+        const char *axis_key = strcmp(a, "--samplers") == 0       ? "sampler.type"
+                               : strcmp(a, "--filters") == 0      ? "filter.plugin"
+                               : strcmp(a, "--accelerators") == 0 ? "accelerator.plugin"
+                                                                  : NULL;
+        if (strcmp(a, "-h") == 0 || strcmp(a, "--help") == 0) {
+            fputs(usage_text, stdout);
+            goto out;
+        } else if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
+            quiet = 1;
+        } else if (strcmp(a, "-v") == 0 || strcmp(a, "--verbose") == 0) {
+            rtk_log_set_level(RTK_LOG_DEBUG);
+        } else if (strcmp(a, "--allow-config-plugins") == 0) {
+            o.allow_config_plugins = 1;
+        } else if (strcmp(a, "--plugin-path") == 0) {
+            rtk_registry_add_dir(reg, v, "--plugin-path");
+        } else if (strcmp(a, "--set") == 0) {
+            overrides[o.override_count++] = v;
+        } else if (axis_key || strcmp(a, "--param") == 0) {
+            if (o.axis_count == SWEEP_MAX_AXES) {
+                status = usage_error("at most %s axes", "64");
+                goto out;
+            }
+            rtk_sweep_axis *ax = &axes[o.axis_count];
+            ax->origin = a;
+            ax->key = axis_key;
+            char *list = v;
+            if (!axis_key) {
+                char *eq = strchr(v, '=');
+                if (!eq || eq == v || !eq[1]) {
+                    status = usage_error("--param needs KEY=V1,V2,..., e.g. integrator.rays=1,4, not '%s'", v);
+                    goto out;
+                }
+                *eq = '\0';
+                ax->key = v;
+                list = eq + 1;
+                snprintf(origins[o.axis_count], sizeof origins[0], "--param %.200s", v);
+                ax->origin = origins[o.axis_count];
+            }
+            ax->value_count = split_list(list, values[o.axis_count], SWEEP_MAX_VALUES);
+            if (ax->value_count == 0) {
+                status = usage_error("%s needs at least one value", a);
+                goto out;
+            }
+            ax->values = (const char *const *)values[o.axis_count];
+            o.axis_count++;
+        } else if (strcmp(a, "--spp") == 0) {
+            o.spp_count = split_list(v, spp_items, SWEEP_MAX_VALUES);
+            for (size_t k = 0; k < o.spp_count; k++)
+                if (!parse_uint(spp_items[k], 1, 1u << 20, &spp[k])) {
+                    status = usage_error("--spp: '%s' is not a sample count in [1, 1048576]", spp_items[k]);
+                    goto out;
+                }
+            o.spp = spp;
+        } else if (strcmp(a, "--seeds") == 0) {
+            if (!parse_uint(v, 1, 100000, &o.seeds)) {
+                status = usage_error("--seeds needs a count in [1, 100000], not '%s'", v);
+                goto out;
+            }
+        } else if (strcmp(a, "--threads") == 0) {
+            if (!parse_uint(v, 1, 1024, &o.threads)) {
+                status = usage_error("--threads needs a thread count in [1, 1024], not '%s'", v);
+                goto out;
+            }
+        } else if (strcmp(a, "--reference-spp") == 0) {
+            if (!parse_uint(v, 1, 1u << 20, &o.reference_spp)) {
+                status = usage_error("--reference-spp needs a sample count in [1, 1048576], not '%s'", v);
+                goto out;
+            }
+        } else if (strcmp(a, "--target-relmse") == 0) {
+            char *end;
+            o.target_relmse = strtod(v, &end);
+            if (end == v || *end || !(o.target_relmse > 0.0) || isinf(o.target_relmse)) {
+                status = usage_error("--target-relmse needs a finite number > 0, not '%s'", v);
+                goto out;
+            }
+        } else if (strcmp(a, "--out") == 0) {
+            o.out_dir = v;
+        } else if (strcmp(a, "--reference") == 0) {
+            o.reference = v;
+        } else if (strcmp(a, "--reference-filter") == 0) {
+            o.reference_filter = v;
+        } else if (strcmp(a, "--plot") == 0) {
+            o.plot = 1;
+        } else if (strcmp(a, "--no-plot") == 0) {
+            o.plot = -1;
+        } else if (strcmp(a, "--bvh-cache") == 0) {
+            o.bvh_cache = 1;
+        } else if (a[0] == '-' && a[1] != '\0') {
+            status = usage_error("unknown sweep option '%s'", a);
+            goto out;
+        } else if (!path) {
+            path = a;
+        } else {
+            status = usage_error("unexpected argument '%s'", a);
+            goto out;
+        }
+    }
+    if (!path) {
+        status = usage_error("%s needs a config file", "sweep");
+        goto out;
+    }
+    o.progress = !quiet && isatty(STDERR_FILENO);
+    if (rtk_sweep(path, reg, &o, stdout) != RTK_OK) {
+        fflush(stdout);
+        fprintf(stderr, "rtk: error: %s\n", rtk_error_message());
+        status = 1;
+    }
+out:
+    free(overrides);
+    return status;
+}
+
 static int cmd_conform(rtk_registry *reg, const char *what)
 {
     const char *path = what;
@@ -498,6 +682,11 @@ int main(int argc, char **argv)
             }
             if (strcmp(a, "diff") == 0) {
                 status = cmd_diff(argc - i - 1, argv + i + 1);
+                goto out;
+            }
+            if (strcmp(a, "sweep") == 0) {
+                /* sweep has options of its own (lists, --threads N). */
+                status = cmd_sweep(reg, argc - i - 1, argv + i + 1, overrides, override_count, quiet, allow);
                 goto out;
             }
         } else if (!target) {

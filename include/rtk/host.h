@@ -198,6 +198,76 @@ RTK_API rtk_status rtk_diff_buffers(const float *a, const float *b, uint32_t wid
 RTK_API rtk_status rtk_diff_files(const char *test, const char *reference,
                                   const rtk_diff_options *options, rtk_diff_result *out);
 
+/* Speed against error behind `rtk sweep` (kernel/sweep.c). A sweep renders
+ * every combination of its axes at each spp and seed through rtk_render,
+ * compares each image with a reference, and writes into out_dir:
+ *   sweep.csv  one row per run          sweep.txt  the table printed to out
+ *   sweep.dat  means over seeds, per combination and spp (gnuplot data)
+ *   sweep.gp   the gnuplot script       sweep.png  its plot
+ *   reference-HASH.exr  the rendered reference, reused while HASH matches
+ * each through a temporary sibling and a rename. */
+
+/* One axis: a setting and its values, each applied as an override
+ * "key=value" (rtk render's --set) on top of the config. */
+typedef struct rtk_sweep_axis {
+    const char *key;              /* "sampler.type", "filter.plugin", "integrator.rays", ... */
+    const char *const *values;
+    size_t value_count;
+    const char *origin;           /* where it came from, for messages ("--samplers"); NULL: key */
+} rtk_sweep_axis;
+
+/* What to sweep; zero fields mean the defaults. */
+typedef struct rtk_sweep_options {
+    uint32_t size;                        /* sizeof(rtk_sweep_options) */
+    const rtk_sweep_axis *axes;           /* combinations: every tuple, the first axis varying slowest */
+    size_t axis_count;                    /* 0: the config alone */
+    const uint32_t *spp;                  /* increasing; NULL: 1, 2, 4, ..., 64 */
+    size_t spp_count;
+    uint32_t seeds;                       /* runs per combination and spp, seeds 1..N; 0: 4 */
+    uint32_t threads;                     /* 0: the config's */
+    double target_relmse;                 /* time-to-error target; 0: 1e-3 */
+    const char *out_dir;                  /* created when missing; NULL: "sweep" */
+    const char *reference;                /* image to compare with; NULL: render one (see reference_spp) */
+    uint32_t reference_spp;               /* 0: 64 x the largest spp, at least 4096, at most 65536 */
+    const char *reference_filter;         /* the reference's filter; NULL: "box"; "same": each combination's */
+    const char *const *overrides;         /* "key=value" applied before the axes, to every render */
+    size_t override_count;
+    int allow_config_plugins;             /* as in rtk_config_options */
+    int plot;                             /* 0: run gnuplot when found; 1: required (error if missing); -1: script only */
+    int bvh_cache;                        /* 1: keep the config's BVH cache; 0: cache=off, so build_s is a build */
+    int progress;                         /* progress bar on stderr (the caller checks isatty) */
+} rtk_sweep_options;
+
+/* Runs the sweep of the config at path: validates every axis value and
+ * combination first (an error names the axis and value), renders or reuses
+ * the reference (independent sampler, options->reference_filter, its own
+ * seed, reference_spp; the axes under sampler., accelerator. and, with a
+ * box reference, filter. left out), then the runs, and prints per
+ * combination the convergence slopes and the time to target_relmse to out
+ * (may be NULL). Nothing half-written is left behind on failure. */
+RTK_API rtk_status rtk_sweep(const char *path, rtk_registry *registry, const rtk_sweep_options *options,
+                             FILE *out);
+
+/* Least-squares slope of log y against log x over n >= 2 points; every x
+ * and y finite and > 0, the x not all equal. */
+RTK_API rtk_status rtk_sweep_fit_slope(const double *x, const double *y, size_t n, double *slope);
+
+/* Where a target error falls among measured points. */
+typedef enum rtk_sweep_reach {
+    RTK_SWEEP_REACHED = 0,     /* between two points: log-log interpolated */
+    RTK_SWEEP_NOT_REACHED = 1, /* every error is above the target */
+    RTK_SWEEP_AT_FIRST = 2,    /* the first point is already at or below it: its seconds, an upper bound */
+    RTK_SWEEP_NO_DATA = 3      /* n = 0, or a value not finite, or seconds <= 0, or error < 0 */
+} rtk_sweep_reach;
+
+/* Seconds to reach target (> 0) along points (seconds[i], error[i]) in run
+ * order (increasing spp): the first step from an error above target to one
+ * at or below it, interpolated linearly in log(seconds) against
+ * log(error); an error of 0 at the step's end gives that point's seconds.
+ * *out is set for REACHED and AT_FIRST. Never extrapolates. */
+RTK_API rtk_sweep_reach rtk_sweep_time_to_error(const double *seconds, const double *error, size_t n,
+                                                double target, double *out);
+
 RTK_EXTERN_C_END
 
 #endif
