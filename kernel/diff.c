@@ -260,6 +260,29 @@ RTK_API rtk_status rtk_diff_files(const char *test, const char *reference, const
     if (st == RTK_OK && (ia.width != ib.width || ia.height != ib.height))
         st = rtk_error(RTK_ERR_INVALID, "cannot compare '%s' (%dx%d) with reference '%s' (%dx%d): the sizes differ",
                        test, ia.width, ia.height, reference, ib.width, ib.height);
+    /* Grey against colour would compare a grey channel three times with
+     * three different ones: refused. Extra layers (AOVs) and a missing
+     * alpha are said, not silently skipped or invented. */
+    if (st == RTK_OK && ((ia.channels >= 3) != (ib.channels >= 3)))
+        st = rtk_error(RTK_ERR_INVALID,
+                       "cannot compare '%s' (%d channel%s, %s) with reference '%s' (%d channel%s, %s): one is grey and "
+                       "the other colour; convert one of them",
+                       test, ia.channels, ia.channels == 1 ? "" : "s", ia.channels >= 3 ? "RGB" : "grey", reference,
+                       ib.channels, ib.channels == 1 ? "" : "s", ib.channels >= 3 ? "RGB" : "grey");
+    if (st == RTK_OK) {
+        const rtk_image *im[2] = {&ia, &ib};
+        const char *names[2] = {test, reference};
+        for (int k = 0; k < 2; k++) {
+            int used = im[k]->channels >= 3 ? 3 + im[k]->has_alpha : 1 + im[k]->has_alpha;
+            if (im[k]->channels > used)
+                rtk_log(RTK_LOG_WARN, "'%s' has %d channels; rtk diff compares its %s and leaves %d more (layers such "
+                        "as AOVs) out", names[k], im[k]->channels, used >= 3 ? "RGB(A)" : "grey(A)",
+                        im[k]->channels - used);
+        }
+        if (ia.has_alpha != ib.has_alpha)
+            rtk_log(RTK_LOG_WARN, "'%s' has no alpha channel: its A is compared as 1",
+                    ia.has_alpha ? reference : test);
+    }
     if (st == RTK_OK) {
         static const char *const rgba[4] = {"R", "G", "B", "A"};
         rtk_diff_options o;

@@ -173,6 +173,8 @@ void rtk_texture_free(rtk_texture *tex);
 typedef struct rtk_image {
     int width, height;
     float *rgba; /* linear RGBA floats, row-major from the top; [caller frees with free()] */
+    int channels;  /* in the file: 1 grey, 2 grey + alpha, 3 RGB, 4 RGBA, more with extra layers */
+    int has_alpha; /* the file has an alpha channel (else A reads as 1) */
 } rtk_image;
 
 /* Decodes a file (bytes == NULL) or an in-memory encoded image through

@@ -249,6 +249,8 @@ rtk_status read_image(const char *name, const void *bytes, size_t byte_count, in
 
     out->width = spec.width;
     out->height = spec.height;
+    out->channels = spec.nchannels;
+    out->has_alpha = map.src[3] >= 0;
     out->rgba = buffer.release();
     return RTK_OK;
 }
@@ -402,6 +404,7 @@ extern "C" rtk_status rtk_image_read(const char *path, const void *bytes, size_t
     if (!out)
         return rtk_error(RTK_ERR_INVALID, "rtk_image_read: no output image given");
     out->width = out->height = 0;
+    out->channels = out->has_alpha = 0;
     out->rgba = nullptr;
     if (!path && !bytes)
         return rtk_error(RTK_ERR_INVALID, "rtk_image_read: neither a file nor image data given");

@@ -333,6 +333,9 @@ static int write_fixtures(const char *dir)
         if (!write_test_image(path, files[k].w, files[k].h, 3, files[k].f))
             return 0;
     }
+    snprintf(path, sizeof path, "%s/grey.exr", dir);
+    if (!write_test_image(path, 4, 2, 1, ref_pixel))
+        return 0;
     snprintf(path, sizeof path, "%s/zero.exr", dir);
     return write_test_image(path, 4, 2, 4, zero_pixel);
 }

@@ -97,6 +97,10 @@ expect "a PNG against itself" 0 "$(line mse 'R 0 G 0 B 0 A 0 overall 0')" -- "$r
 
 expect "sizes differ: exit 2 naming both files and sizes" 2 "test.exr" "(4x2)" "small.exr" "(2x2)" "sizes differ" \
     -- "$rtk" diff test.exr small.exr
+expect "grey against colour: exit 2 naming both files and their channels" 2 "grey.exr" "(1 channel, grey)" \
+    "ref.exr" "(3 channels, RGB)" "convert one of them" -- "$rtk" diff grey.exr ref.exr
+expect "alpha on one side only is said, compared as 1" 0 "'ref.exr' has no alpha channel: its A is compared as 1" \
+    -- "$rtk" diff zero.exr ref.exr
 expect "missing reference: exit 2 naming the file and the reason" 2 "missing.exr" "No such file or directory" \
     -- "$rtk" diff test.exr missing.exr
 expect "missing test image: exit 2 naming the file" 2 "gone.png" "No such file or directory" \

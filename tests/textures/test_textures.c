@@ -983,7 +983,7 @@ static void test_config(void)
     if (st == RTK_OK)
         st = rtk_render(cfg, &opts, &rep);
     rtk_config_destroy(cfg);
-    rtk_image img = {0, 0, NULL};
+    rtk_image img = {0, 0, NULL, 0, 0};
     if (st == RTK_OK)
         st = rtk_image_read(in_tmp("tri.exr"), NULL, 0, 0, &img);
     if (st != RTK_OK) {
