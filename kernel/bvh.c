@@ -445,6 +445,52 @@ int rtk_accelerator_traverses_itself(const rtk_plugin *accelerator)
     return own_traversal(accelerator->functions) != NULL;
 }
 
+/* The builder's inputs (corners, bounds, centroids of every triangle),
+ * and afterwards the corners in leaf order; split over threads. */
+typedef struct prep_job {
+    const rtk_scene *s;
+    rtk_bounds *bounds;
+    rtk_vec3 *centroids;
+    rtk_vec3 *vertices;
+    const uint32_t *order;
+    float *tri_verts;
+} prep_job;
+
+/* Positions are finite (the scene checks them), so plain comparisons
+ * give fminf / fmaxf without their calls. */
+#define RTK_MINF(a, b) ((b) < (a) ? (b) : (a))
+#define RTK_MAXF(a, b) ((b) > (a) ? (b) : (a))
+
+static void prep_range(void *ctx, uint32_t begin, uint32_t end)
+{
+    const prep_job *j = ctx;
+    const uint32_t *indices = j->s->indices;
+    const float *pos = j->s->positions;
+    for (uint32_t i = begin; i < end; i++) {
+        const float *p[3];
+        for (int c = 0; c < 3; c++)
+            p[c] = pos + 3 * (size_t)indices[3 * (size_t)i + c];
+        rtk_vec3 *v = j->vertices + 3 * (size_t)i;
+        float lo[3], hi[3];
+        for (int k = 0; k < 3; k++) {
+            lo[k] = RTK_MINF(RTK_MINF(p[0][k], p[1][k]), p[2][k]);
+            hi[k] = RTK_MAXF(RTK_MAXF(p[0][k], p[1][k]), p[2][k]);
+        }
+        for (int c = 0; c < 3; c++)
+            v[c] = rtk_vec3_make(p[c][0], p[c][1], p[c][2]);
+        j->bounds[i].lower = rtk_vec3_make(lo[0], lo[1], lo[2]);
+        j->bounds[i].upper = rtk_vec3_make(hi[0], hi[1], hi[2]);
+        j->centroids[i] = rtk_vec3_make((lo[0] + hi[0]) * 0.5f, (lo[1] + hi[1]) * 0.5f, (lo[2] + hi[2]) * 0.5f);
+    }
+}
+
+static void reorder_range(void *ctx, uint32_t begin, uint32_t end)
+{
+    const prep_job *j = ctx;
+    for (uint32_t slot = begin; slot < end; slot++)
+        memcpy(j->tri_verts + 9 * (size_t)slot, j->vertices + 3 * (size_t)j->order[slot], 9 * sizeof(float));
+}
+
 rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads)
 {
     rtk_bvh_release(s);
@@ -464,12 +510,12 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     a.prim_count = n;
     a.max_nodes = 2 * n - 1;
     a.thread_count = threads ? threads : 1;
-    rtk_bounds *bounds = rtk_alloc(sizeof *bounds * n);
-    rtk_vec3 *centroids = rtk_alloc(sizeof *centroids * n);
-    rtk_vec3 *vertices = rtk_alloc(sizeof *vertices * 3 * (size_t)n);
+    rtk_bounds *bounds = rtk_alloc_large(sizeof *bounds * n);
+    rtk_vec3 *centroids = rtk_alloc_large(sizeof *centroids * n);
+    rtk_vec3 *vertices = rtk_alloc_large(sizeof *vertices * 3 * (size_t)n);
     a.nodes = rtk_calloc(a.max_nodes, sizeof *a.nodes);
     a.prim_order = rtk_calloc(n, sizeof *a.prim_order);
-    s->tri_verts = rtk_alloc(sizeof(float) * 9 * (size_t)n);
+    s->tri_verts = rtk_alloc_large(sizeof(float) * 9 * (size_t)n);
     rtk_status st = RTK_OK;
     void *state = NULL;
     const rtk_accelerator_fns *fns = plugin->functions;
@@ -477,17 +523,8 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
         st = RTK_ERR_NOMEM;
         goto fail;
     }
-    for (uint32_t i = 0; i < n; i++) {
-        rtk_vec3 *v = vertices + 3 * (size_t)i;
-        rtk_scene_triangle(s, i, &v[0], &v[1], &v[2]);
-        rtk_bounds b = {v[0], v[0]};
-        for (int k = 1; k < 3; k++) {
-            b.lower = rtk_vec3_make(fminf(b.lower.x, v[k].x), fminf(b.lower.y, v[k].y), fminf(b.lower.z, v[k].z));
-            b.upper = rtk_vec3_make(fmaxf(b.upper.x, v[k].x), fmaxf(b.upper.y, v[k].y), fmaxf(b.upper.z, v[k].z));
-        }
-        bounds[i] = b;
-        centroids[i] = rtk_vec3_scale(rtk_vec3_add(b.lower, b.upper), 0.5f);
-    }
+    prep_job prep = {s, bounds, centroids, vertices, NULL, NULL};
+    rtk_parallel_ranges(n, a.thread_count, 32768, prep_range, &prep);
     a.prim_bounds = bounds;
     a.centroids = centroids;
     a.vertices = vertices;
@@ -535,13 +572,9 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
         st = rtk_error(st, "accelerator '%s' produced an invalid tree: %s", plugin->name, msg);
         goto fail;
     }
-    for (uint32_t slot = 0; slot < n; slot++) {
-        rtk_vec3 v[3];
-        rtk_scene_triangle(s, a.prim_order[slot], &v[0], &v[1], &v[2]);
-        float *dst = s->tri_verts + 9 * (size_t)slot;
-        for (int k = 0; k < 3; k++)
-            dst[3 * k] = v[k].x, dst[3 * k + 1] = v[k].y, dst[3 * k + 2] = v[k].z;
-    }
+    prep.order = a.prim_order;
+    prep.tri_verts = s->tri_verts;
+    rtk_parallel_ranges(n, a.thread_count, 32768, reorder_range, &prep);
     s->nodes = a.nodes;
     s->node_count = a.node_count;
     s->prim_ids = a.prim_order;

@@ -60,14 +60,9 @@ static float half_area(const float lo[3], const float hi[3])
 
 static uint32_t new_node(collapser *c)
 {
-    if (c->node_count == c->node_cap) {
-        uint32_t cap = c->node_cap ? 2 * c->node_cap : 64;
-        rtk_wide_node *n = rtk_realloc_array(c->nodes, cap, sizeof *n);
-        if (!n) {
-            c->failed = 1;
-            return UINT32_MAX;
-        }
-        c->nodes = n, c->node_cap = cap;
+    if (c->node_count == c->node_cap) { /* the counting pass was wrong: never */
+        c->failed = 1;
+        return UINT32_MAX;
     }
     rtk_wide_node *n = &c->nodes[c->node_count];
     for (int i = 0; i < RTK_WIDE; i++) {
@@ -100,8 +95,8 @@ static void slot_bounds(const rtk_scene *s, const uint32_t *slots, uint32_t n, f
         const float *v = s->tri_verts + 9 * (size_t)slots[i];
         for (int j = 0; j < 9; j++) {
             int k = j % 3;
-            lo[k] = fminf(lo[k], v[j]);
-            hi[k] = fmaxf(hi[k], v[j]);
+            lo[k] = v[j] < lo[k] ? v[j] : lo[k]; /* positions are finite */
+            hi[k] = v[j] > hi[k] ? v[j] : hi[k];
         }
     }
 }
@@ -110,16 +105,9 @@ static void slot_bounds(const rtk_scene *s, const uint32_t *slots, uint32_t n, f
 static uint32_t make_blocks(collapser *c, const uint32_t *slots, uint32_t n)
 {
     uint32_t blocks = (n + RTK_WIDE_TRIS - 1) / RTK_WIDE_TRIS;
-    if (c->tri_count + blocks > c->tri_cap) {
-        uint32_t cap = c->tri_cap ? 2 * c->tri_cap : 64;
-        while (cap < c->tri_count + blocks)
-            cap *= 2;
-        rtk_wide_tris *t = rtk_realloc_array(c->tris, cap, sizeof *t);
-        if (!t) {
-            c->failed = 1;
-            return RTK_WIDE_LEAF;
-        }
-        c->tris = t, c->tri_cap = cap;
+    if (blocks > c->tri_cap - c->tri_count) { /* the counting pass was wrong: never */
+        c->failed = 1;
+        return RTK_WIDE_LEAF;
     }
     uint32_t first = c->tri_count;
     for (uint32_t b = 0; b < blocks; b++) {
@@ -224,19 +212,13 @@ static int is_wide_leaf(const collapser *c, uint32_t id)
     return c->s->nodes[id].count > 0 || c->tri_total[id] <= RTK_WIDE_MERGE;
 }
 
-/* Wide node for binary node bin: its children, then repeatedly the inner
- * child of largest surface area replaced by its two children (Wald et al.
- * 2008), until RTK_WIDE children or only leaves remain. */
-static uint32_t collapse(collapser *c, uint32_t bin, uint32_t depth)
+/* The children of the wide node for binary node bin, into kids: its
+ * children, then repeatedly the inner child of largest surface area
+ * replaced by its two children (Wald et al. 2008), until RTK_WIDE children
+ * or only leaves remain. Returns their number. */
+static int choose_kids(const collapser *c, uint32_t bin, uint32_t kids[RTK_WIDE])
 {
     const rtk_bvh_node *bn = c->s->nodes;
-    if (depth > RTK_WIDE_MAX_DEPTH) {
-        c->failed = 1;
-        return 0;
-    }
-    if (depth > c->depth)
-        c->depth = depth;
-    uint32_t kids[RTK_WIDE];
     int n = 0;
     if (bn[bin].count > 0) {
         kids[n++] = bin;
@@ -261,6 +243,60 @@ static uint32_t collapse(collapser *c, uint32_t bin, uint32_t depth)
         kids[best] = bn[open].offset;
         kids[n++] = bn[open].offset + 1;
     }
+    return n;
+}
+
+/* What make_leaf will allocate for a leaf of n triangles. */
+static void count_leaf(collapser *c, uint32_t n, uint32_t depth)
+{
+    const uint32_t per_ref = RTK_WIDE_LEAF_BLOCKS * RTK_WIDE_TRIS;
+    if (n <= per_ref) {
+        c->tri_cap += (n + RTK_WIDE_TRIS - 1) / RTK_WIDE_TRIS;
+        return;
+    }
+    if (depth > RTK_WIDE_MAX_DEPTH) {
+        c->failed = 1;
+        return;
+    }
+    c->node_cap++;
+    uint32_t piece = (n + RTK_WIDE - 1) / RTK_WIDE;
+    if (piece < per_ref)
+        piece = per_ref;
+    for (uint32_t b = 0; b < n && !c->failed; b += piece)
+        count_leaf(c, n - b < piece ? n - b : piece, depth + 1);
+}
+
+/* What collapse will allocate below binary node bin: the counting pass,
+ * so that the tree is written once into arrays of its exact size. */
+static void count_collapse(collapser *c, uint32_t bin, uint32_t depth)
+{
+    if (depth > RTK_WIDE_MAX_DEPTH) {
+        c->failed = 1;
+        return;
+    }
+    uint32_t kids[RTK_WIDE];
+    int n = choose_kids(c, bin, kids);
+    c->node_cap++;
+    for (int i = 0; i < n && !c->failed; i++) {
+        if (is_wide_leaf(c, kids[i]))
+            count_leaf(c, c->tri_total[kids[i]], depth + 1);
+        else
+            count_collapse(c, kids[i], depth + 1);
+    }
+}
+
+/* Wide node for binary node bin (children from choose_kids). */
+static uint32_t collapse(collapser *c, uint32_t bin, uint32_t depth)
+{
+    const rtk_bvh_node *bn = c->s->nodes;
+    if (depth > RTK_WIDE_MAX_DEPTH) {
+        c->failed = 1;
+        return 0;
+    }
+    if (depth > c->depth)
+        c->depth = depth;
+    uint32_t kids[RTK_WIDE];
+    int n = choose_kids(c, bin, kids);
     uint32_t node = new_node(c);
     if (c->failed)
         return 0;
@@ -279,18 +315,6 @@ static uint32_t collapse(collapser *c, uint32_t bin, uint32_t depth)
         set_child(c, node, i, k->lower, k->upper, ref);
     }
     return node;
-}
-
-/* Copies n elements of size bytes into a fresh 64-byte aligned array. */
-static void *aligned_copy(const void *src, size_t n, size_t size)
-{
-    size_t bytes = (n * size + 63) / 64 * 64;
-    void *p = aligned_alloc(64, bytes ? bytes : 64);
-    if (!p)
-        return NULL;
-    if (n)
-        memcpy(p, src, n * size);
-    return p;
 }
 
 void rtk_wide_free(rtk_scene *s)
@@ -316,33 +340,38 @@ rtk_status rtk_wide_build(rtk_scene *s)
     if (!c.tri_total || !c.slots || !count_triangles(&c))
         c.failed = 1;
     else
-        collapse(&c, 0, 0);
+        count_collapse(&c, 0, 0);
+    if (!c.failed) {
+        c.nodes = rtk_alloc_large(sizeof *c.nodes * (size_t)c.node_cap);
+        c.tris = rtk_alloc_large(sizeof *c.tris * (size_t)c.tri_cap);
+        if (!c.nodes || !c.tris)
+            c.failed = 1;
+        else
+            collapse(&c, 0, 0);
+    }
     free(c.tri_total);
     free(c.slots);
     rtk_wide_bvh *w = NULL;
+    if (!c.failed && (c.node_count != c.node_cap || c.tri_count != c.tri_cap))
+        c.failed = 1; /* the two passes disagree: never */
     if (!c.failed && c.tri_count >= 1u << (31 - RTK_WIDE_LEAF_SHIFT))
         c.failed = 1;
     if (!c.failed) {
         w = rtk_calloc(1, sizeof *w);
-        if (w) {
-            w->nodes = aligned_copy(c.nodes, c.node_count, sizeof *c.nodes);
-            w->tris = aligned_copy(c.tris, c.tri_count, sizeof *c.tris);
+        if (!w) {
+            c.failed = 1;
+        } else {
+            w->nodes = c.nodes;
+            w->tris = c.tris;
             w->node_count = c.node_count;
             w->tri_block_count = c.tri_count;
             w->depth = c.depth;
             w->path = rtk_simd_from_env();
         }
-        if (!w || !w->nodes || !w->tris)
-            c.failed = 1;
     }
-    free(c.nodes);
-    free(c.tris);
     if (c.failed) {
-        if (w) {
-            free(w->nodes);
-            free(w->tris);
-            free(w);
-        }
+        free(c.nodes);
+        free(c.tris);
         return rtk_error(RTK_ERR_NOMEM, "wide BVH: out of memory or tree too deep");
     }
     s->wide = w;

@@ -15,6 +15,17 @@ RTK_EXTERN_C_BEGIN
 void *rtk_alloc(size_t size);
 void *rtk_calloc(size_t count, size_t size);
 void *rtk_realloc_array(void *ptr, size_t count, size_t size);
+/* rtk_alloc for large arrays, on a 64-byte boundary; from 2 MiB on, on a
+ * 2 MiB boundary with its whole 2 MiB pages advised as transparent huge
+ * pages, which cuts the cost of first touching it and keeps traversal
+ * out of TLB misses. Freed with free(). */
+void *rtk_alloc_large(size_t size);
+/* Calls fn(ctx, begin, end) over [0, n) cut into at most threads
+ * contiguous ranges, the first on the calling thread, the others on
+ * threads of their own (run on the caller when a thread cannot start);
+ * returns when all are done. Ranges below min_chunk items are not cut. */
+typedef void (*rtk_range_fn)(void *ctx, uint32_t begin, uint32_t end);
+void rtk_parallel_ranges(uint32_t n, uint32_t threads, uint32_t min_chunk, rtk_range_fn fn, void *ctx);
 /* strdup that returns NULL on NULL. [caller frees] */
 char *rtk_strdup(const char *s);
 /* Joins dir and a relative path; absolute paths are returned as they are. [caller frees] */

@@ -3,8 +3,10 @@
 
 #include <errno.h>
 #include <limits.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/resource.h>
 #include <time.h>
 #include <unistd.h>
@@ -14,6 +16,29 @@ void *rtk_alloc(size_t size)
     void *p = malloc(size ? size : 1);
     if (!p)
         rtk_error(RTK_ERR_NOMEM, "out of memory allocating %zu bytes", size);
+    return p;
+}
+
+void *rtk_alloc_large(size_t size)
+{
+    const size_t huge = (size_t)2 << 20;
+    if (size > SIZE_MAX - huge) {
+        rtk_error(RTK_ERR_NOMEM, "out of memory allocating %zu bytes", size);
+        return NULL;
+    }
+    /* Whole cache lines; whole huge pages only where that wastes little. */
+    size_t bytes = size < huge ? (size + 63) / 64 * 64 : (size + huge - 1) / huge * huge;
+    if (bytes - size > size / 8)
+        bytes = (size + 63) / 64 * 64;
+    void *p = aligned_alloc(size < huge ? 64 : huge, bytes ? bytes : 64);
+    if (!p) {
+        rtk_error(RTK_ERR_NOMEM, "out of memory allocating %zu bytes", size);
+        return NULL;
+    }
+#ifdef MADV_HUGEPAGE
+    if (bytes >= huge)
+        madvise(p, bytes / huge * huge, MADV_HUGEPAGE); /* advice: where refused, nothing changes */
+#endif
     return p;
 }
 
@@ -128,4 +153,45 @@ int rtk_edit_distance(const char *a, const char *b)
         }
     }
     return row[lb];
+}
+
+typedef struct range_job {
+    rtk_range_fn fn;
+    void *ctx;
+    uint32_t begin, end;
+} range_job;
+
+static void *range_main(void *arg)
+{
+    range_job *j = arg;
+    j->fn(j->ctx, j->begin, j->end);
+    return NULL;
+}
+
+void rtk_parallel_ranges(uint32_t n, uint32_t threads, uint32_t min_chunk, rtk_range_fn fn, void *ctx)
+{
+    enum { max_ranges = 64 };
+    uint32_t parts = threads ? threads : 1;
+    if (parts > max_ranges)
+        parts = max_ranges;
+    if (min_chunk && n / min_chunk < parts)
+        parts = n / min_chunk ? n / min_chunk : 1;
+    if (parts <= 1) {
+        if (n)
+            fn(ctx, 0, n);
+        return;
+    }
+    range_job jobs[max_ranges];
+    pthread_t ids[max_ranges];
+    int started[max_ranges];
+    for (uint32_t i = 0; i < parts; i++) {
+        jobs[i] = (range_job){fn, ctx, (uint32_t)((uint64_t)n * i / parts), (uint32_t)((uint64_t)n * (i + 1) / parts)};
+        started[i] = i > 0 && pthread_create(&ids[i], NULL, range_main, &jobs[i]) == 0;
+    }
+    for (uint32_t i = 0; i < parts; i++)
+        if (!started[i])
+            fn(ctx, jobs[i].begin, jobs[i].end);
+    for (uint32_t i = 1; i < parts; i++)
+        if (started[i])
+            pthread_join(ids[i], NULL);
 }
