@@ -581,7 +581,7 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     free(bounds);
     free(centroids);
     free(vertices);
-    if (!s->own_traversal && rtk_wide_build(s) != RTK_OK)
+    if (!s->own_traversal && rtk_wide_build(s, a.thread_count) != RTK_OK)
         rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
     return RTK_OK;
 fail:

@@ -431,7 +431,7 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
     s->nodes = nodes, s->node_count = h.node_count, s->bvh_depth = depth;
     s->prim_ids = prims, s->tri_verts = tri_verts;
     nodes = NULL, prims = NULL, tri_verts = NULL;
-    if (rtk_wide_build(s) != RTK_OK)
+    if (rtk_wide_build(s, 1) != RTK_OK)
         rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
     ok = 1;
     rtk_log(RTK_LOG_DEBUG,

@@ -14,6 +14,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -327,7 +328,74 @@ void rtk_wide_free(rtk_scene *s)
     s->wide = NULL;
 }
 
-rtk_status rtk_wide_build(rtk_scene *s)
+/* The root's children are collapsed as separate items, on threads when
+ * there are several: the counting pass gives each its exact ranges of
+ * nodes and blocks, in the order the serial collapse would fill them, so
+ * the tree is the same bit for bit on any number of threads. */
+typedef struct wide_item {
+    uint32_t kid;                    /* binary node */
+    uint32_t node_start, node_count; /* its range of wide nodes */
+    uint32_t tri_start, tri_count;   /* its range of blocks */
+    uint32_t ref, depth;             /* results */
+    int failed;
+} wide_item;
+
+typedef struct wide_job {
+    const collapser *proto;
+    wide_item *items;
+    const uint32_t *order; /* items, largest first */
+    uint32_t item_count;
+    atomic_uint next;
+} wide_job;
+
+static void collapse_item(collapser *c, wide_item *it)
+{
+    c->node_count = it->node_start, c->node_cap = it->node_start + it->node_count;
+    c->tri_count = it->tri_start, c->tri_cap = it->tri_start + it->tri_count;
+    c->depth = 0;
+    c->failed = 0;
+    if (is_wide_leaf(c, it->kid)) {
+        uint32_t count = 0;
+        gather_slots(c, it->kid, &count);
+        it->ref = make_leaf(c, c->slots, count, 1);
+    } else {
+        it->ref = collapse(c, it->kid, 1);
+    }
+    /* the counting pass and this one disagree: never */
+    if (c->node_count != c->node_cap || c->tri_count != c->tri_cap)
+        c->failed = 1;
+    it->depth = c->depth;
+    it->failed = c->failed;
+}
+
+static void wide_worker(void *ctx, uint32_t begin, uint32_t end)
+{
+    (void)begin, (void)end;
+    wide_job *job = ctx;
+    collapser c = *job->proto;
+    c.slots = NULL;
+    uint32_t slot_cap = 0;
+    for (;;) {
+        uint32_t k = atomic_fetch_add(&job->next, 1u);
+        if (k >= job->item_count)
+            break;
+        wide_item *it = &job->items[job->order[k]];
+        uint32_t need = c.tri_total[it->kid];
+        if (need > slot_cap) {
+            free(c.slots);
+            c.slots = rtk_alloc(sizeof *c.slots * (size_t)need);
+            slot_cap = c.slots ? need : 0;
+        }
+        if (!c.slots) {
+            it->failed = 1;
+            continue;
+        }
+        collapse_item(&c, it);
+    }
+    free(c.slots);
+}
+
+rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
 {
     rtk_wide_free(s);
     if (s->node_count == 0 || !s->tri_verts || !s->prim_ids)
@@ -336,24 +404,63 @@ rtk_status rtk_wide_build(rtk_scene *s)
     memset(&c, 0, sizeof c);
     c.s = s;
     c.tri_total = rtk_alloc(sizeof *c.tri_total * (size_t)s->node_count);
-    c.slots = rtk_alloc(sizeof *c.slots * (size_t)s->triangle_count);
-    if (!c.tri_total || !c.slots || !count_triangles(&c))
+    wide_item items[RTK_WIDE];
+    uint32_t kids[RTK_WIDE], order[RTK_WIDE];
+    int n = 0;
+    if (!c.tri_total || !count_triangles(&c)) {
         c.failed = 1;
-    else
-        count_collapse(&c, 0, 0);
+    } else {
+        /* Counting pass: the root, then each child's subtree in order. */
+        n = choose_kids(&c, 0, kids);
+        c.node_cap = 1;
+        for (int i = 0; i < n && !c.failed; i++) {
+            items[i] = (wide_item){.kid = kids[i], .node_start = c.node_cap, .tri_start = c.tri_cap};
+            if (is_wide_leaf(&c, kids[i]))
+                count_leaf(&c, c.tri_total[kids[i]], 1);
+            else
+                count_collapse(&c, kids[i], 1);
+            items[i].node_count = c.node_cap - items[i].node_start;
+            items[i].tri_count = c.tri_cap - items[i].tri_start;
+        }
+    }
     if (!c.failed) {
         c.nodes = rtk_alloc_large(sizeof *c.nodes * (size_t)c.node_cap);
         c.tris = rtk_alloc_large(sizeof *c.tris * (size_t)c.tri_cap);
         if (!c.nodes || !c.tris)
             c.failed = 1;
-        else
-            collapse(&c, 0, 0);
+    }
+    if (!c.failed) {
+        uint32_t node_cap = c.node_cap, tri_cap = c.tri_cap;
+        c.node_cap = 1;
+        new_node(&c); /* the root, node 0 */
+        for (int i = 0; i < n; i++) {
+            int j = i; /* largest first: the longest item starts first */
+            while (j > 0 && c.tri_total[items[order[j - 1]].kid] < c.tri_total[items[i].kid]) {
+                order[j] = order[j - 1];
+                j--;
+            }
+            order[j] = (uint32_t)i;
+        }
+        wide_job job = {.proto = &c, .items = items, .order = order, .item_count = (uint32_t)n};
+        atomic_init(&job.next, 0u);
+        uint32_t workers = s->triangle_count >= 65536 && threads > 1 ? threads : 1;
+        if (workers > (uint32_t)n)
+            workers = (uint32_t)n;
+        rtk_parallel_ranges(workers, workers, 1, wide_worker, &job);
+        for (int i = 0; i < n; i++) {
+            if (items[i].failed) {
+                c.failed = 1;
+                break;
+            }
+            const rtk_bvh_node *k = &s->nodes[kids[i]];
+            set_child(&c, 0, i, k->lower, k->upper, items[i].ref);
+            if (items[i].depth > c.depth)
+                c.depth = items[i].depth;
+        }
+        c.node_count = node_cap, c.tri_count = tri_cap;
     }
     free(c.tri_total);
-    free(c.slots);
     rtk_wide_bvh *w = NULL;
-    if (!c.failed && (c.node_count != c.node_cap || c.tri_count != c.tri_cap))
-        c.failed = 1; /* the two passes disagree: never */
     if (!c.failed && c.tri_count >= 1u << (31 - RTK_WIDE_LEAF_SHIFT))
         c.failed = 1;
     if (!c.failed) {

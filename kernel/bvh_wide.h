@@ -79,9 +79,10 @@ typedef struct rtk_wide_bvh {
 } rtk_wide_bvh;
 
 /* Collapses s's binary tree into s->wide and picks the traversal path:
- * the best the CPU supports, or RTK_SIMD. RTK_ERR_NOMEM on failure (the
- * scene then keeps the binary traversal). */
-rtk_status rtk_wide_build(rtk_scene *s);
+ * the best the CPU supports, or RTK_SIMD. Large trees are collapsed on up
+ * to threads threads; the result does not depend on their number.
+ * RTK_ERR_NOMEM on failure (the scene then keeps the binary traversal). */
+rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads);
 /* Frees s->wide and sets it to NULL. */
 void rtk_wide_free(rtk_scene *s);
 
