@@ -4,6 +4,7 @@
 #include <errno.h>
 #include <limits.h>
 #include <pthread.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
@@ -21,23 +22,34 @@ void *rtk_alloc(size_t size)
 
 void *rtk_alloc_large(size_t size)
 {
-    const size_t huge = (size_t)2 << 20;
+    const size_t huge = (size_t)2 << 20, page = 4096;
     if (size > SIZE_MAX - huge) {
         rtk_error(RTK_ERR_NOMEM, "out of memory allocating %zu bytes", size);
         return NULL;
     }
-    /* Whole cache lines; whole huge pages only where that wastes little. */
-    size_t bytes = size < huge ? (size + 63) / 64 * 64 : (size + huge - 1) / huge * huge;
-    if (bytes - size > size / 8)
-        bytes = (size + 63) / 64 * 64;
-    void *p = aligned_alloc(size < huge ? 64 : huge, bytes ? bytes : 64);
+    /* aligned_alloc wants the size a multiple of the alignment: whole
+     * huge pages where rounding up wastes at most an eighth, else whole
+     * 4 KiB pages (the huge pages inside are still advised), and whole
+     * cache lines below 2 MiB. */
+    size_t align = 64, bytes = (size + 63) / 64 * 64;
+    if (size >= huge) {
+        size_t whole = (size + huge - 1) / huge * huge;
+        if (whole - size <= size / 8)
+            align = huge, bytes = whole;
+        else
+            align = page, bytes = (size + page - 1) / page * page;
+    }
+    char *p = aligned_alloc(align, bytes ? bytes : 64);
     if (!p) {
         rtk_error(RTK_ERR_NOMEM, "out of memory allocating %zu bytes", size);
         return NULL;
     }
 #ifdef MADV_HUGEPAGE
-    if (bytes >= huge)
-        madvise(p, bytes / huge * huge, MADV_HUGEPAGE); /* advice: where refused, nothing changes */
+    if (size >= huge) {
+        uintptr_t lo = ((uintptr_t)p + huge - 1) / huge * huge, hi = ((uintptr_t)p + bytes) / huge * huge;
+        if (hi > lo)
+            madvise((void *)lo, hi - lo, MADV_HUGEPAGE); /* advice: where refused, nothing changes */
+    }
 #endif
     return p;
 }
