@@ -15,10 +15,10 @@ RTK_EXTERN_C_BEGIN
 void *rtk_alloc(size_t size);
 void *rtk_calloc(size_t count, size_t size);
 void *rtk_realloc_array(void *ptr, size_t count, size_t size);
-/* rtk_alloc for large arrays, on a 64-byte boundary; from 2 MiB on, on a
- * 2 MiB boundary with its whole 2 MiB pages advised as transparent huge
- * pages, which cuts the cost of first touching it and keeps traversal
- * out of TLB misses. Freed with free(). */
+/* rtk_alloc for large arrays, on a 64-byte boundary; from 1 MiB on,
+ * rounded up to whole 2 MiB pages on a 2 MiB boundary, advised as
+ * transparent huge pages, which cuts the cost of first touching it and
+ * keeps traversal out of TLB misses. Freed with free(). */
 void *rtk_alloc_large(size_t size);
 /* Calls fn(ctx, begin, end) over [0, n) cut into at most threads
  * contiguous ranges, the first on the calling thread, the others on

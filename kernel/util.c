@@ -22,34 +22,25 @@ void *rtk_alloc(size_t size)
 
 void *rtk_alloc_large(size_t size)
 {
-    const size_t huge = (size_t)2 << 20, page = 4096;
+    const size_t huge = (size_t)2 << 20;
     if (size > SIZE_MAX - huge) {
         rtk_error(RTK_ERR_NOMEM, "out of memory allocating %zu bytes", size);
         return NULL;
     }
-    /* aligned_alloc wants the size a multiple of the alignment: whole
-     * huge pages where rounding up wastes at most an eighth, else whole
-     * 4 KiB pages (the huge pages inside are still advised), and whole
-     * cache lines below 2 MiB. */
+    /* From 1 MiB on, whole huge pages (at most 2 MiB more, and never more
+     * than double); below, whole cache lines. aligned_alloc wants the size
+     * a multiple of the alignment. */
     size_t align = 64, bytes = (size + 63) / 64 * 64;
-    if (size >= huge) {
-        size_t whole = (size + huge - 1) / huge * huge;
-        if (whole - size <= size / 8)
-            align = huge, bytes = whole;
-        else
-            align = page, bytes = (size + page - 1) / page * page;
-    }
-    char *p = aligned_alloc(align, bytes ? bytes : 64);
+    if (size >= huge / 2)
+        align = huge, bytes = (size + huge - 1) / huge * huge;
+    void *p = aligned_alloc(align, bytes ? bytes : 64);
     if (!p) {
         rtk_error(RTK_ERR_NOMEM, "out of memory allocating %zu bytes", size);
         return NULL;
     }
 #ifdef MADV_HUGEPAGE
-    if (size >= huge) {
-        uintptr_t lo = ((uintptr_t)p + huge - 1) / huge * huge, hi = ((uintptr_t)p + bytes) / huge * huge;
-        if (hi > lo)
-            madvise((void *)lo, hi - lo, MADV_HUGEPAGE); /* advice: where refused, nothing changes */
-    }
+    if (align == huge)
+        madvise(p, bytes, MADV_HUGEPAGE); /* advice: where refused, nothing changes */
 #endif
     return p;
 }
