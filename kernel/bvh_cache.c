@@ -286,7 +286,7 @@ static void triangle_bounds(const rtk_scene *s, rtk_bounds *bounds)
 /* The checks of one load, in order; on failure why says what is wrong
  * (empty when the file is simply absent). Fills the scene only on success. */
 static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometry, uint64_t builder,
-                        const rtk_plugin *plugin, char *why, size_t why_size)
+                        const rtk_plugin *plugin, uint32_t threads, char *why, size_t why_size)
 {
     const uint32_t n = s->triangle_count;
     struct stat st;
@@ -431,7 +431,7 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
     s->nodes = nodes, s->node_count = h.node_count, s->bvh_depth = depth;
     s->prim_ids = prims, s->tri_verts = tri_verts;
     nodes = NULL, prims = NULL, tri_verts = NULL;
-    if (rtk_wide_build(s, 1) != RTK_OK)
+    if (rtk_wide_build(s, threads ? threads : 1) != RTK_OK)
         rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
     ok = 1;
     rtk_log(RTK_LOG_DEBUG,
@@ -446,7 +446,8 @@ done:
     return ok;
 }
 
-int rtk_bvh_cache_load(rtk_scene *s, const char *path, uint64_t geometry, uint64_t builder, const rtk_plugin *plugin)
+int rtk_bvh_cache_load(rtk_scene *s, const char *path, uint64_t geometry, uint64_t builder, const rtk_plugin *plugin,
+                       uint32_t threads)
 {
     clear_bvh(s);
     if (s->triangle_count == 0 || s->triangle_count > (UINT32_MAX - 1) / 2)
@@ -461,7 +462,7 @@ int rtk_bvh_cache_load(rtk_scene *s, const char *path, uint64_t geometry, uint64
         else
             snprintf(why, sizeof why, "cannot open: %s", strerror(errno));
     } else {
-        ok = load_checked(s, fd, path, geometry, builder, plugin, why, sizeof why);
+        ok = load_checked(s, fd, path, geometry, builder, plugin, threads, why, sizeof why);
         close(fd);
     }
     if (!ok && why[0])
@@ -606,7 +607,7 @@ rtk_status rtk_bvh_build_cached_own(rtk_scene *s, const rtk_plugin *plugin, cons
     char *path = rtk_bvh_cache_path(dir, geometry, builder);
     if (!path)
         return rtk_bvh_build(s, plugin, params, threads);
-    if (rtk_bvh_cache_load(s, path, geometry, builder, plugin)) {
+    if (rtk_bvh_cache_load(s, path, geometry, builder, plugin, threads)) {
         use->from_cache = 1;
         snprintf(use->file, sizeof use->file, "%s", path);
         free(path);

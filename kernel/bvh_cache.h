@@ -90,9 +90,10 @@ char *rtk_bvh_cache_path(const char *dir, uint64_t geometry, uint64_t builder);
  * structural validation against freshly computed primitive bounds) and
  * returns 1. Otherwise returns 0 with the scene's BVH cleared and, unless
  * the file does not exist, exactly one warning naming path and the reason.
- * plugin names the expected builder in messages. */
+ * plugin names the expected builder in messages; the wide tree is
+ * collapsed on up to threads threads (0 = 1). */
 int rtk_bvh_cache_load(rtk_scene *scene, const char *path, uint64_t geometry, uint64_t builder,
-                       const rtk_plugin *plugin);
+                       const rtk_plugin *plugin, uint32_t threads);
 
 /* Writes scene's BVH to path through a temporary sibling and a rename, so
  * readers never see a partial file. On failure warns once and returns

@@ -295,7 +295,7 @@ static void expect_refused_as_is(const char *name, const char *reason)
 {
     capture c;
     capture_begin(&c);
-    int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median);
+    int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median, 1);
     char *err = capture_end(&c);
     check(!used, "%s: refused", name);
     check(probe->node_count == 0 && !probe->nodes && !probe->prim_ids && !probe->tri_verts,
@@ -398,7 +398,7 @@ static void test_round_trip(void)
     check(dir_count(dir, ".tmp") == 0, "save: no temporary file left");
     capture c;
     capture_begin(&c);
-    int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median);
+    int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median, 1);
     char *err = capture_end(&c);
     check(used && err[0] == '\0', "load: used without a word (got: %s)", shown(err));
     free(err);
@@ -410,7 +410,7 @@ static void test_round_trip(void)
     char missing[600];
     snprintf(missing, sizeof missing, "%s/none.bvh", dir);
     capture_begin(&c);
-    used = rtk_bvh_cache_load(probe, missing, ghash, bhash, median);
+    used = rtk_bvh_cache_load(probe, missing, ghash, bhash, median, 1);
     err = capture_end(&c);
     check(!used && err[0] == '\0', "load: a missing file is silent (got: %s)", shown(err));
     free(err);
@@ -495,7 +495,7 @@ static void test_header_fields(void)
     if (write_file(path, b, good_size)) {
         capture c;
         capture_begin(&c);
-        int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median);
+        int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median, 1);
         char *err = capture_end(&c);
         check(!used && strchr(err, 0x1b) == NULL && strchr(err, 0x07) == NULL,
               "builder text from the file is printed without control characters (got: %s)", shown(err));
@@ -662,7 +662,7 @@ static void test_structure(void)
     write_file(path, c, one_leaf);
     capture cap;
     capture_begin(&cap);
-    int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median);
+    int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median, 1);
     char *err = capture_end(&cap);
     check(used && err[0] == '\0', "a valid one-leaf tree with a good checksum loads (got: %s)", shown(err));
     check(used && brute_differences(probe, 5) == 0, "and traces like brute force");
@@ -681,7 +681,7 @@ static void test_stale(void)
     uint64_t mg = rtk_bvh_cache_geometry_hash(moved);
     capture c;
     capture_begin(&c);
-    int used = rtk_bvh_cache_load(moved, path, mg, bhash, median);
+    int used = rtk_bvh_cache_load(moved, path, mg, bhash, median, 1);
     char *err = capture_end(&c);
     check(!used && count_of(err, "warning") == 1 && strstr(err, "stale") && strstr(err, "other geometry") &&
               strstr(err, path),
@@ -706,7 +706,7 @@ static void test_stale(void)
     rtk_params *leaf2 = rtk_params_defaults(median);
     rtk_params_set_text(leaf2, "max_leaf", "2");
     capture_begin(&c);
-    used = rtk_bvh_cache_load(probe, path, ghash, rtk_bvh_cache_builder_hash(median, leaf2), median);
+    used = rtk_bvh_cache_load(probe, path, ghash, rtk_bvh_cache_builder_hash(median, leaf2), median, 1);
     err = capture_end(&c);
     check(!used && count_of(err, "warning") == 1 && strstr(err, "stale") && strstr(err, "other parameters"),
           "max_leaf = 2: stale, other parameters (got: %s)", shown(err));
@@ -722,7 +722,7 @@ static void test_stale(void)
     rtk_plugin fake = *median;
     fake.name = "sah";
     capture_begin(&c);
-    used = rtk_bvh_cache_load(probe, path, ghash, rtk_bvh_cache_builder_hash(&fake, params), &fake);
+    used = rtk_bvh_cache_load(probe, path, ghash, rtk_bvh_cache_builder_hash(&fake, params), &fake, 1);
     err = capture_end(&c);
     check(!used && count_of(err, "warning") == 1 && strstr(err, "built by 'median"),
           "other builder: stale, names the builder that made it (got: %s)", shown(err));
@@ -741,7 +741,7 @@ static void test_odd_files(void)
     if (mkfifo(path, 0644) == 0) {
         capture c;
         capture_begin(&c);
-        int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median);
+        int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median, 1);
         char *err = capture_end(&c);
         check(!used && strstr(err, "not a regular file"), "a FIFO at the cache path: refused at once (got: %s)",
               shown(err));
@@ -825,7 +825,7 @@ static void test_fuzz(int rounds)
         write_file(path, b, size);
         capture c;
         capture_begin(&c);
-        int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median);
+        int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median, 1);
         char *err = capture_end(&c);
         if (used) {
             loaded++;
