@@ -328,17 +328,93 @@ void rtk_wide_free(rtk_scene *s)
     s->wide = NULL;
 }
 
-/* The root's children are collapsed as separate items, on threads when
- * there are several: the counting pass gives each its exact ranges of
- * nodes and blocks, in the order the serial collapse would fill them, so
- * the tree is the same bit for bit on any number of threads. */
+/* The top of the tree is planned serially and the subtrees below it are
+ * collapsed as separate items, on threads when there are several: the
+ * counting pass gives each item its exact ranges of nodes and blocks and
+ * each planned node its index, in the order the serial collapse fills
+ * them, so the tree is the same bit for bit on any number of threads.
+ * A subtree is planned (split into its children) while it holds more
+ * than 1/RTK_WIDE_GRAIN of the triangles, so that no item dominates. */
+#define RTK_WIDE_GRAIN 32
+/* Levels planned at most. */
+#define RTK_WIDE_PLAN_DEPTH 8
+
 typedef struct wide_item {
     uint32_t kid;                    /* binary node */
+    uint32_t depth;                  /* wide depth of its reference */
     uint32_t node_start, node_count; /* its range of wide nodes */
     uint32_t tri_start, tri_count;   /* its range of blocks */
-    uint32_t ref, depth;             /* results */
+    uint32_t ref, depth_out;         /* results */
     int failed;
 } wide_item;
+
+/* A reference to fill once the items are done: child slot of a planned
+ * node, the binary node whose bounds it gets, and either an item's
+ * result or a planned node's index. */
+typedef struct wide_fixup {
+    uint32_t node, bin, item, ref; /* item UINT32_MAX: ref is a planned node */
+    int slot;
+} wide_fixup;
+
+typedef struct wide_plan {
+    wide_item *items;
+    uint32_t item_count, item_cap;
+    wide_fixup *fixups;
+    uint32_t fixup_count, fixup_cap;
+    uint32_t grain; /* triangles above which a subtree is planned */
+    uint32_t depth; /* deepest planned node */
+    int failed;
+} wide_plan;
+
+static int plan_grow(void **array, uint32_t *cap, uint32_t count, size_t size)
+{
+    if (count < *cap)
+        return 1;
+    uint32_t n = *cap ? 2 * *cap : 16;
+    void *p = rtk_realloc_array(*array, n, size);
+    if (!p)
+        return 0;
+    *array = p, *cap = n;
+    return 1;
+}
+
+/* Plans the wide node for binary node bin at depth: reserves its index
+ * (c->node_cap), then each child in order is planned in turn or becomes
+ * an item whose ranges come from the counting pass. */
+static void plan_node(collapser *c, wide_plan *pl, uint32_t bin, uint32_t depth)
+{
+    uint32_t kids[RTK_WIDE];
+    int n = choose_kids(c, bin, kids);
+    uint32_t node = c->node_cap++;
+    if (depth > pl->depth)
+        pl->depth = depth;
+    for (int i = 0; i < n && !c->failed && !pl->failed; i++) {
+        if (!plan_grow((void **)&pl->fixups, &pl->fixup_cap, pl->fixup_count, sizeof *pl->fixups)) {
+            pl->failed = 1;
+            return;
+        }
+        wide_fixup *f = &pl->fixups[pl->fixup_count++];
+        *f = (wide_fixup){.node = node, .bin = kids[i], .item = UINT32_MAX, .slot = i};
+        if (!is_wide_leaf(c, kids[i]) && c->tri_total[kids[i]] > pl->grain && depth + 1 < RTK_WIDE_PLAN_DEPTH) {
+            f->ref = c->node_cap;
+            plan_node(c, pl, kids[i], depth + 1);
+            continue;
+        }
+        if (!plan_grow((void **)&pl->items, &pl->item_cap, pl->item_count, sizeof *pl->items)) {
+            pl->failed = 1;
+            return;
+        }
+        f->item = pl->item_count;
+        wide_item *it = &pl->items[pl->item_count++];
+        *it = (wide_item){.kid = kids[i], .depth = depth + 1, .node_start = c->node_cap, .tri_start = c->tri_cap};
+        if (is_wide_leaf(c, kids[i]))
+            count_leaf(c, c->tri_total[kids[i]], depth + 1);
+        else
+            count_collapse(c, kids[i], depth + 1);
+        it->node_count = c->node_cap - it->node_start;
+        it->tri_count = c->tri_cap - it->tri_start;
+    }
+}
 
 typedef struct wide_job {
     const collapser *proto;
@@ -357,14 +433,14 @@ static void collapse_item(collapser *c, wide_item *it)
     if (is_wide_leaf(c, it->kid)) {
         uint32_t count = 0;
         gather_slots(c, it->kid, &count);
-        it->ref = make_leaf(c, c->slots, count, 1);
+        it->ref = make_leaf(c, c->slots, count, it->depth);
     } else {
-        it->ref = collapse(c, it->kid, 1);
+        it->ref = collapse(c, it->kid, it->depth);
     }
     /* the counting pass and this one disagree: never */
     if (c->node_count != c->node_cap || c->tri_count != c->tri_cap)
         c->failed = 1;
-    it->depth = c->depth;
+    it->depth_out = c->depth;
     it->failed = c->failed;
 }
 
@@ -395,6 +471,20 @@ static void wide_worker(void *ctx, uint32_t begin, uint32_t end)
     free(c.slots);
 }
 
+/* The items in order[0, n), largest first (ties by index): the longest
+ * ones start first. Insertion sort: a few hundred items at most. */
+static void order_items(const wide_item *items, uint32_t n, uint32_t *order)
+{
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t size = items[i].node_count + items[i].tri_count, j = i;
+        while (j > 0 && items[order[j - 1]].node_count + items[order[j - 1]].tri_count < size) {
+            order[j] = order[j - 1];
+            j--;
+        }
+        order[j] = i;
+    }
+}
+
 rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
 {
     rtk_wide_free(s);
@@ -404,62 +494,63 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
     memset(&c, 0, sizeof c);
     c.s = s;
     c.tri_total = rtk_alloc(sizeof *c.tri_total * (size_t)s->node_count);
-    wide_item items[RTK_WIDE];
-    uint32_t kids[RTK_WIDE], order[RTK_WIDE];
-    int n = 0;
+    wide_plan pl;
+    memset(&pl, 0, sizeof pl);
+    uint32_t *order = NULL;
     if (!c.tri_total || !count_triangles(&c)) {
         c.failed = 1;
     } else {
-        /* Counting pass: the root, then each child's subtree in order. */
-        n = choose_kids(&c, 0, kids);
-        c.node_cap = 1;
-        for (int i = 0; i < n && !c.failed; i++) {
-            items[i] = (wide_item){.kid = kids[i], .node_start = c.node_cap, .tri_start = c.tri_cap};
-            if (is_wide_leaf(&c, kids[i]))
-                count_leaf(&c, c.tri_total[kids[i]], 1);
-            else
-                count_collapse(&c, kids[i], 1);
-            items[i].node_count = c.node_cap - items[i].node_start;
-            items[i].tri_count = c.tri_cap - items[i].tri_start;
-        }
+        /* Counting pass: planned nodes and items, in the serial order. */
+        pl.grain = s->triangle_count / RTK_WIDE_GRAIN;
+        plan_node(&c, &pl, 0, 0);
+        c.failed |= pl.failed;
     }
     if (!c.failed) {
         c.nodes = rtk_alloc_large(sizeof *c.nodes * (size_t)c.node_cap);
         c.tris = rtk_alloc_large(sizeof *c.tris * (size_t)c.tri_cap);
-        if (!c.nodes || !c.tris)
+        order = rtk_alloc(sizeof *order * (size_t)(pl.item_count ? pl.item_count : 1));
+        if (!c.nodes || !c.tris || !order)
             c.failed = 1;
     }
     if (!c.failed) {
         uint32_t node_cap = c.node_cap, tri_cap = c.tri_cap;
-        c.node_cap = 1;
-        new_node(&c); /* the root, node 0 */
-        for (int i = 0; i < n; i++) {
-            int j = i; /* largest first: the longest item starts first */
-            while (j > 0 && c.tri_total[items[order[j - 1]].kid] < c.tri_total[items[i].kid]) {
-                order[j] = order[j - 1];
-                j--;
-            }
-            order[j] = (uint32_t)i;
+        /* The planned nodes, empty until their references are known. */
+        for (uint32_t f = 0, prev = UINT32_MAX; f < pl.fixup_count; f++) {
+            if (pl.fixups[f].node == prev)
+                continue;
+            prev = pl.fixups[f].node;
+            c.node_count = prev, c.node_cap = prev + 1;
+            new_node(&c);
         }
-        wide_job job = {.proto = &c, .items = items, .order = order, .item_count = (uint32_t)n};
-        atomic_init(&job.next, 0u);
-        uint32_t workers = s->triangle_count >= 65536 && threads > 1 ? threads : 1;
-        if (workers > (uint32_t)n)
-            workers = (uint32_t)n;
-        rtk_parallel_ranges(workers, workers, 1, wide_worker, &job);
-        for (int i = 0; i < n; i++) {
-            if (items[i].failed) {
-                c.failed = 1;
-                break;
+        if (pl.fixup_count == 0) { /* never: the root has a child */
+            c.failed = 1;
+        } else {
+            order_items(pl.items, pl.item_count, order);
+            wide_job job = {.proto = &c, .items = pl.items, .order = order, .item_count = pl.item_count};
+            atomic_init(&job.next, 0u);
+            uint32_t workers = s->triangle_count >= 65536 && threads > 1 ? threads : 1;
+            if (workers > pl.item_count)
+                workers = pl.item_count ? pl.item_count : 1;
+            rtk_parallel_ranges(workers, workers, 1, wide_worker, &job);
+            c.depth = pl.depth;
+            for (uint32_t i = 0; i < pl.item_count; i++) {
+                c.failed |= pl.items[i].failed;
+                if (pl.items[i].depth_out > c.depth)
+                    c.depth = pl.items[i].depth_out;
             }
-            const rtk_bvh_node *k = &s->nodes[kids[i]];
-            set_child(&c, 0, i, k->lower, k->upper, items[i].ref);
-            if (items[i].depth > c.depth)
-                c.depth = items[i].depth;
+            for (uint32_t f = 0; f < pl.fixup_count && !c.failed; f++) {
+                const wide_fixup *x = &pl.fixups[f];
+                const rtk_bvh_node *k = &s->nodes[x->bin];
+                set_child(&c, x->node, x->slot, k->lower, k->upper,
+                          x->item == UINT32_MAX ? x->ref : pl.items[x->item].ref);
+            }
         }
         c.node_count = node_cap, c.tri_count = tri_cap;
     }
     free(c.tri_total);
+    free(pl.items);
+    free(pl.fixups);
+    free(order);
     rtk_wide_bvh *w = NULL;
     if (!c.failed && c.tri_count >= 1u << (31 - RTK_WIDE_LEAF_SHIFT))
         c.failed = 1;
