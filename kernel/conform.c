@@ -2394,9 +2394,9 @@ static rtk_status make_room(uint32_t needs, rtk_scene **out)
     return RTK_OK;
 }
 
-/* A builder that needs no plugin: one leaf over everything. Conformance
- * of an integrator must not depend on any accelerator plugin. */
-static rtk_status single_leaf_build(void *state, rtk_build_args *a)
+/* A builder that needs no plugin: one leaf over everything (see
+ * conform_hard.h). */
+static rtk_status one_leaf_build(void *state, rtk_build_args *a)
 {
     (void)state;
     rtk_bvh_node *n = &a->nodes[0];
@@ -2427,38 +2427,38 @@ static void no_destroy(void *state)
     (void)state;
 }
 
-static float unit_box_radius(const void *state)
+static float pixel_box_radius(const void *state)
 {
     (void)state;
     return 0.5f;
 }
 
-static float unit_box_eval(const void *state, float dx, float dy)
+static float pixel_box_eval(const void *state, float dx, float dy)
 {
     (void)state;
     return fabsf(dx) <= 0.5f && fabsf(dy) <= 0.5f ? 1.0f : 0.0f;
 }
 
-static double unit_box_integral(const void *state)
+static double pixel_box_integral(const void *state)
 {
     (void)state;
     return 1.0;
 }
 
-static const rtk_accelerator_fns single_leaf_fns = {
-    .size = sizeof(rtk_accelerator_fns), .create = no_state, .build = single_leaf_build, .destroy = no_destroy};
-static const rtk_plugin single_leaf = {RTK_PLUGIN_HEADER,
-                                       .kind = RTK_KIND_ACCELERATOR,
-                                       .name = "conform-single-leaf",
-                                       .version = "1",
-                                       .summary = "",
-                                       .functions = &single_leaf_fns};
-static const rtk_filter_fns unit_box = {.size = sizeof(rtk_filter_fns),
-                                        .create = no_state,
-                                        .radius = unit_box_radius,
-                                        .eval = unit_box_eval,
-                                        .integral = unit_box_integral,
-                                        .destroy = no_destroy};
+static const rtk_accelerator_fns one_leaf_fns = {
+    .size = sizeof(rtk_accelerator_fns), .create = no_state, .build = one_leaf_build, .destroy = no_destroy};
+const rtk_plugin rtk_conform_one_leaf = {RTK_PLUGIN_HEADER,
+                                         .kind = RTK_KIND_ACCELERATOR,
+                                         .name = "conform-one-leaf",
+                                         .version = "1",
+                                         .summary = "",
+                                         .functions = &one_leaf_fns};
+const rtk_filter_fns rtk_conform_pixel_box = {.size = sizeof(rtk_filter_fns),
+                                              .create = no_state,
+                                              .radius = pixel_box_radius,
+                                              .eval = pixel_box_eval,
+                                              .integral = pixel_box_integral,
+                                              .destroy = no_destroy};
 
 static void conform_integrator(runner *r, const rtk_plugin *p)
 {
@@ -2475,7 +2475,7 @@ static void conform_integrator(runner *r, const rtk_plugin *p)
         rtk_scene *scene = NULL;
         rtk_status st = make_room(needs, &scene);
         if (st == RTK_OK)
-            st = rtk_bvh_build(scene, &single_leaf, NULL, 1);
+            st = rtk_bvh_build(scene, &rtk_conform_one_leaf, NULL, 1);
         if (st != RTK_OK) {
             check(r, 0, "standard scene", "%s", rtk_error_message());
             f->destroy(state);
@@ -2493,9 +2493,9 @@ static void conform_integrator(runner *r, const rtk_plugin *p)
             size_t count = (size_t)24 * 20 * RTK_FILM_CHANNELS;
             float *a = rtk_alloc(count * sizeof(float)), *b = rtk_alloc(count * sizeof(float));
             rtk_render_stats sa, sb;
-            rtk_status s1 = a && b ? rtk_render_film(scene, &cam, f, state, &unit_box, NULL, 4, 7, 1, 0, a, &sa)
+            rtk_status s1 = a && b ? rtk_render_film(scene, &cam, f, state, &rtk_conform_pixel_box, NULL, 4, 7, 1, 0, a, &sa)
                                    : RTK_ERR_NOMEM;
-            rtk_status s2 = s1 == RTK_OK ? rtk_render_film(scene, &cam, f, state, &unit_box, NULL, 4, 7, 2, 0, b, &sb)
+            rtk_status s2 = s1 == RTK_OK ? rtk_render_film(scene, &cam, f, state, &rtk_conform_pixel_box, NULL, 4, 7, 2, 0, b, &sb)
                                          : s1;
             snprintf(name, sizeof name, "renders the standard scene [%s]", label);
             check(r, s1 == RTK_OK && s2 == RTK_OK, name, "%s", rtk_error_message());

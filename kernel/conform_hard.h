@@ -36,6 +36,13 @@ typedef struct rtk_conform_options {
     int defaults_only;       /* 1: only the plugin's default parameters */
 } rtk_conform_options;
 
+/* Stand-ins for integrator checks, which must not depend on any plugin
+ * but the one under test (conform.c): an accelerator that makes one leaf
+ * over everything, and a box filter of radius 1/2, so that each sample
+ * counts in the pixel it falls in only. */
+extern const rtk_plugin rtk_conform_one_leaf;
+extern const rtk_filter_fns rtk_conform_pixel_box;
+
 /* rtk_conform with options (NULL: all checks at their default sizes);
  * options only concern accelerators. */
 rtk_status rtk_conform_run(const char *path, const rtk_conform_options *options, FILE *out, int *passed,

@@ -113,73 +113,6 @@ static rtk_ray make_ray(rtk_vec3 org, rtk_vec3 dir)
     return r;
 }
 
-/* One leaf over everything: the exact tests must not depend on any
- * accelerator plugin. */
-static rtk_status one_leaf_build(void *state, rtk_build_args *a)
-{
-    (void)state;
-    rtk_bvh_node *n = &a->nodes[0];
-    for (int k = 0; k < 3; k++)
-        n->lower[k] = INFINITY, n->upper[k] = -INFINITY;
-    for (uint32_t i = 0; i < a->prim_count; i++) {
-        const rtk_bounds *b = &a->prim_bounds[i];
-        const float lo[3] = {b->lower.x, b->lower.y, b->lower.z}, hi[3] = {b->upper.x, b->upper.y, b->upper.z};
-        for (int k = 0; k < 3; k++)
-            n->lower[k] = fminf(n->lower[k], lo[k]), n->upper[k] = fmaxf(n->upper[k], hi[k]);
-        a->prim_order[i] = i;
-    }
-    n->offset = 0;
-    n->count = a->prim_count;
-    a->node_count = 1;
-    return RTK_OK;
-}
-
-static rtk_status no_state(const rtk_params *params, void **state)
-{
-    (void)params;
-    *state = NULL;
-    return RTK_OK;
-}
-
-static void no_destroy(void *state)
-{
-    (void)state;
-}
-
-static float pixel_box_radius(const void *state)
-{
-    (void)state;
-    return 0.5f;
-}
-
-static float pixel_box_eval(const void *state, float dx, float dy)
-{
-    (void)state;
-    return fabsf(dx) <= 0.5f && fabsf(dy) <= 0.5f ? 1.0f : 0.0f;
-}
-
-static double pixel_box_integral(const void *state)
-{
-    (void)state;
-    return 1.0;
-}
-
-static const rtk_accelerator_fns one_leaf_fns = {
-    .size = sizeof(rtk_accelerator_fns), .create = no_state, .build = one_leaf_build, .destroy = no_destroy};
-static const rtk_plugin one_leaf = {RTK_PLUGIN_HEADER,
-                                    .kind = RTK_KIND_ACCELERATOR,
-                                    .name = "conform-one-leaf",
-                                    .version = "1",
-                                    .summary = "",
-                                    .functions = &one_leaf_fns};
-/* Each sample counts in the pixel it falls in only. */
-static const rtk_filter_fns pixel_box = {.size = sizeof(rtk_filter_fns),
-                                         .create = no_state,
-                                         .radius = pixel_box_radius,
-                                         .eval = pixel_box_eval,
-                                         .integral = pixel_box_integral,
-                                         .destroy = no_destroy};
-
 /* The integrator under test and the scene of one exact test. */
 typedef struct bench {
     const rtk_integrator_fns *f;
@@ -220,7 +153,7 @@ static int bench_ready(tally *t, bench *b, const char *what)
     else if (!b->scene->finished)
         st = rtk_scene_finish(b->scene);
     if (st == RTK_OK)
-        st = rtk_bvh_build(b->scene, &one_leaf, NULL, 1);
+        st = rtk_bvh_build(b->scene, &rtk_conform_one_leaf, NULL, 1);
     if (st == RTK_OK && b->f->prepare)
         st = b->f->prepare(b->state, b->scene);
     if (st != RTK_OK)
@@ -716,7 +649,7 @@ static float *bench_render(tally *t, const bench *b, const rtk_camera_desc *desc
     rtk_status st = rtk_camera_init(&cam, desc, w, h);
     if (st == RTK_OK) {
         px = rtk_alloc(sizeof(float) * RTK_FILM_CHANNELS * w * h);
-        st = px ? rtk_render_film(b->scene, &cam, b->f, b->state, &pixel_box, NULL, spp, 3, threads, 0, px, NULL)
+        st = px ? rtk_render_film(b->scene, &cam, b->f, b->state, &rtk_conform_pixel_box, NULL, spp, 3, threads, 0, px, NULL)
                 : rtk_error(RTK_ERR_NOMEM, "out of memory for the image");
     }
     if (st != RTK_OK) {
