@@ -335,7 +335,7 @@ static int box_contains(const float lo[3], const float hi[3], const float clo[3]
     return 1;
 }
 
-rtk_status rtk_bvh_validate(const rtk_build_args *a, uint32_t *depth_out)
+rtk_status rtk_bvh_validate(const rtk_build_args *a, int leaf_bounds, uint32_t *depth_out)
 {
     if (a->node_count == 0 || a->node_count > a->max_nodes)
         return rtk_error(RTK_ERR_PLUGIN, "builder returned %u nodes (expected 1 .. %u)", a->node_count,
@@ -349,7 +349,7 @@ rtk_status rtk_bvh_validate(const rtk_build_args *a, uint32_t *depth_out)
         st = RTK_ERR_NOMEM;
         goto done;
     }
-    uint32_t max_depth = 0, covered = 0;
+    uint32_t max_depth = 0, covered = 0, reached = 0;
     int top = 0;
     stack[top++] = 0, stack[top++] = 1; /* pairs (node, depth) */
     while (top > 0) {
@@ -360,6 +360,7 @@ rtk_status rtk_bvh_validate(const rtk_build_args *a, uint32_t *depth_out)
             goto done;
         }
         seen_node[id] = 1;
+        reached++;
         if (depth > max_depth)
             max_depth = depth;
         if (depth > RTK_BVH_MAX_DEPTH) {
@@ -387,6 +388,8 @@ rtk_status rtk_bvh_validate(const rtk_build_args *a, uint32_t *depth_out)
                 }
                 seen_slot[i] = seen_prim[prim] = 1;
                 covered++;
+                if (!leaf_bounds)
+                    continue;
                 const rtk_bounds *b = &a->prim_bounds[prim];
                 const float plo[3] = {b->lower.x, b->lower.y, b->lower.z}, phi[3] = {b->upper.x, b->upper.y, b->upper.z};
                 if (!box_contains(n->lower, n->upper, plo, phi)) {
@@ -411,6 +414,11 @@ rtk_status rtk_bvh_validate(const rtk_build_args *a, uint32_t *depth_out)
     }
     if (covered != a->prim_count) {
         st = rtk_error(RTK_ERR_PLUGIN, "builder output: leaves hold %u of %u primitives", covered, a->prim_count);
+        goto done;
+    }
+    if (reached != a->node_count) {
+        st = rtk_error(RTK_ERR_PLUGIN, "builder output: %u of the %u nodes reported are not reachable from the root "
+                       "(node_count must count the nodes of the tree only)", a->node_count - reached, a->node_count);
         goto done;
     }
     *depth_out = max_depth;
@@ -446,14 +454,12 @@ int rtk_accelerator_traverses_itself(const rtk_plugin *accelerator)
 }
 
 /* The builder's inputs (corners, bounds, centroids of every triangle),
- * and afterwards the corners in leaf order; split over threads. */
+ * split over threads. */
 typedef struct prep_job {
     const rtk_scene *s;
     rtk_bounds *bounds;
     rtk_vec3 *centroids;
     rtk_vec3 *vertices;
-    const uint32_t *order;
-    float *tri_verts;
 } prep_job;
 
 /* Positions are finite (the scene checks them), so plain comparisons
@@ -484,11 +490,71 @@ static void prep_range(void *ctx, uint32_t begin, uint32_t end)
     }
 }
 
-static void reorder_range(void *ctx, uint32_t begin, uint32_t end)
+/* The corners in leaf order: slot i gets those of triangle order[i]. */
+typedef struct gather_job {
+    const float *from;
+    const uint32_t *order;
+    float *to;
+} gather_job;
+
+static void gather_range(void *ctx, uint32_t begin, uint32_t end)
 {
-    const prep_job *j = ctx;
+    const gather_job *j = ctx;
     for (uint32_t slot = begin; slot < end; slot++)
-        memcpy(j->tri_verts + 9 * (size_t)slot, j->vertices + 3 * (size_t)j->order[slot], 9 * sizeof(float));
+        memcpy(j->to + 9 * (size_t)slot, j->from + 9 * (size_t)j->order[slot], 9 * sizeof(float));
+}
+
+/* Every leaf's box against its triangles' corners in leaf order: the
+ * check validation skips, here with memory read in order. */
+typedef struct leaf_check {
+    const rtk_bvh_node *nodes;
+    const float *corners;
+    uint32_t bad_node, bad_slot; /* lowest failing node (UINT32_MAX: none) */
+} leaf_check;
+
+static void leaf_check_range(void *ctx, uint32_t begin, uint32_t end)
+{
+    leaf_check *c = ctx;
+    for (uint32_t id = begin; id < end; id++) {
+        const rtk_bvh_node *n = &c->nodes[id];
+        for (uint32_t slot = n->offset; n->count && slot < n->offset + n->count; slot++) {
+            const float *v = c->corners + 9 * (size_t)slot;
+            int inside = 1;
+            for (int k = 0; k < 9; k++)
+                inside &= n->lower[k % 3] <= v[k] && v[k] <= n->upper[k % 3];
+            if (inside)
+                continue;
+            /* Ranges run concurrently: keep the lowest node, as one
+             * thread would report. */
+            uint32_t seen = __atomic_load_n(&c->bad_node, __ATOMIC_RELAXED);
+            while (id < seen &&
+                   !__atomic_compare_exchange_n(&c->bad_node, &seen, id, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED))
+                ;
+            return;
+        }
+    }
+}
+
+rtk_status rtk_bvh_check_leaves(const rtk_bvh_node *nodes, uint32_t node_count, const uint32_t *prim_order,
+                                const float *corners, uint32_t threads)
+{
+    leaf_check c = {nodes, corners, UINT32_MAX, 0};
+    rtk_parallel_ranges(node_count, threads, 65536, leaf_check_range, &c);
+    if (c.bad_node == UINT32_MAX)
+        return RTK_OK;
+    /* Find the slot again, on one thread, for the message. */
+    const rtk_bvh_node *n = &nodes[c.bad_node];
+    uint32_t slot = n->offset;
+    for (; slot + 1 < n->offset + n->count; slot++) {
+        const float *v = corners + 9 * (size_t)slot;
+        int inside = 1;
+        for (int k = 0; k < 9; k++)
+            inside &= n->lower[k % 3] <= v[k] && v[k] <= n->upper[k % 3];
+        if (!inside)
+            break;
+    }
+    return rtk_error(RTK_ERR_PLUGIN, "builder output: leaf %u does not enclose primitive %u", c.bad_node,
+                     prim_order[slot]);
 }
 
 rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads)
@@ -511,20 +577,25 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     a.max_nodes = 2 * n - 1;
     a.thread_count = threads ? threads : 1;
     double t0 = rtk_now();
-    rtk_bounds *bounds = rtk_alloc_large(sizeof *bounds * n);
-    rtk_vec3 *centroids = rtk_alloc_large(sizeof *centroids * n);
+    /* The bounds and centroids share one block of 36 bytes a triangle,
+     * the size of its corners: once the tree is built they are dead, and
+     * the corners are gathered into leaf order there, in memory already
+     * faulted in rather than in a fresh array (first touches are costly). */
+    char *inputs = rtk_alloc_large((sizeof(rtk_bounds) + sizeof(rtk_vec3)) * (size_t)n);
+    rtk_bounds *bounds = (rtk_bounds *)(void *)inputs;
+    rtk_vec3 *centroids = inputs ? (rtk_vec3 *)(void *)(inputs + sizeof(rtk_bounds) * (size_t)n) : NULL;
     rtk_vec3 *vertices = rtk_alloc_large(sizeof *vertices * 3 * (size_t)n);
+    _Static_assert(sizeof(rtk_bounds) + sizeof(rtk_vec3) == 9 * sizeof(float), "inputs hold the corners after");
     a.nodes = rtk_calloc(a.max_nodes, sizeof *a.nodes);
     a.prim_order = rtk_calloc(n, sizeof *a.prim_order);
-    s->tri_verts = rtk_alloc_large(sizeof(float) * 9 * (size_t)n);
     rtk_status st = RTK_OK;
     void *state = NULL;
     const rtk_accelerator_fns *fns = plugin->functions;
-    if (!bounds || !centroids || !vertices || !a.nodes || !a.prim_order || !s->tri_verts) {
+    if (!inputs || !vertices || !a.nodes || !a.prim_order) {
         st = RTK_ERR_NOMEM;
         goto fail;
     }
-    prep_job prep = {s, bounds, centroids, vertices, NULL, NULL};
+    prep_job prep = {s, bounds, centroids, vertices};
     rtk_parallel_ranges(n, a.thread_count, 32768, prep_range, &prep);
     a.prim_bounds = bounds;
     double t1 = rtk_now();
@@ -557,50 +628,53 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
         s->own_traversal = own;
         s->own_state = state;
         if (a.node_count == 0) {
-            free(bounds);
-            free(centroids);
+            free(inputs);
             free(vertices);
             free(a.nodes);
             free(a.prim_order);
-            free(s->tri_verts);
-            s->tri_verts = NULL;
             return RTK_OK;
         }
     }
     double t2 = rtk_now();
-    st = rtk_bvh_validate(&a, &s->bvh_depth);
-    if (st != RTK_OK) {
+    /* The structure first; the leaves' boxes against the corners once
+     * those are in leaf order, where the check reads memory in order. */
+    st = rtk_bvh_validate(&a, 0, &s->bvh_depth);
+    double t3 = rtk_now();
+    float *corners = (float *)(void *)inputs;
+    if (st == RTK_OK) {
+        gather_job gather = {&vertices[0].x, a.prim_order, corners};
+        rtk_parallel_ranges(n, a.thread_count, 32768, gather_range, &gather);
+    }
+    free(vertices);
+    vertices = NULL;
+    double t4 = rtk_now();
+    if (st == RTK_OK)
+        st = rtk_bvh_check_leaves(a.nodes, a.node_count, a.prim_order, corners, a.thread_count);
+    if (st == RTK_ERR_PLUGIN) {
         char msg[2048];
         snprintf(msg, sizeof msg, "%s", rtk_error_message());
         st = rtk_error(st, "accelerator '%s' produced an invalid tree: %s", plugin->name, msg);
-        goto fail;
     }
-    double t3 = rtk_now();
-    prep.order = a.prim_order;
-    prep.tri_verts = s->tri_verts;
-    rtk_parallel_ranges(n, a.thread_count, 32768, reorder_range, &prep);
+    if (st != RTK_OK)
+        goto fail;
+    double t5 = rtk_now();
     s->nodes = a.nodes;
     s->node_count = a.node_count;
     s->prim_ids = a.prim_order;
-    free(bounds);
-    free(centroids);
-    free(vertices);
-    double t4 = rtk_now();
+    s->tri_verts = corners;
     if (!s->own_traversal && rtk_wide_build(s, a.thread_count) != RTK_OK)
         rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
     rtk_log(RTK_LOG_DEBUG,
-            "BVH build (%s, %u threads): %u triangles, %u nodes (inputs %.3f s, builder %.3f s, validation %.3f s, "
-            "layout %.3f s, wide tree %.3f s)",
-            plugin->name, a.thread_count, n, s->node_count, t1 - t0, t2 - t1, t3 - t2, t4 - t3, rtk_now() - t4);
+            "BVH build (%s, %u threads): %u triangles, %u nodes (inputs %.3f s, builder %.3f s, validation %.3f s "
+            "+ leaves %.3f s, layout %.3f s, wide tree %.3f s)",
+            plugin->name, a.thread_count, n, s->node_count, t1 - t0, t2 - t1, t3 - t2, t5 - t4, t4 - t3,
+            rtk_now() - t5);
     return RTK_OK;
 fail:
     rtk_bvh_release(s);
-    free(bounds);
-    free(centroids);
+    free(inputs);
     free(vertices);
     free(a.nodes);
     free(a.prim_order);
-    free(s->tri_verts);
-    s->tri_verts = NULL;
     return st;
 }

@@ -258,31 +258,6 @@ static uint64_t checksum(const unsigned char *header, const rtk_bvh_node *nodes,
     return rtk_hash64(prim_ids, sizeof *prim_ids * (size_t)prim_count, h);
 }
 
-static float min2(float a, float b)
-{
-    return b < a ? b : a;
-}
-
-static float max2(float a, float b)
-{
-    return b > a ? b : a;
-}
-
-/* Each primitive's bounds, as rtk_bvh_build computes them. Vertices are
- * finite (rtk_scene_finish), so these equal fminf/fmaxf up to the sign of
- * a zero, which no enclosing test (<=) can see; they compile to minss. */
-static void triangle_bounds(const rtk_scene *s, rtk_bounds *bounds)
-{
-    for (uint32_t i = 0; i < s->triangle_count; i++) {
-        rtk_vec3 a, b, c;
-        rtk_scene_triangle(s, i, &a, &b, &c);
-        bounds[i].lower =
-            rtk_vec3_make(min2(min2(a.x, b.x), c.x), min2(min2(a.y, b.y), c.y), min2(min2(a.z, b.z), c.z));
-        bounds[i].upper =
-            rtk_vec3_make(max2(max2(a.x, b.x), c.x), max2(max2(a.y, b.y), c.y), max2(max2(a.z, b.z), c.z));
-    }
-}
-
 /* The checks of one load, in order; on failure why says what is wrong
  * (empty when the file is simply absent). Fills the scene only on success. */
 static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometry, uint64_t builder,
@@ -369,11 +344,10 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
     }
     rtk_bvh_node *nodes = rtk_alloc(sizeof *nodes * (size_t)h.node_count);
     uint32_t *prims = rtk_alloc(sizeof *prims * (size_t)n);
-    rtk_bounds *bounds = rtk_alloc(sizeof *bounds * (size_t)n);
-    float *tri_verts = rtk_alloc(sizeof(float) * 9 * (size_t)n);
+    float *tri_verts = rtk_alloc_large(sizeof(float) * 9 * (size_t)n);
     int ok = 0;
     uint64_t stored = 0;
-    if (!nodes || !prims || !bounds || !tri_verts) {
+    if (!nodes || !prims || !tri_verts) {
         snprintf(why, why_size, "out of memory for %u nodes", h.node_count);
         goto done;
     }
@@ -396,18 +370,33 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
         goto done;
     }
     double t2 = rtk_now();
-    triangle_bounds(s, bounds);
     rtk_build_args args;
     memset(&args, 0, sizeof args);
     args.size = sizeof args;
     args.prim_count = n;
-    args.prim_bounds = bounds;
     args.max_nodes = max_nodes;
     args.nodes = nodes;
     args.node_count = h.node_count;
     args.prim_order = prims;
     uint32_t depth = 0;
-    if (rtk_bvh_validate(&args, &depth) != RTK_OK) {
+    /* The structure, then the corners in leaf order, then the leaves'
+     * boxes against them. */
+    int valid = rtk_bvh_validate(&args, 0, &depth) == RTK_OK;
+    double t3 = rtk_now();
+    if (valid) {
+        for (uint32_t slot = 0; slot < n; slot++) {
+            rtk_vec3 v[3];
+            rtk_scene_triangle(s, prims[slot], &v[0], &v[1], &v[2]);
+            float *dst = tri_verts + 9 * (size_t)slot;
+            for (int k = 0; k < 3; k++)
+                dst[3 * k] = v[k].x, dst[3 * k + 1] = v[k].y, dst[3 * k + 2] = v[k].z;
+        }
+    }
+    double t4 = rtk_now();
+    if (valid)
+        valid = rtk_bvh_check_leaves(nodes, h.node_count, prims, tri_verts, threads ? threads : 1) == RTK_OK;
+    double t5 = rtk_now();
+    if (!valid) {
         const char *msg = rtk_error_message();
         const char *prefix = "builder output: ";
         if (strncmp(msg, prefix, strlen(prefix)) == 0)
@@ -415,19 +404,10 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
         snprintf(why, why_size, "invalid tree: %s", msg);
         goto done;
     }
-    double t3 = rtk_now();
     if (depth != h.depth) {
         snprintf(why, why_size, "header says depth %u, the tree has %u", h.depth, depth);
         goto done;
     }
-    for (uint32_t slot = 0; slot < n; slot++) {
-        rtk_vec3 v[3];
-        rtk_scene_triangle(s, prims[slot], &v[0], &v[1], &v[2]);
-        float *dst = tri_verts + 9 * (size_t)slot;
-        for (int k = 0; k < 3; k++)
-            dst[3 * k] = v[k].x, dst[3 * k + 1] = v[k].y, dst[3 * k + 2] = v[k].z;
-    }
-    double t4 = rtk_now();
     s->nodes = nodes, s->node_count = h.node_count, s->bvh_depth = depth;
     s->prim_ids = prims, s->tri_verts = tri_verts;
     nodes = NULL, prims = NULL, tri_verts = NULL;
@@ -435,13 +415,12 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
         rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
     ok = 1;
     rtk_log(RTK_LOG_DEBUG,
-            "BVH cache %s: loaded %u nodes, depth %u (read %.3f s, checksum %.3f s, validation %.3f s, "
-            "layout %.3f s, wide tree %.3f s)",
-            path, s->node_count, depth, t1 - t0, t2 - t1, t3 - t2, t4 - t3, rtk_now() - t4);
+            "BVH cache %s: loaded %u nodes, depth %u (read %.3f s, checksum %.3f s, validation %.3f s "
+            "+ leaves %.3f s, layout %.3f s, wide tree %.3f s)",
+            path, s->node_count, depth, t1 - t0, t2 - t1, t3 - t2, t5 - t4, t4 - t3, rtk_now() - t5);
 done:
     free(nodes);
     free(prims);
-    free(bounds);
     free(tri_verts);
     return ok;
 }

@@ -270,7 +270,7 @@ static rtk_status build_top(rtk_scene *s, const rtk_plugin *plugin, const rtk_pa
     st = fns->build(state, &a);
     fns->destroy(state);
     if (st == RTK_OK)
-        st = rtk_bvh_validate(&a, &s->tlas_depth);
+        st = rtk_bvh_validate(&a, 1, &s->tlas_depth);
     if (st != RTK_OK) {
         char msg[2048];
         snprintf(msg, sizeof msg, "%s", rtk_error_message());

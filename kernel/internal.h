@@ -414,9 +414,16 @@ rtk_status rtk_bvh_build(rtk_scene *scene, const rtk_plugin *accelerator, const 
                          uint32_t threads);
 /* Destroys an accelerator instance that traverses itself, if any. */
 void rtk_bvh_release(rtk_scene *scene);
-/* Structural check of a builder's output against args (every primitive in
- * exactly one leaf, indices in range, no cycles, bounds enclosing). */
-rtk_status rtk_bvh_validate(const rtk_build_args *args, uint32_t *depth);
+/* Structural check of a builder's output against args: every primitive in
+ * exactly one leaf, indices in range, every node reached once from the
+ * root, inner bounds enclosing their children, and with leaf_bounds set,
+ * leaf bounds enclosing their primitives' prim_bounds. Sets the depth. */
+rtk_status rtk_bvh_validate(const rtk_build_args *args, int leaf_bounds, uint32_t *depth);
+/* The leaf check left out above, for triangles: corners holds 9 floats per
+ * slot in leaf order; nodes passed rtk_bvh_validate. Leaves are split
+ * over threads; the lowest failing leaf is reported. */
+rtk_status rtk_bvh_check_leaves(const rtk_bvh_node *nodes, uint32_t node_count, const uint32_t *prim_order,
+                                const float *corners, uint32_t threads);
 /* Traversal of the whole scene, instances included. Return 1 on hit. */
 int rtk_bvh_closest(const rtk_scene *scene, const rtk_ray *ray, rtk_hit *hit);
 int rtk_bvh_any(const rtk_scene *scene, const rtk_ray *ray);

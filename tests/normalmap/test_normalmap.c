@@ -13,19 +13,7 @@
 #include <string.h>
 #include <unistd.h>
 
-static int passed, failed;
-
-static void check(int ok, const char *fmt, ...) RTK_PRINTF(2, 3);
-static void check(int ok, const char *fmt, ...)
-{
-    char what[1024];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(what, sizeof what, fmt, ap);
-    va_end(ap);
-    printf("%s  %s\n", ok ? "ok  " : "FAIL", what);
-    ok ? passed++ : failed++;
-}
+#include "../check.h"
 
 static char tmpdir[256];
 

@@ -13,19 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int passed, failed;
-
-static void check(int ok, const char *fmt, ...) RTK_PRINTF(2, 3);
-static void check(int ok, const char *fmt, ...)
-{
-    char what[1024];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(what, sizeof what, fmt, ap);
-    va_end(ap);
-    printf("%s  %s\n", ok ? "ok  " : "FAIL", what);
-    ok ? passed++ : failed++;
-}
+#include "../check.h"
 
 static float frand(rtk_pcg32 *rng, float lo, float hi)
 {
@@ -283,24 +271,12 @@ static rtk_status chain_build(void *state, rtk_build_args *a)
     return RTK_OK;
 }
 
-static rtk_status no_state(const rtk_params *params, void **state)
-{
-    (void)params;
-    *state = NULL;
-    return RTK_OK;
-}
-
-static void no_destroy(void *state)
-{
-    (void)state;
-}
-
 static const rtk_accelerator_fns one_leaf_fns = {
-    .size = sizeof(rtk_accelerator_fns), .create = no_state, .build = one_leaf_build, .destroy = no_destroy};
+    .size = sizeof(rtk_accelerator_fns), .create = stateless_create, .build = one_leaf_build, .destroy = stateless_destroy};
 static const rtk_plugin one_leaf = {RTK_PLUGIN_HEADER, .kind = RTK_KIND_ACCELERATOR, .name = "one_leaf",
                                     .version = "1", .summary = "one leaf", .functions = &one_leaf_fns};
 static const rtk_accelerator_fns chain_fns = {
-    .size = sizeof(rtk_accelerator_fns), .create = no_state, .build = chain_build, .destroy = no_destroy};
+    .size = sizeof(rtk_accelerator_fns), .create = stateless_create, .build = chain_build, .destroy = stateless_destroy};
 static const rtk_plugin chain = {RTK_PLUGIN_HEADER, .kind = RTK_KIND_ACCELERATOR, .name = "chain",
                                  .version = "1", .summary = "a 200-deep chain", .functions = &chain_fns};
 
