@@ -17,8 +17,11 @@
  *
  * Depth is at most the code bits plus 33 levels of halving. The tree does
  * not depend on thread_count: a node over m primitives owns the 2m - 2
- * slots after its children, subtrees are built in parallel into those,
- * and a final pass closes the gaps while keeping the order.
+ * slots of its region, its children first; subtrees are built in parallel
+ * into those, and a final pass closes the gaps while keeping the order.
+ * A subtree of at most 4096 primitives is built by one thread and fills
+ * its region densely from the start, so the gaps are whole pages left
+ * untouched rather than holes in every page.
  */
 #include <rtk/rtk.h>
 
@@ -272,8 +275,14 @@ static void node_union(rtk_bvh_node *n, const rtk_bvh_node *l, const rtk_bvh_nod
 }
 
 /* Builds the subtree of t with its bounds; returns its SAH cost in
- * units of area when collapsing (else 0). */
-static float emit(const build *b, task t)
+ * units of area when collapsing (else 0). A subtree of at most
+ * LBVH_GRAIN primitives (built by one thread) fills its region densely
+ * from the start, in the order its nodes are made: *bump is the next free
+ * slot there (bump NULL above such subtrees, where children take the
+ * first two slots of the region). Both rules depend on the tree alone;
+ * the gaps left are whole pages never touched rather than holes in every
+ * page. */
+static float emit(const build *b, task t, uint32_t *bump)
 {
     const lbvh *o = b->opt;
     rtk_build_args *a = b->a;
@@ -293,26 +302,34 @@ static float emit(const build *b, task t)
         b->used[t.slot] = 1;
         return o->collapse ? o->t_tri * (float)count * half_area(n) : 0.0f;
     }
+    uint32_t local = t.region;
+    if (!bump && count <= LBVH_GRAIN)
+        bump = &local;
+    const uint32_t first = bump ? *bump : t.region;
+    if (bump)
+        *bump += 2;
     uint32_t mid = split_at(b->codes, t.begin, t.end);
-    float cost = emit(b, (task){t.region, t.begin, mid, t.region + 2});
-    cost += emit(b, (task){t.region + 1, mid, t.end, t.region + 2 * (mid - t.begin)});
-    node_union(n, &a->nodes[t.region], &a->nodes[t.region + 1]);
+    float cost = emit(b, (task){first, t.begin, mid, t.region + 2}, bump);
+    cost += emit(b, (task){first + 1, mid, t.end, t.region + 2 * (mid - t.begin)}, bump);
+    node_union(n, &a->nodes[first], &a->nodes[first + 1]);
     b->used[t.slot] = 1;
     if (!o->collapse) {
-        n->offset = t.region;
+        n->offset = first;
         n->count = 0;
         return 0.0f;
     }
     float area = half_area(n), leaf = o->t_tri * (float)count * area;
     cost += o->t_node * area;
     if (count <= o->max_leaf && leaf <= cost) {
-        /* The descendants all lie in the node's own slots. */
-        memset(b->used + t.region, 0, sizeof *b->used * (2 * count - 2));
+        /* count <= 64 < LBVH_GRAIN: the descendants are the slots
+         * [first, *bump), free again for what follows. */
+        memset(b->used + first, 0, sizeof *b->used * (*bump - first));
+        *bump = first;
         n->offset = t.begin;
         n->count = count;
         return leaf;
     }
-    n->offset = t.region;
+    n->offset = first;
     n->count = 0;
     return cost;
 }
@@ -352,7 +369,7 @@ static void run(build *b, uint32_t t)
         uint32_t k = atomic_fetch_add(&b->next_task, 1);
         if (k >= b->task_count)
             break;
-        emit(b, b->tasks[k]);
+        emit(b, b->tasks[k], NULL);
     }
 }
 
@@ -408,24 +425,23 @@ static void run_team(build *b, uint32_t threads)
 }
 
 /* Closes the gaps in slots [0, span): used[i] is 1 for the slots the tree
- * uses and 0 for the others (span + 1 entries, overwritten). Nodes move
- * down keeping their order, so siblings stay adjacent, and their children
- * are renumbered. Sets node_count. */
+ * uses and 0 for the others (overwritten). Nodes move down keeping their
+ * order, so siblings stay adjacent, and their children are renumbered.
+ * Only the slots in use are written, in used and in nodes: pages of
+ * either that the build never touched stay untouched. Sets node_count. */
 static void compact_nodes(rtk_build_args *a, uint32_t *used, uint32_t span)
 {
     uint32_t total = 0;
-    for (uint32_t i = 0; i <= span; i++) {
-        uint32_t u = used[i];
-        used[i] = total; /* now the slot's new index */
-        total += u;
-    }
+    for (uint32_t i = 0; i < span; i++)
+        if (used[i])
+            used[i] = ++total; /* the slot's new index + 1 */
     for (uint32_t i = 0; i < span; i++) {
-        if (used[i + 1] == used[i])
+        if (!used[i])
             continue;
         rtk_bvh_node n = a->nodes[i];
         if (n.count == 0)
-            n.offset = used[n.offset];
-        a->nodes[used[i]] = n;
+            n.offset = used[n.offset] - 1;
+        a->nodes[used[i] - 1] = n;
     }
     a->node_count = total;
 }
@@ -451,7 +467,7 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
     b.ids_tmp = malloc(sizeof *b.ids_tmp * n);
     b.tasks = malloc(sizeof *b.tasks * plan_cap);
     b.tops = malloc(sizeof *b.tops * plan_cap);
-    b.used = calloc((size_t)a->max_nodes + 1, sizeof *b.used);
+    b.used = calloc(a->max_nodes, sizeof *b.used);
     atomic_init(&b.next_task, 0);
     rtk_status st = RTK_OK;
     if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp || !b.tasks || !b.tops || !b.used) {

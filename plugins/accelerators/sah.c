@@ -17,10 +17,13 @@
  *
  * Example: accelerator = { plugin = "sah"; bins = 32; max_leaf = 4; };
  *
- * The tree does not depend on thread_count: every node's children and
- * descendants get slots fixed by the node alone (a node over m primitives
- * owns 2m - 2 slots after its children), subtrees are built in parallel
+ * The tree does not depend on thread_count: every node's descendants get
+ * slots fixed by the node alone (a node over m primitives owns the 2m - 2
+ * slots of its region, its children first), subtrees are built in parallel
  * into those, and a final pass closes the gaps while keeping the order.
+ * A subtree under 4096 primitives is built by one thread and fills its
+ * region densely from the start, so the gaps are whole pages left
+ * untouched rather than holes in every page.
  */
 #include <rtk/rtk.h>
 
@@ -118,6 +121,7 @@ typedef struct vbox {
 typedef struct job {
     vbox geom, cent;
     uint32_t slot, begin, end, region, depth;
+    uint32_t dense; /* 1: below a node under SAH_SPAWN_MIN primitives */
 } job;
 
 /* Jobs shared between workers; pending counts queued and running ones. */
@@ -581,7 +585,7 @@ static void build_subtree(const build *b, const job *root)
     const sah *o = b->opt;
     rtk_build_args *a = b->a;
     job stack[SAH_STACK];
-    uint32_t top = 0;
+    uint32_t top = 0, bump = 0;
     stack[top++] = *root;
     while (top > 0) {
         job j = stack[--top];
@@ -599,8 +603,19 @@ static void build_subtree(const build *b, const job *root)
                     a->prim_order[i] = b->refs[i].id;
             continue;
         }
-        job l = {.slot = j.region, .begin = j.begin, .region = j.region + 2, .depth = j.depth + 1};
-        job r = {.slot = j.region + 1, .end = j.end, .depth = j.depth + 1};
+        /* A node under SAH_SPAWN_MIN primitives is built here with all
+         * below it (the stack takes its subtree before anything else):
+         * the subtree's nodes go densely from the start of the node's
+         * region, in the order they are made, which touches about half
+         * the memory the region spans. Above, children take the first
+         * two slots of the region. Both rules depend on the tree alone. */
+        const uint32_t dense = j.dense || count < SAH_SPAWN_MIN;
+        if (dense && !j.dense)
+            bump = j.region;
+        const uint32_t first = dense ? bump : j.region;
+        bump += dense ? 2 : 0;
+        job l = {.slot = first, .begin = j.begin, .region = j.region + 2, .depth = j.depth + 1, .dense = dense};
+        job r = {.slot = first + 1, .end = j.end, .depth = j.depth + 1, .dense = dense};
         uint32_t mid;
         if (s.axis < 0) {
             /* Nothing separates the centroids, or too deep: halve. */
@@ -621,7 +636,7 @@ static void build_subtree(const build *b, const job *root)
         }
         l.end = r.begin = mid;
         r.region = j.region + 2 * (mid - j.begin);
-        write_node(&a->nodes[j.slot], &j.geom, j.region, 0);
+        write_node(&a->nodes[j.slot], &j.geom, first, 0);
         b->used[j.slot] = 1;
         if (b->q && r.end - r.begin >= SAH_SPAWN_MIN)
             queue_push(b->q, &r);
@@ -693,24 +708,23 @@ static rtk_status run_build(build *b, const job *root, uint32_t threads)
 }
 
 /* Closes the gaps in slots [0, span): used[i] is 1 for the slots the tree
- * uses and 0 for the others (span + 1 entries, overwritten). Nodes move
- * down keeping their order, so siblings stay adjacent, and their children
- * are renumbered. Sets node_count. */
+ * uses and 0 for the others (overwritten). Nodes move down keeping their
+ * order, so siblings stay adjacent, and their children are renumbered.
+ * Only the slots in use are written, in used and in nodes: pages of
+ * either that the build never touched stay untouched. Sets node_count. */
 static void compact_nodes(rtk_build_args *a, uint32_t *used, uint32_t span)
 {
     uint32_t total = 0;
-    for (uint32_t i = 0; i <= span; i++) {
-        uint32_t u = used[i];
-        used[i] = total; /* now the slot's new index */
-        total += u;
-    }
+    for (uint32_t i = 0; i < span; i++)
+        if (used[i])
+            used[i] = ++total; /* the slot's new index + 1 */
     for (uint32_t i = 0; i < span; i++) {
-        if (used[i + 1] == used[i])
+        if (!used[i])
             continue;
         rtk_bvh_node n = a->nodes[i];
         if (n.count == 0)
-            n.offset = used[n.offset];
-        a->nodes[used[i]] = n;
+            n.offset = used[n.offset] - 1;
+        a->nodes[used[i] - 1] = n;
     }
     a->node_count = total;
 }
@@ -810,7 +824,7 @@ static rtk_status sah_build(void *state, rtk_build_args *a)
 {
     build b = {.opt = state, .a = a};
     job root = {.slot = 0, .begin = 0, .end = a->prim_count, .region = 1, .depth = 1};
-    b.used = calloc((size_t)a->max_nodes + 1, sizeof *b.used);
+    b.used = calloc(a->max_nodes, sizeof *b.used);
     if (!b.used)
         return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
     rtk_status st = b.opt->sweep ? build_sweep(&b, &root) : build_binned(&b, &root);
