@@ -425,7 +425,7 @@ typedef struct bench_row {
     int has_tree;             /* kernel nodes exist: the statistics below are valid */
     uint32_t nodes, leaves, depth;
     double sah_cost;
-    size_t memory;            /* bytes of nodes, leaf-ordered triangles and ids */
+    size_t memory;            /* bytes of the binary tree's nodes and leaf-order ids */
     size_t wide_memory;       /* bytes of the 8-wide tree the kernel traverses, 0 if none */
     const char *traversal;    /* "avx2", "sse", "scalar", "binary" or "own" */
 } bench_row;
@@ -708,8 +708,7 @@ static void tree_stats(const rtk_scene *s, bench_row *row)
     row->leaves = leaves;
     row->depth = s->bvh_depth;
     row->sah_cost = root > 0.0 ? cost / root : NAN;
-    row->memory = (size_t)s->node_count * sizeof(rtk_bvh_node) +
-                  (size_t)s->triangle_count * (9 * sizeof(float) + sizeof(uint32_t));
+    row->memory = (size_t)s->node_count * sizeof(rtk_bvh_node) + (size_t)s->triangle_count * sizeof(uint32_t);
 }
 
 /* Builds with a on threads (median of the runs) and traces both passes. */

@@ -160,7 +160,8 @@ int rtk_ray_valid(const rtk_ray *r)
 
 static int leaf_hit(const rtk_scene *s, uint32_t slot, const rtk_ray *ray, float *t, float *u, float *v)
 {
-    const float *tv = s->tri_verts + 9 * (size_t)slot;
+    float tv[9];
+    rtk_slot_corners(s, slot, tv);
     return rtk_intersect_triangle(ray, rtk_vec3_make(tv[0], tv[1], tv[2]), rtk_vec3_make(tv[3], tv[4], tv[5]),
                                   rtk_vec3_make(tv[6], tv[7], tv[8]), t, u, v);
 }
@@ -664,6 +665,10 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     s->tri_verts = corners;
     if (!s->own_traversal && rtk_wide_build(s, a.thread_count) != RTK_OK)
         rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
+    /* Traversal reads corners from the wide blocks or, on the binary tree,
+     * from the scene: no second copy of the triangles stays. */
+    free(s->tri_verts);
+    s->tri_verts = NULL;
     rtk_log(RTK_LOG_DEBUG,
             "BVH build (%s, %u threads): %u triangles, %u nodes (inputs %.3f s, builder %.3f s, validation %.3f s "
             "+ leaves %.3f s, layout %.3f s, wide tree %.3f s)",

@@ -413,6 +413,8 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
     nodes = NULL, prims = NULL, tri_verts = NULL;
     if (rtk_wide_build(s, threads ? threads : 1) != RTK_OK)
         rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
+    free(s->tri_verts); /* as after a build: traversal reads the scene */
+    s->tri_verts = NULL;
     ok = 1;
     rtk_log(RTK_LOG_DEBUG,
             "BVH cache %s: loaded %u nodes, depth %u (read %.3f s, checksum %.3f s, validation %.3f s "

@@ -93,7 +93,8 @@ static void slot_bounds(const rtk_scene *s, const uint32_t *slots, uint32_t n, f
     for (int k = 0; k < 3; k++)
         lo[k] = INFINITY, hi[k] = -INFINITY;
     for (uint32_t i = 0; i < n; i++) {
-        const float *v = s->tri_verts + 9 * (size_t)slots[i];
+        float v[9];
+        rtk_slot_corners(s, slots[i], v);
         for (int j = 0; j < 9; j++) {
             int k = j % 3;
             lo[k] = v[j] < lo[k] ? v[j] : lo[k]; /* positions are finite */
@@ -116,7 +117,8 @@ static uint32_t make_blocks(collapser *c, const uint32_t *slots, uint32_t n)
         for (uint32_t lane = 0; lane < RTK_WIDE_TRIS; lane++) {
             uint32_t i = b * RTK_WIDE_TRIS + lane;
             if (i < n) {
-                const float *v = c->s->tri_verts + 9 * (size_t)slots[i];
+                float v[9];
+                rtk_slot_corners(c->s, slots[i], v);
                 for (int j = 0; j < 9; j++)
                     t->v[j][lane] = v[j];
                 t->prim[lane] = c->s->prim_ids[slots[i]];
@@ -488,7 +490,7 @@ static void order_items(const wide_item *items, uint32_t n, uint32_t *order)
 rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
 {
     rtk_wide_free(s);
-    if (s->node_count == 0 || !s->tri_verts || !s->prim_ids)
+    if (s->node_count == 0 || !s->prim_ids)
         return RTK_OK;
     collapser c;
     memset(&c, 0, sizeof c);

@@ -1,9 +1,11 @@
 /* The wide BVH: any builder's binary tree collapsed into 8-wide nodes with
  * triangles packed four to a leaf block, traversed with AVX2, SSE4.1 or
  * plain C, chosen at run time. Rules for callers:
- * - rtk_wide_build runs after the binary tree, prim_ids and tri_verts are
- *   final (end of rtk_bvh_build, or after loading them from a cache); it
- *   replaces any previous wide tree. [main thread]
+ * - rtk_wide_build runs after the binary tree and prim_ids are final (end
+ *   of rtk_bvh_build, or after loading them from a cache), reading the
+ *   corners from tri_verts while the build still holds them (in leaf
+ *   order, fast) or else from the scene (rtk_slot_corners); it replaces
+ *   any previous wide tree. [main thread]
  * - Traversal reads the scene only: any thread, concurrently.
  * - Results are those of the binary traversal bit for bit: same triangle,
  *   same t, u, v, equal distances resolved to the lowest triangle id. */

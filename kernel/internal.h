@@ -7,6 +7,8 @@
 #include <rtk/host.h>
 #include <rtk/rtk.h>
 
+#include <string.h>
+
 RTK_EXTERN_C_BEGIN
 
 /* ---- small utilities (util.c) ---- */
@@ -303,7 +305,9 @@ struct rtk_scene {
     uint32_t node_count;
     uint32_t bvh_depth;
     uint32_t *prim_ids;          /* leaf slot -> triangle id */
-    float *tri_verts;            /* 9 floats per leaf slot: the triangle's vertices */
+    float *tri_verts;            /* 9 floats per leaf slot, the triangle's corners: only
+                                    while a build or cache load runs, NULL after
+                                    (see rtk_slot_corners) */
     /* An accelerator with its own traversal (ABI 1.1), kept alive while
      * the scene lives; NULL for kernel traversal. */
     const rtk_accelerator_fns *own_traversal;
@@ -327,6 +331,21 @@ struct rtk_scene {
     uint32_t tlas_node_count, tlas_depth;
     uint32_t *tlas_order;        /* top-level leaf slot -> instance */
 };
+
+/* The corners of leaf slot slot, 9 floats: from tri_verts while a build
+ * holds them in leaf order, else from the scene's indexed positions (the
+ * same floats). The binary traversal and a later wide collapse read them
+ * this way, so the scene keeps no second copy of its triangles. */
+static inline void rtk_slot_corners(const rtk_scene *s, uint32_t slot, float v[9])
+{
+    if (s->tri_verts) {
+        memcpy(v, s->tri_verts + 9 * (size_t)slot, 9 * sizeof(float));
+        return;
+    }
+    const uint32_t *idx = s->indices + 3 * (size_t)s->prim_ids[slot];
+    for (int c = 0; c < 3; c++)
+        memcpy(v + 3 * c, s->positions + 3 * (size_t)idx[c], 3 * sizeof(float));
+}
 
 /* Empty scene that keeps the data in needs (RTK_NEED_*). [caller frees] */
 rtk_scene *rtk_scene_new(const char *path, uint32_t needs);

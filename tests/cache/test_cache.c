@@ -3,6 +3,7 @@
  * refused with exactly one warning naming the file and the reason, the
  * build falls back to the plugin, and the rewritten file loads next time. */
 #include "bvh_cache.h"
+#include "bvh_wide.h"
 #include "internal.h"
 
 #include <dirent.h>
@@ -240,12 +241,20 @@ static int brute_differences(const rtk_scene *s, int stride)
     return diff;
 }
 
+/* The wide trees, byte for byte (the corners live in their blocks). */
+static int same_wide(const rtk_scene *a, const rtk_scene *b)
+{
+    const rtk_wide_bvh *x = a->wide, *y = b->wide;
+    return x && y && x->node_count == y->node_count && x->tri_block_count == y->tri_block_count &&
+           memcmp(x->nodes, y->nodes, sizeof *x->nodes * x->node_count) == 0 &&
+           memcmp(x->tris, y->tris, sizeof *x->tris * x->tri_block_count) == 0;
+}
+
 static int same_bvh(const rtk_scene *a, const rtk_scene *b)
 {
     return a->node_count == b->node_count && a->bvh_depth == b->bvh_depth && a->nodes && b->nodes &&
            memcmp(a->nodes, b->nodes, sizeof *a->nodes * a->node_count) == 0 &&
-           memcmp(a->prim_ids, b->prim_ids, sizeof *a->prim_ids * a->triangle_count) == 0 &&
-           memcmp(a->tri_verts, b->tri_verts, sizeof(float) * 9 * a->triangle_count) == 0;
+           memcmp(a->prim_ids, b->prim_ids, sizeof *a->prim_ids * a->triangle_count) == 0 && same_wide(a, b);
 }
 
 /* ---- the fixture ---- */
