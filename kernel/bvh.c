@@ -336,97 +336,198 @@ static int box_contains(const float lo[3], const float hi[3], const float clo[3]
     return 1;
 }
 
+/* One walk of validation: from a node down, marking what it meets. Quiet
+ * walks (on threads) report only that something is wrong; a loud walk
+ * says what, through rtk_error. Marks are relaxed atomics: walks on
+ * threads meet the same byte only in a broken tree, which the counts and
+ * the final scan then catch (see rtk_bvh_validate). */
+typedef struct tree_walk {
+    const rtk_build_args *a;
+    int leaf_bounds, quiet;
+    uint8_t *seen_node, *seen_slot, *seen_prim;
+    uint32_t stop_depth;             /* inner nodes this deep are left in roots (0: none) */
+    uint32_t *roots, root_count;     /* (node, depth) pairs left for the threads */
+    uint32_t max_depth, covered, reached;
+} tree_walk;
+
+#define VALIDATION_ROOTS_DEPTH 8 /* up to 128 subtrees for the threads */
+
+static int mark(uint8_t *seen)
+{
+    uint8_t was = __atomic_load_n(seen, __ATOMIC_RELAXED);
+    __atomic_store_n(seen, 1, __ATOMIC_RELAXED);
+    return was;
+}
+
+#define WALK_FAIL(...) return w->quiet ? RTK_ERR_PLUGIN : rtk_error(RTK_ERR_PLUGIN, __VA_ARGS__)
+
+/* stack: 2 * (RTK_BVH_MAX_DEPTH + 2) entries. */
+static rtk_status walk_tree(tree_walk *w, uint32_t root, uint32_t root_depth, uint32_t *stack)
+{
+    const rtk_build_args *a = w->a;
+    int top = 0;
+    stack[top++] = root, stack[top++] = root_depth; /* pairs (node, depth) */
+    while (top > 0) {
+        uint32_t depth = stack[--top], id = stack[--top];
+        const rtk_bvh_node *n = &a->nodes[id];
+        if (depth == w->stop_depth && n->count == 0) {
+            w->roots[w->root_count++] = id, w->roots[w->root_count++] = depth;
+            continue;
+        }
+        if (mark(&w->seen_node[id]))
+            WALK_FAIL("builder output: node %u is reached twice (the tree has a cycle or shared node)", id);
+        w->reached++;
+        if (depth > w->max_depth)
+            w->max_depth = depth;
+        if (depth > RTK_BVH_MAX_DEPTH)
+            WALK_FAIL("builder output: tree deeper than %d levels", RTK_BVH_MAX_DEPTH);
+        for (int k = 0; k < 3; k++)
+            if (isnan(n->lower[k]) || isnan(n->upper[k]))
+                WALK_FAIL("builder output: node %u has NaN bounds", id);
+        if (n->count > 0) {
+            if (n->offset > a->prim_count || n->count > a->prim_count - n->offset)
+                WALK_FAIL("builder output: leaf %u covers slots %u..%u beyond %u primitives", id, n->offset,
+                          n->offset + n->count - 1, a->prim_count);
+            for (uint32_t i = n->offset; i < n->offset + n->count; i++) {
+                uint32_t prim = a->prim_order[i];
+                if (mark(&w->seen_slot[i]) || prim >= a->prim_count || mark(&w->seen_prim[prim]))
+                    WALK_FAIL("builder output: slot %u (primitive %u) is referenced twice or out of range", i,
+                              prim);
+                w->covered++;
+                if (!w->leaf_bounds)
+                    continue;
+                const rtk_bounds *b = &a->prim_bounds[prim];
+                const float plo[3] = {b->lower.x, b->lower.y, b->lower.z}, phi[3] = {b->upper.x, b->upper.y, b->upper.z};
+                if (!box_contains(n->lower, n->upper, plo, phi))
+                    WALK_FAIL("builder output: leaf %u does not enclose primitive %u", id, prim);
+            }
+        } else {
+            if (n->offset == 0 || n->offset >= a->node_count - 1)
+                WALK_FAIL("builder output: inner node %u points to children %u, %u outside 1 .. %u", id, n->offset,
+                          n->offset + 1, a->node_count - 1);
+            for (uint32_t c = n->offset; c <= n->offset + 1; c++) {
+                if (!box_contains(n->lower, n->upper, a->nodes[c].lower, a->nodes[c].upper))
+                    WALK_FAIL("builder output: node %u does not enclose its child %u", id, c);
+                stack[top++] = c, stack[top++] = depth + 1;
+            }
+        }
+    }
+    return RTK_OK;
+}
+
+#undef WALK_FAIL
+
+/* The subtrees left by the top walk, taken one at a time by each thread. */
+typedef struct walk_job {
+    const tree_walk *top;
+    uint32_t next;                      /* next root pair, atomic */
+    uint32_t max_depth, covered, reached; /* sums and maximum, atomic */
+    int failed;                         /* atomic */
+} walk_job;
+
+static void walk_worker(void *ctx, uint32_t begin, uint32_t end)
+{
+    (void)begin, (void)end;
+    walk_job *j = ctx;
+    uint32_t stack[2 * (RTK_BVH_MAX_DEPTH + 2)];
+    tree_walk w = *j->top;
+    w.stop_depth = 0, w.roots = NULL, w.root_count = 0, w.quiet = 1;
+    w.max_depth = w.covered = w.reached = 0;
+    for (;;) {
+        uint32_t k = __atomic_fetch_add(&j->next, 2, __ATOMIC_RELAXED);
+        if (k >= j->top->root_count || __atomic_load_n(&j->failed, __ATOMIC_RELAXED))
+            break;
+        if (walk_tree(&w, j->top->roots[k], j->top->roots[k + 1], stack) != RTK_OK) {
+            __atomic_store_n(&j->failed, 1, __ATOMIC_RELAXED);
+            break;
+        }
+    }
+    __atomic_fetch_add(&j->covered, w.covered, __ATOMIC_RELAXED);
+    __atomic_fetch_add(&j->reached, w.reached, __ATOMIC_RELAXED);
+    uint32_t seen = __atomic_load_n(&j->max_depth, __ATOMIC_RELAXED);
+    while (w.max_depth > seen &&
+           !__atomic_compare_exchange_n(&j->max_depth, &seen, w.max_depth, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED))
+        ;
+}
+
+static int all_set(const uint8_t *seen, uint32_t n)
+{
+    uint8_t all = 1;
+    for (uint32_t i = 0; i < n; i++)
+        all &= seen[i];
+    return all;
+}
+
+/* Below this many nodes the walk stays on one thread. */
+#define VALIDATION_PARALLEL_NODES 65536u
+
 rtk_status rtk_bvh_validate(const rtk_build_args *a, int leaf_bounds, uint32_t *depth_out)
 {
     if (a->node_count == 0 || a->node_count > a->max_nodes)
         return rtk_error(RTK_ERR_PLUGIN, "builder returned %u nodes (expected 1 .. %u)", a->node_count,
                          a->max_nodes);
-    uint8_t *seen_node = rtk_calloc(a->node_count, 1);
-    uint8_t *seen_slot = rtk_calloc(a->prim_count, 1);
-    uint8_t *seen_prim = rtk_calloc(a->prim_count, 1);
+    tree_walk w;
+    memset(&w, 0, sizeof w);
+    w.a = a, w.leaf_bounds = leaf_bounds;
+    w.seen_node = rtk_calloc(a->node_count, 1);
+    w.seen_slot = rtk_calloc(a->prim_count, 1);
+    w.seen_prim = rtk_calloc(a->prim_count, 1);
     uint32_t *stack = rtk_alloc(sizeof(uint32_t) * 2 * (RTK_BVH_MAX_DEPTH + 2));
+    uint32_t roots[2 << VALIDATION_ROOTS_DEPTH];
     rtk_status st = RTK_OK;
-    if (!seen_node || !seen_slot || !seen_prim || !stack) {
+    if (!w.seen_node || !w.seen_slot || !w.seen_prim || !stack) {
         st = RTK_ERR_NOMEM;
         goto done;
     }
-    uint32_t max_depth = 0, covered = 0, reached = 0;
-    int top = 0;
-    stack[top++] = 0, stack[top++] = 1; /* pairs (node, depth) */
-    while (top > 0) {
-        uint32_t depth = stack[--top], id = stack[--top];
-        const rtk_bvh_node *n = &a->nodes[id];
-        if (seen_node[id]) {
-            st = rtk_error(RTK_ERR_PLUGIN, "builder output: node %u is reached twice (the tree has a cycle or shared node)", id);
+    int parallel = a->thread_count > 1 && a->node_count >= VALIDATION_PARALLEL_NODES;
+    if (parallel) {
+        /* The top levels here, quietly; the subtrees below on threads.
+         * In a sound tree the walks meet no byte twice, and every node,
+         * slot and primitive is marked once: the counts equal the totals
+         * and no mark is missing. Anything else (a shared node or slot
+         * two threads both took for new included) fails one of those, and
+         * the walk is done again on one thread for the message. */
+        w.quiet = 1, w.stop_depth = VALIDATION_ROOTS_DEPTH, w.roots = roots;
+        int ok = walk_tree(&w, 0, 1, stack) == RTK_OK;
+        if (ok) {
+            walk_job job = {&w, 0, w.max_depth, w.covered, w.reached, 0};
+            rtk_parallel_ranges(a->thread_count, a->thread_count, 1, walk_worker, &job);
+            ok = !job.failed && job.reached == a->node_count && job.covered == a->prim_count &&
+                 all_set(w.seen_node, a->node_count) && all_set(w.seen_slot, a->prim_count) &&
+                 all_set(w.seen_prim, a->prim_count);
+            w.max_depth = job.max_depth;
+        }
+        if (ok) {
+            *depth_out = w.max_depth;
             goto done;
         }
-        seen_node[id] = 1;
-        reached++;
-        if (depth > max_depth)
-            max_depth = depth;
-        if (depth > RTK_BVH_MAX_DEPTH) {
-            st = rtk_error(RTK_ERR_PLUGIN, "builder output: tree deeper than %d levels", RTK_BVH_MAX_DEPTH);
-            goto done;
-        }
-        for (int k = 0; k < 3; k++) {
-            if (isnan(n->lower[k]) || isnan(n->upper[k])) {
-                st = rtk_error(RTK_ERR_PLUGIN, "builder output: node %u has NaN bounds", id);
-                goto done;
-            }
-        }
-        if (n->count > 0) {
-            if (n->offset > a->prim_count || n->count > a->prim_count - n->offset) {
-                st = rtk_error(RTK_ERR_PLUGIN, "builder output: leaf %u covers slots %u..%u beyond %u primitives", id,
-                               n->offset, n->offset + n->count - 1, a->prim_count);
-                goto done;
-            }
-            for (uint32_t i = n->offset; i < n->offset + n->count; i++) {
-                uint32_t prim = a->prim_order[i];
-                if (seen_slot[i] || prim >= a->prim_count || seen_prim[prim]) {
-                    st = rtk_error(RTK_ERR_PLUGIN, "builder output: slot %u (primitive %u) is referenced twice or out of range",
-                                   i, prim);
-                    goto done;
-                }
-                seen_slot[i] = seen_prim[prim] = 1;
-                covered++;
-                if (!leaf_bounds)
-                    continue;
-                const rtk_bounds *b = &a->prim_bounds[prim];
-                const float plo[3] = {b->lower.x, b->lower.y, b->lower.z}, phi[3] = {b->upper.x, b->upper.y, b->upper.z};
-                if (!box_contains(n->lower, n->upper, plo, phi)) {
-                    st = rtk_error(RTK_ERR_PLUGIN, "builder output: leaf %u does not enclose primitive %u", id, prim);
-                    goto done;
-                }
-            }
-        } else {
-            if (n->offset == 0 || n->offset >= a->node_count - 1) {
-                st = rtk_error(RTK_ERR_PLUGIN, "builder output: inner node %u points to children %u, %u outside 1 .. %u",
-                               id, n->offset, n->offset + 1, a->node_count - 1);
-                goto done;
-            }
-            for (uint32_t c = n->offset; c <= n->offset + 1; c++) {
-                if (!box_contains(n->lower, n->upper, a->nodes[c].lower, a->nodes[c].upper)) {
-                    st = rtk_error(RTK_ERR_PLUGIN, "builder output: node %u does not enclose its child %u", id, c);
-                    goto done;
-                }
-                stack[top++] = c, stack[top++] = depth + 1;
-            }
-        }
+        memset(w.seen_node, 0, a->node_count);
+        memset(w.seen_slot, 0, a->prim_count);
+        memset(w.seen_prim, 0, a->prim_count);
+        w.max_depth = w.covered = w.reached = 0;
     }
-    if (covered != a->prim_count) {
-        st = rtk_error(RTK_ERR_PLUGIN, "builder output: leaves hold %u of %u primitives", covered, a->prim_count);
+    w.quiet = 0, w.stop_depth = 0, w.roots = NULL, w.root_count = 0;
+    st = walk_tree(&w, 0, 1, stack);
+    if (st != RTK_OK)
+        goto done;
+    if (w.covered != a->prim_count) {
+        st = rtk_error(RTK_ERR_PLUGIN, "builder output: leaves hold %u of %u primitives", w.covered, a->prim_count);
         goto done;
     }
-    if (reached != a->node_count) {
+    if (w.reached != a->node_count) {
         st = rtk_error(RTK_ERR_PLUGIN, "builder output: %u of the %u nodes reported are not reachable from the root "
-                       "(node_count must count the nodes of the tree only)", a->node_count - reached, a->node_count);
+                       "(node_count must count the nodes of the tree only)", a->node_count - w.reached, a->node_count);
         goto done;
     }
-    *depth_out = max_depth;
+    if (parallel) { /* the threads saw a fault one thread does not: never */
+        st = rtk_error(RTK_ERR_PLUGIN, "builder output: the tree failed validation on threads only");
+        goto done;
+    }
+    *depth_out = w.max_depth;
 done:
-    free(seen_node);
-    free(seen_slot);
-    free(seen_prim);
+    free(w.seen_node);
+    free(w.seen_slot);
+    free(w.seen_prim);
     free(stack);
     return st;
 }

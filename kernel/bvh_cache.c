@@ -378,6 +378,7 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
     args.nodes = nodes;
     args.node_count = h.node_count;
     args.prim_order = prims;
+    args.thread_count = threads ? threads : 1;
     uint32_t depth = 0;
     /* The structure, then the corners in leaf order, then the leaves'
      * boxes against them. */

@@ -6,7 +6,7 @@
  * a leaf that misses its triangle (the check runs on threads: the lowest
  * such leaf must be named whatever the thread count), a node reported but
  * unreachable, a shared child, a cycle, a child index out of range, a
- * primitive twice, NaN bounds, an inner box missing its child, a chain
+ * primitive twice, a slot shared by leaves far apart, NaN bounds, an inner box missing its child, a chain
  * deeper than the kernel allows. The good tree must answer every ray as a
  * one-leaf tree does (same triangle, same t). */
 #include "conform_hard.h"
@@ -29,6 +29,8 @@ enum damage {
     CYCLE,             /* an inner node points back to the root's children */
     CHILD_OUT_OF_RANGE,
     PRIM_TWICE,        /* prim_order holds one primitive twice */
+    SLOT_TWICE,        /* the first leaf takes the last leaf's slot: deep in
+                          both halves, where threads walk */
     NAN_BOUNDS,
     INNER_MISSES_CHILD,
     TOO_DEEP,          /* a chain of 300 levels */
@@ -46,6 +48,7 @@ static const struct {
     [CYCLE] = {"a cycle", "reached twice"},
     [CHILD_OUT_OF_RANGE] = {"a child index past the last node", "points to children"},
     [PRIM_TWICE] = {"a primitive twice in prim_order", "referenced twice"},
+    [SLOT_TWICE] = {"two leaves far apart share a slot", "referenced twice"},
     [NAN_BOUNDS] = {"NaN bounds", "NaN bounds"},
     [INNER_MISSES_CHILD] = {"an inner box missing its child", "does not enclose its child"},
     [TOO_DEEP] = {"a chain of 300 levels", "deeper than"},
@@ -183,6 +186,13 @@ static rtk_status damaging_build(void *state, rtk_build_args *a)
     case PRIM_TWICE:
         a->prim_order[a->prim_count - 1] = a->prim_order[0];
         break;
+    case SLOT_TWICE: {
+        uint32_t first = 0;
+        while (nodes[first].count == 0)
+            first++;
+        nodes[first].offset = nodes[last].offset;
+        break;
+    }
     case NAN_BOUNDS:
         nodes[0].lower[1] = NAN;
         break;
@@ -265,8 +275,9 @@ static void trace(const rtk_scene *s, uint32_t rays, rtk_hit *hits, int *found)
 
 int main(void)
 {
-    /* 150,000 triangles: 300k nodes, so that the leaf check runs on two
-     * ranges with two threads. */
+    /* 150,000 triangles: 300k nodes, so that with two threads the tree
+     * walk runs on both and the leaf check on two ranges; a fault is then
+     * reported as on one thread. */
     const uint32_t n = 150000, rays = 1000;
     rtk_scene *s = soup(n);
     if (!s || rtk_scene_finish(s) != RTK_OK) {
@@ -285,6 +296,7 @@ int main(void)
         hit_count += (uint32_t)want_found[i];
     check(hit_count > rays / 4, "reference rays hit the soup (%u of %u)", hit_count, rays);
 
+    static char one_thread[DAMAGE_COUNT][512];
     for (uint32_t threads = 1; threads <= 2; threads++) {
         for (int d = 0; d < DAMAGE_COUNT; d++) {
             damage = (enum damage)d;
@@ -306,6 +318,11 @@ int main(void)
             int says = strstr(msg, damages[d].expect) != NULL;
             check(st == RTK_ERR_PLUGIN && named && says, "[%u threads] %s: refused (%s)", threads, damages[d].name,
                   msg);
+            if (threads == 1)
+                snprintf(one_thread[d], sizeof one_thread[d], "%s", msg);
+            else
+                check(strcmp(msg, one_thread[d]) == 0, "[%u threads] %s: the same message as on one thread", threads,
+                      damages[d].name);
             if (damage == LAST_LEAF_MISSES || damage == TWO_LEAVES_MISS) {
                 char want_msg[128];
                 snprintf(want_msg, sizeof want_msg, "leaf %u does not enclose primitive %u", expect_leaf,
