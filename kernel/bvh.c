@@ -572,20 +572,15 @@ typedef struct prep_job {
 static void prep_range(void *ctx, uint32_t begin, uint32_t end)
 {
     const prep_job *j = ctx;
-    const uint32_t *indices = j->s->indices;
-    const float *pos = j->s->positions;
     for (uint32_t i = begin; i < end; i++) {
-        const float *p[3];
-        for (int c = 0; c < 3; c++)
-            p[c] = pos + 3 * (size_t)indices[3 * (size_t)i + c];
-        rtk_vec3 *v = j->vertices + 3 * (size_t)i;
+        float v[9];
+        rtk_triangle_corners(j->s, i, v);
+        memcpy(j->vertices + 3 * (size_t)i, v, sizeof v);
         float lo[3], hi[3];
         for (int k = 0; k < 3; k++) {
-            lo[k] = RTK_MINF(RTK_MINF(p[0][k], p[1][k]), p[2][k]);
-            hi[k] = RTK_MAXF(RTK_MAXF(p[0][k], p[1][k]), p[2][k]);
+            lo[k] = RTK_MINF(RTK_MINF(v[k], v[3 + k]), v[6 + k]);
+            hi[k] = RTK_MAXF(RTK_MAXF(v[k], v[3 + k]), v[6 + k]);
         }
-        for (int c = 0; c < 3; c++)
-            v[c] = rtk_vec3_make(p[c][0], p[c][1], p[c][2]);
         j->bounds[i].lower = rtk_vec3_make(lo[0], lo[1], lo[2]);
         j->bounds[i].upper = rtk_vec3_make(hi[0], hi[1], hi[2]);
         j->centroids[i] = rtk_vec3_make((lo[0] + hi[0]) * 0.5f, (lo[1] + hi[1]) * 0.5f, (lo[2] + hi[2]) * 0.5f);
@@ -611,43 +606,14 @@ static void gather_range(void *ctx, uint32_t begin, uint32_t end)
 typedef struct leaf_check {
     const rtk_bvh_node *nodes;
     const float *corners;
-    uint32_t bad_node, bad_slot; /* lowest failing node (UINT32_MAX: none) */
+    uint32_t bad_node; /* lowest failing node (UINT32_MAX: none) */
 } leaf_check;
 
-static void leaf_check_range(void *ctx, uint32_t begin, uint32_t end)
+/* The first slot of leaf n whose corners leave its box, or the end. */
+static uint32_t first_outside(const rtk_bvh_node *n, const float *corners)
 {
-    leaf_check *c = ctx;
-    for (uint32_t id = begin; id < end; id++) {
-        const rtk_bvh_node *n = &c->nodes[id];
-        for (uint32_t slot = n->offset; n->count && slot < n->offset + n->count; slot++) {
-            const float *v = c->corners + 9 * (size_t)slot;
-            int inside = 1;
-            for (int k = 0; k < 9; k++)
-                inside &= n->lower[k % 3] <= v[k] && v[k] <= n->upper[k % 3];
-            if (inside)
-                continue;
-            /* Ranges run concurrently: keep the lowest node, as one
-             * thread would report. */
-            uint32_t seen = __atomic_load_n(&c->bad_node, __ATOMIC_RELAXED);
-            while (id < seen &&
-                   !__atomic_compare_exchange_n(&c->bad_node, &seen, id, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED))
-                ;
-            return;
-        }
-    }
-}
-
-rtk_status rtk_bvh_check_leaves(const rtk_bvh_node *nodes, uint32_t node_count, const uint32_t *prim_order,
-                                const float *corners, uint32_t threads)
-{
-    leaf_check c = {nodes, corners, UINT32_MAX, 0};
-    rtk_parallel_ranges(node_count, threads, 65536, leaf_check_range, &c);
-    if (c.bad_node == UINT32_MAX)
-        return RTK_OK;
-    /* Find the slot again, on one thread, for the message. */
-    const rtk_bvh_node *n = &nodes[c.bad_node];
     uint32_t slot = n->offset;
-    for (; slot + 1 < n->offset + n->count; slot++) {
+    for (; slot < n->offset + n->count; slot++) {
         const float *v = corners + 9 * (size_t)slot;
         int inside = 1;
         for (int k = 0; k < 9; k++)
@@ -655,8 +621,35 @@ rtk_status rtk_bvh_check_leaves(const rtk_bvh_node *nodes, uint32_t node_count, 
         if (!inside)
             break;
     }
+    return slot;
+}
+
+static void leaf_check_range(void *ctx, uint32_t begin, uint32_t end)
+{
+    leaf_check *c = ctx;
+    for (uint32_t id = begin; id < end; id++) {
+        const rtk_bvh_node *n = &c->nodes[id];
+        if (n->count == 0 || first_outside(n, c->corners) == n->offset + n->count)
+            continue;
+        /* Ranges run concurrently: keep the lowest node, as one thread
+         * would report. */
+        uint32_t seen = __atomic_load_n(&c->bad_node, __ATOMIC_RELAXED);
+        while (id < seen &&
+               !__atomic_compare_exchange_n(&c->bad_node, &seen, id, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED))
+            ;
+        return;
+    }
+}
+
+rtk_status rtk_bvh_check_leaves(const rtk_bvh_node *nodes, uint32_t node_count, const uint32_t *prim_order,
+                                const float *corners, uint32_t threads)
+{
+    leaf_check c = {nodes, corners, UINT32_MAX};
+    rtk_parallel_ranges(node_count, threads, 65536, leaf_check_range, &c);
+    if (c.bad_node == UINT32_MAX)
+        return RTK_OK;
     return rtk_error(RTK_ERR_PLUGIN, "builder output: leaf %u does not enclose primitive %u", c.bad_node,
-                     prim_order[slot]);
+                     prim_order[first_outside(&nodes[c.bad_node], corners)]);
 }
 
 rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads)

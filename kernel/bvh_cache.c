@@ -385,13 +385,8 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
     int valid = rtk_bvh_validate(&args, 0, &depth) == RTK_OK;
     double t3 = rtk_now();
     if (valid) {
-        for (uint32_t slot = 0; slot < n; slot++) {
-            rtk_vec3 v[3];
-            rtk_scene_triangle(s, prims[slot], &v[0], &v[1], &v[2]);
-            float *dst = tri_verts + 9 * (size_t)slot;
-            for (int k = 0; k < 3; k++)
-                dst[3 * k] = v[k].x, dst[3 * k + 1] = v[k].y, dst[3 * k + 2] = v[k].z;
-        }
+        for (uint32_t slot = 0; slot < n; slot++)
+            rtk_triangle_corners(s, prims[slot], tri_verts + 9 * (size_t)slot);
     }
     double t4 = rtk_now();
     if (valid)

@@ -368,18 +368,6 @@ typedef struct wide_plan {
     int failed;
 } wide_plan;
 
-static int plan_grow(void **array, uint32_t *cap, uint32_t count, size_t size)
-{
-    if (count < *cap)
-        return 1;
-    uint32_t n = *cap ? 2 * *cap : 16;
-    void *p = rtk_realloc_array(*array, n, size);
-    if (!p)
-        return 0;
-    *array = p, *cap = n;
-    return 1;
-}
-
 /* Plans the wide node for binary node bin at depth: reserves its index
  * (c->node_cap), then each child in order is planned in turn or becomes
  * an item whose ranges come from the counting pass. */
@@ -391,7 +379,7 @@ static void plan_node(collapser *c, wide_plan *pl, uint32_t bin, uint32_t depth)
     if (depth > pl->depth)
         pl->depth = depth;
     for (int i = 0; i < n && !c->failed && !pl->failed; i++) {
-        if (!plan_grow((void **)&pl->fixups, &pl->fixup_cap, pl->fixup_count, sizeof *pl->fixups)) {
+        if (!rtk_grow_array((void **)&pl->fixups, &pl->fixup_cap, pl->fixup_count, sizeof *pl->fixups)) {
             pl->failed = 1;
             return;
         }
@@ -402,7 +390,7 @@ static void plan_node(collapser *c, wide_plan *pl, uint32_t bin, uint32_t depth)
             plan_node(c, pl, kids[i], depth + 1);
             continue;
         }
-        if (!plan_grow((void **)&pl->items, &pl->item_cap, pl->item_count, sizeof *pl->items)) {
+        if (!rtk_grow_array((void **)&pl->items, &pl->item_cap, pl->item_count, sizeof *pl->items)) {
             pl->failed = 1;
             return;
         }

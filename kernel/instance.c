@@ -12,24 +12,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int grow(void **array, uint32_t *cap, uint32_t count, size_t size)
-{
-    if (count < *cap)
-        return 1;
-    uint32_t want = *cap ? *cap + *cap / 2 + 1 : 8;
-    if (want <= count || want > UINT32_MAX / 2)
-        return 0;
-    void *grown = rtk_realloc_array(*array, want, size);
-    if (!grown)
-        return 0;
-    *array = grown;
-    *cap = want;
-    return 1;
-}
-
 static rtk_status append_mesh(rtk_scene *scene, rtk_scene *mesh, uint32_t *index)
 {
-    if (!grow((void **)&scene->meshes, &scene->mesh_cap, scene->mesh_count, sizeof *scene->meshes))
+    if (!rtk_grow_array((void **)&scene->meshes, &scene->mesh_cap, scene->mesh_count, sizeof *scene->meshes))
         return rtk_error(RTK_ERR_NOMEM, "%s: out of memory for instanced meshes", scene->path);
     *index = scene->mesh_count;
     scene->meshes[scene->mesh_count++] = mesh;
@@ -88,7 +73,8 @@ rtk_status rtk_scene_add_instance(rtk_scene *scene, uint32_t mesh, const double 
     if (det == 0.0)
         return rtk_error(RTK_ERR_INVALID,
                          "%s: the instance's transform is singular (a zero scale?) and would flatten the mesh", where);
-    if (!grow((void **)&scene->instances, &scene->instance_cap, scene->instance_count, sizeof *scene->instances))
+    if (!rtk_grow_array((void **)&scene->instances, &scene->instance_cap, scene->instance_count,
+                        sizeof *scene->instances))
         return rtk_error(RTK_ERR_NOMEM, "%s: out of memory for instances", where);
     in.mesh = mesh;
     in.mirrored = det < 0.0;

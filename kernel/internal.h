@@ -17,6 +17,10 @@ RTK_EXTERN_C_BEGIN
 void *rtk_alloc(size_t size);
 void *rtk_calloc(size_t count, size_t size);
 void *rtk_realloc_array(void *ptr, size_t count, size_t size);
+/* Makes room for item count of *array (capacity *cap, items of size
+ * bytes), growing by half; 1 on success, 0 (error set) when out of memory
+ * or past 2^31 items, *array left alone. */
+int rtk_grow_array(void **array, uint32_t *cap, uint32_t count, size_t size);
 /* rtk_alloc for large arrays, on a 64-byte boundary; from 1 MiB on,
  * rounded up to whole 2 MiB pages on a 2 MiB boundary, advised as
  * transparent huge pages, which cuts the cost of first touching it and
@@ -332,19 +336,24 @@ struct rtk_scene {
     uint32_t *tlas_order;        /* top-level leaf slot -> instance */
 };
 
+/* The corners of triangle prim (scene order), 9 floats. */
+static inline void rtk_triangle_corners(const rtk_scene *s, uint32_t prim, float v[9])
+{
+    const uint32_t *idx = s->indices + 3 * (size_t)prim;
+    for (int c = 0; c < 3; c++)
+        memcpy(v + 3 * c, s->positions + 3 * (size_t)idx[c], 3 * sizeof(float));
+}
+
 /* The corners of leaf slot slot, 9 floats: from tri_verts while a build
  * holds them in leaf order, else from the scene's indexed positions (the
  * same floats). The binary traversal and a later wide collapse read them
  * this way, so the scene keeps no second copy of its triangles. */
 static inline void rtk_slot_corners(const rtk_scene *s, uint32_t slot, float v[9])
 {
-    if (s->tri_verts) {
+    if (s->tri_verts)
         memcpy(v, s->tri_verts + 9 * (size_t)slot, 9 * sizeof(float));
-        return;
-    }
-    const uint32_t *idx = s->indices + 3 * (size_t)s->prim_ids[slot];
-    for (int c = 0; c < 3; c++)
-        memcpy(v + 3 * c, s->positions + 3 * (size_t)idx[c], 3 * sizeof(float));
+    else
+        rtk_triangle_corners(s, s->prim_ids[slot], v);
 }
 
 /* Empty scene that keeps the data in needs (RTK_NEED_*). [caller frees] */

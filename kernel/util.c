@@ -66,6 +66,23 @@ void *rtk_realloc_array(void *ptr, size_t count, size_t size)
     return p;
 }
 
+int rtk_grow_array(void **array, uint32_t *cap, uint32_t count, size_t size)
+{
+    if (count < *cap)
+        return 1;
+    uint32_t want = *cap ? *cap + *cap / 2 + 1 : 8;
+    if (want <= count || want > UINT32_MAX / 2) {
+        rtk_error(RTK_ERR_NOMEM, "array of more than %u items", count);
+        return 0;
+    }
+    void *grown = rtk_realloc_array(*array, want, size);
+    if (!grown)
+        return 0;
+    *array = grown;
+    *cap = want;
+    return 1;
+}
+
 char *rtk_strdup(const char *s)
 {
     if (!s)

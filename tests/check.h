@@ -11,6 +11,9 @@
 #include <stdio.h>
 
 static int passed, failed;
+/* Set to 1 by tests that run many checks per printed group: only
+ * failures get a line of their own. */
+static int check_failures_only;
 
 static void check(int ok, const char *fmt, ...) RTK_PRINTF(2, 3);
 static void check(int ok, const char *fmt, ...)
@@ -20,7 +23,8 @@ static void check(int ok, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(what, sizeof what, fmt, ap);
     va_end(ap);
-    printf("%s  %s\n", ok ? "ok  " : "FAIL", what);
+    if (!ok || !check_failures_only)
+        printf("%s  %s\n", ok ? "ok  " : "FAIL", what);
     ok ? passed++ : failed++;
 }
 

@@ -18,20 +18,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-static int passed, failed;
-
-static void check(int ok, const char *fmt, ...) RTK_PRINTF(2, 3);
-static void check(int ok, const char *fmt, ...)
-{
-    char what[1024];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(what, sizeof what, fmt, ap);
-    va_end(ap);
-    if (!ok)
-        printf("FAIL  %s\n", what);
-    ok ? passed++ : failed++;
-}
+#include "../check.h"
 
 /* Runs many checks quietly; prints one line for the group. */
 static void group_done(const char *name, int before_failed, int before_passed)
@@ -853,6 +840,7 @@ static void test_fuzz(int rounds)
 
 int main(void)
 {
+    check_failures_only = 1;
     rtk_registry *reg = NULL;
     if (rtk_registry_create(&reg) != RTK_OK ||
         rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "median", &median) != RTK_OK) {
