@@ -712,6 +712,28 @@ static void tree_stats(const rtk_scene *s, bench_row *row)
 }
 
 /* Builds with a on threads (median of the runs) and traces both passes. */
+/* With -v: the kernel's work counters over the same rays, untimed (the
+ * figures do not depend on the machine; zero for an own traversal). */
+static void log_work(const bench *b, const bench_accel *a, uint32_t threads, size_t n_ao)
+{
+    const size_t n_primary = (size_t)b->width * b->height;
+    uint64_t pn = 0, pt = 0, an = 0, at = 0;
+    for (size_t i = 0; i < n_primary; i++) {
+        rtk_trace_work w = {0, 0};
+        rtk_hit h;
+        rtk_bvh_closest_measure(b->scene, &b->primary[i], &h, &w);
+        pn += w.nodes, pt += w.triangles;
+    }
+    for (size_t i = 0; i < n_ao; i++) {
+        rtk_trace_work w = {0, 0};
+        rtk_bvh_any_measure(b->scene, &b->ao[i], &w);
+        an += w.nodes, at += w.triangles;
+    }
+    double np = n_primary ? (double)n_primary : 1.0, na = n_ao ? (double)n_ao : 1.0;
+    rtk_log(RTK_LOG_DEBUG, "bench: %s, %u threads: work per ray: primary %.3f nodes, %.3f triangles; AO %.3f nodes, "
+            "%.3f triangles", a->label, threads, (double)pn / np, (double)pt / np, (double)an / na, (double)at / na);
+}
+
 static rtk_status measure(bench *b, const bench_accel *a, uint32_t threads, bench_row *row)
 {
     rtk_scene *s = b->scene;
@@ -786,6 +808,8 @@ static rtk_status measure(bench *b, const bench_accel *a, uint32_t threads, benc
     }
     row->ao_ms = 1e3 * median(b->times, runs);
     row->ao_cpu_ms = 1e3 * median(b->cpu_times, runs);
+    if (rtk_log_enabled(RTK_LOG_DEBUG))
+        log_work(b, a, threads, n_ao);
     rtk_bvh_release(s);
     return RTK_OK;
 }

@@ -622,41 +622,29 @@ rtk_simd_path rtk_simd_from_env(void)
 
 /* ---- per-ray constants ---- */
 
+/* The box test's constants. The triangle test's (tri_ray) are made only
+ * when a ray reaches its first leaf: most primary rays of a mesh that
+ * fills part of the image miss the root's children and never do. */
 typedef struct wide_ray {
     float org[3], inv[3], inv_far[3];
     int near[3], far[3];   /* rows of rtk_wide_node.bounds: entry and exit plane per axis */
-    /* triangle test: shear constants of rtk_intersect_triangle */
-    int kx, ky, kz;
-    float sx, sy, sz;
 } wide_ray;
 
+/* The exit distance is widened through the reciprocal: more roundings
+ * than bvh.c's, still inside 1 + 2 gamma(3) (see the callers: only rays
+ * with tmin >= 0 come here, so a negative exit distance is a box behind
+ * the origin and needs no care). 1 / +-0 gives +-inf. */
 RTK_INLINE void wide_prepare(const rtk_ray *r, wide_ray *p)
 {
     const float d[3] = {r->dir.x, r->dir.y, r->dir.z};
     p->org[0] = r->org.x, p->org[1] = r->org.y, p->org[2] = r->org.z;
     for (int k = 0; k < 3; k++) {
-        p->inv[k] = 1.0f / d[k]; /* +-0 gives +-inf */
-        /* The exit distance is widened through the reciprocal: more
-         * roundings than bvh.c's, still inside 1 + 2 gamma(3) (see the
-         * callers: only rays with tmin >= 0 come here, so a negative exit
-         * distance is a box behind the origin and needs no care). */
+        p->inv[k] = 1.0f / d[k];
         p->inv_far[k] = p->inv[k] * slab_slack;
         int neg = signbit(d[k]) != 0;
         p->near[k] = 2 * k + neg;
         p->far[k] = 2 * k + 1 - neg;
     }
-    float adx = fabsf(d[0]), ady = fabsf(d[1]), adz = fabsf(d[2]);
-    int kz = adx > ady ? (adx > adz ? 0 : 2) : (ady > adz ? 1 : 2);
-    int kx = kz == 2 ? 0 : kz + 1;
-    int ky = kx == 2 ? 0 : kx + 1;
-    float dz = d[kz];
-    if (dz < 0.0f) {
-        int tmp = kx;
-        kx = ky;
-        ky = tmp;
-    }
-    p->kx = kx, p->ky = ky, p->kz = kz;
-    p->sx = d[kx] / dz, p->sy = d[ky] / dz, p->sz = 1.0f / dz;
 }
 
 /* The widened tmax of the box test (bvh.c's). */
@@ -846,6 +834,27 @@ RTK_INLINE int scalar_traverse(const rtk_scene *s, const rtk_ray *ray_in, rtk_hi
 
 /* ---- four triangles at once (SSE2; VEX-encoded inside the AVX2 path) ---- */
 
+/* wide_prepare with the three reciprocals in one packed division: the
+ * same IEEE quotients, without three dependent trips through the divider
+ * at the start of every ray. */
+RTK_INLINE void wide_prepare_sse(const rtk_ray *r, wide_ray *p)
+{
+    const __m128 d = _mm_set_ps(1.0f, r->dir.z, r->dir.y, r->dir.x);
+    const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), d);
+    float fi[4], ff[4];
+    _mm_storeu_ps(fi, inv);
+    _mm_storeu_ps(ff, _mm_mul_ps(inv, _mm_set1_ps(slab_slack)));
+    const int signs = _mm_movemask_ps(d);
+    p->org[0] = r->org.x, p->org[1] = r->org.y, p->org[2] = r->org.z;
+    for (int k = 0; k < 3; k++) {
+        p->inv[k] = fi[k];
+        p->inv_far[k] = ff[k];
+        int neg = (signs >> k) & 1;
+        p->near[k] = 2 * k + neg;
+        p->far[k] = 2 * k + 1 - neg;
+    }
+}
+
 /* Ray constants of the triangle test, broadcast. */
 typedef struct tri_ray {
     __m128 ox, oy, oz; /* origin components kx, ky, kz */
@@ -853,15 +862,31 @@ typedef struct tri_ray {
     int kx, ky, kz;
 } tri_ray;
 
-RTK_INLINE void tri_prepare(const wide_ray *p, tri_ray *r)
+/* rtk_intersect_triangle's shear constants: kz the axis of the largest
+ * |direction| component, kx and ky the others (swapped when d[kz] < 0),
+ * d[kx] / d[kz], d[ky] / d[kz] and 1 / d[kz] in one packed division. */
+RTK_INLINE void tri_prepare(const rtk_ray *ray, tri_ray *r)
 {
-    r->kx = p->kx, r->ky = p->ky, r->kz = p->kz;
-    r->ox = _mm_set1_ps(p->org[p->kx]);
-    r->oy = _mm_set1_ps(p->org[p->ky]);
-    r->oz = _mm_set1_ps(p->org[p->kz]);
-    r->sx = _mm_set1_ps(p->sx);
-    r->sy = _mm_set1_ps(p->sy);
-    r->sz = _mm_set1_ps(p->sz);
+    const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
+    const float o[3] = {ray->org.x, ray->org.y, ray->org.z};
+    float adx = fabsf(d[0]), ady = fabsf(d[1]), adz = fabsf(d[2]);
+    int kz = adx > ady ? (adx > adz ? 0 : 2) : (ady > adz ? 1 : 2);
+    int kx = kz == 2 ? 0 : kz + 1;
+    int ky = kx == 2 ? 0 : kx + 1;
+    float dz = d[kz];
+    if (dz < 0.0f) {
+        int tmp = kx;
+        kx = ky;
+        ky = tmp;
+    }
+    r->kx = kx, r->ky = ky, r->kz = kz;
+    const __m128 q = _mm_div_ps(_mm_set_ps(1.0f, 1.0f, d[ky], d[kx]), _mm_set1_ps(dz));
+    r->sx = _mm_shuffle_ps(q, q, 0x00);
+    r->sy = _mm_shuffle_ps(q, q, 0x55);
+    r->sz = _mm_shuffle_ps(q, q, 0xaa);
+    r->ox = _mm_set1_ps(o[kx]);
+    r->oy = _mm_set1_ps(o[ky]);
+    r->oz = _mm_set1_ps(o[kz]);
 }
 
 /* Lanes of block b hit within [tmin, tmax] (bit mask), with t, u, v; the
@@ -1018,9 +1043,9 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
 {
     const rtk_wide_bvh *w = s->wide;
     wide_ray p;
-    wide_prepare(ray, &p);
+    wide_prepare_sse(ray, &p);
     tri_ray tr;
-    tri_prepare(&p, &tr);
+    int tri_ready = 0;
     const __m128 ox = _mm_set1_ps(p.org[0]), oy = _mm_set1_ps(p.org[1]), oz = _mm_set1_ps(p.org[2]);
     const __m128 ix = _mm_set1_ps(p.inv[0]), iy = _mm_set1_ps(p.inv[1]), iz = _mm_set1_ps(p.inv[2]);
     const __m128 fx = _mm_set1_ps(p.inv_far[0]), fy = _mm_set1_ps(p.inv_far[1]), fz = _mm_set1_ps(p.inv_far[2]);
@@ -1048,6 +1073,10 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
                 cur = push_unsorted(n, mask, stack, &top);
             else
                 cur = push_sorted(n, mask, dist, stack, &top);
+        }
+        if (!tri_ready) {
+            tri_prepare(ray, &tr);
+            tri_ready = 1;
         }
         if (leaf_test(s, w, cur, &tr, ray, hit, any, work)) {
             if (any)
@@ -1080,9 +1109,9 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
 {
     const rtk_wide_bvh *w = s->wide;
     wide_ray p;
-    wide_prepare(ray, &p);
+    wide_prepare_sse(ray, &p);
     tri_ray tr;
-    tri_prepare(&p, &tr);
+    int tri_ready = 0;
     const __m256 ox = _mm256_set1_ps(p.org[0]), oy = _mm256_set1_ps(p.org[1]), oz = _mm256_set1_ps(p.org[2]);
     const __m256 ix = _mm256_set1_ps(p.inv[0]), iy = _mm256_set1_ps(p.inv[1]), iz = _mm256_set1_ps(p.inv[2]);
     const __m256 fx = _mm256_set1_ps(p.inv_far[0]), fy = _mm256_set1_ps(p.inv_far[1]),
@@ -1135,6 +1164,10 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
                     _mm_prefetch(pf + 192, _MM_HINT_T0);
                 }
             }
+        }
+        if (!tri_ready) {
+            tri_prepare(ray, &tr);
+            tri_ready = 1;
         }
         if (avx2_leaf(s, w, cur, &tr, ray, hit, any, work)) {
             if (any)

@@ -51,6 +51,8 @@ int rtk_edit_distance(const char *a, const char *b);
 
 /* Warns once per key for the life of the process (keys compared by text). */
 void rtk_warn_once(const char *key, const char *fmt, ...) RTK_PRINTF(2, 3);
+/* Whether lines of this level are printed: to skip work done only for them. */
+int rtk_log_enabled(rtk_log_level level);
 
 /* ---- params (params.c) ---- */
 

@@ -40,6 +40,11 @@ RTK_API void rtk_log_set_level(rtk_log_level level)
     log_level = level;
 }
 
+int rtk_log_enabled(rtk_log_level level)
+{
+    return level <= log_level;
+}
+
 RTK_API rtk_status rtk_error(rtk_status code, const char *fmt, ...)
 {
     char text[sizeof error_text];
