@@ -48,16 +48,11 @@ typedef struct collapser {
     rtk_wide_tris *tris;
     uint32_t tri_count, tri_cap;
     uint32_t *tri_total;  /* per binary node: triangles below it */
+    uint32_t *plan;       /* per binary node: the collapse's choices (PLAN_*) */
     uint32_t *slots;      /* scratch: the slots of one merged subtree */
     uint32_t depth;
     int failed;
 } collapser;
-
-static float half_area(const float lo[3], const float hi[3])
-{
-    float dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
-    return dx * dy + dy * dz + dz * dx;
-}
 
 static uint32_t new_node(collapser *c)
 {
@@ -178,23 +173,111 @@ static void gather_slots(collapser *c, uint32_t bin, uint32_t *n)
     gather_slots(c, bn[bin].offset + 1, n);
 }
 
-/* Triangles below every binary node (post-order, explicit stack). */
+/* The collapse minimises the SAH cost of the wide tree over the ways of
+ * cutting the binary tree into wide nodes and leaves (Ylitie et al.
+ * 2017, by dynamic programming): C(n, j), the least cost of binary
+ * subtree n as at most j subtrees side by side in a wide node, is
+ * C(n, 1) = min(leaf(n), area(n) WIDE_COST_NODE + D(n, RTK_WIDE)) and
+ * C(n, j) = min(C(n, j - 1), D(n, j)) with
+ * D(n, j) = min over k of C(left, k) + C(right, j - k). A leaf costs its
+ * area times WIDE_COST_BLOCK per block of four triangles; a subtree of up
+ * to WIDE_LEAF_MAX triangles may become one, a binary leaf always is one.
+ * Ties go to the leaf and to more subtrees, so flat (zero-area) input
+ * fills its nodes. */
+#define WIDE_COST_NODE 1.0
+#define WIDE_COST_BLOCK 1.0
+#define WIDE_LEAF_MAX RTK_WIDE_TRIS
+
+/* Bits of collapser.plan: for j = 2 .. RTK_WIDE, whether C(n, j) is
+ * D(n, j), and the k of D(n, j); whether C(n, 1) is a leaf. */
+#define PLAN_K_SHIFT(j) (3 * ((j) - 2))
+#define PLAN_SPLIT(j) (1u << (19 + (j)))
+#define PLAN_LEAF (1u << 28)
+
+static double half_area(const float lo[3], const float hi[3])
+{
+    double dx = (double)hi[0] - lo[0], dy = (double)hi[1] - lo[1], dz = (double)hi[2] - lo[2];
+    return dx * dy + dy * dz + dz * dx;
+}
+
+/* Costs out[j - 1] = C(id, j) of binary node id, from its children's
+ * (NULL for a binary leaf), and its plan. */
+static void plan_costs(collapser *c, uint32_t id, const double *left, const double *right, double *out)
+{
+    const rtk_bvh_node *n = &c->s->nodes[id];
+    double area = half_area(n->lower, n->upper);
+    uint32_t tris = c->tri_total[id];
+    double leaf = area * WIDE_COST_BLOCK * (double)((tris + RTK_WIDE_TRIS - 1) / RTK_WIDE_TRIS);
+    if (!left) {
+        for (int j = 0; j < RTK_WIDE; j++)
+            out[j] = leaf;
+        c->plan[id] = PLAN_LEAF;
+        return;
+    }
+    uint32_t plan = 0;
+    double dist[RTK_WIDE + 1];
+    for (int j = 2; j <= RTK_WIDE; j++) {
+        double best = INFINITY;
+        int best_k = 1;
+        for (int k = 1; k < j; k++) {
+            double v = left[k - 1] + right[j - k - 1];
+            if (v < best)
+                best = v, best_k = k;
+        }
+        dist[j] = best;
+        plan |= (uint32_t)best_k << PLAN_K_SHIFT(j);
+    }
+    double inner = area * WIDE_COST_NODE + dist[RTK_WIDE];
+    if (tris <= WIDE_LEAF_MAX && leaf <= inner) {
+        out[0] = leaf;
+        plan |= PLAN_LEAF;
+    } else {
+        out[0] = inner;
+    }
+    for (int j = 2; j <= RTK_WIDE; j++) {
+        if (dist[j] <= out[j - 2]) {
+            out[j - 1] = dist[j];
+            plan |= PLAN_SPLIT(j);
+        } else {
+            out[j - 1] = out[j - 2];
+        }
+    }
+    c->plan[id] = plan;
+}
+
+/* Triangles below every binary node and the plan of the collapse
+ * (post-order, explicit stacks: nodes, and the costs of finished
+ * subtrees whose parent is pending, one per level at most). */
 static int count_triangles(collapser *c)
 {
     const rtk_scene *s = c->s;
+    const size_t levels = (size_t)s->bvh_depth + 2;
     /* each level replaces one pair by three */
-    uint32_t *stack = rtk_alloc(sizeof *stack * 4 * ((size_t)s->bvh_depth + 2));
-    if (!stack)
+    uint32_t *stack = rtk_alloc(sizeof *stack * 4 * levels);
+    double *costs = rtk_alloc(sizeof *costs * RTK_WIDE * 2 * levels);
+    if (!stack || !costs) {
+        free(stack);
+        free(costs);
         return 0;
+    }
     int top = 0;
+    size_t ctop = 0;
     stack[top++] = 0, stack[top++] = 0; /* (node, children done) */
     while (top > 0) {
         uint32_t done = stack[--top], id = stack[--top];
         const rtk_bvh_node *n = &s->nodes[id];
         if (n->count > 0) {
             c->tri_total[id] = n->count;
+            if (ctop == 2 * levels)
+                break; /* deeper than bvh_depth: never */
+            plan_costs(c, id, NULL, NULL, &costs[RTK_WIDE * ctop++]);
         } else if (done) {
             c->tri_total[id] = c->tri_total[n->offset] + c->tri_total[n->offset + 1];
+            /* the right child finished first: the left one is on top */
+            ctop -= 2;
+            double out[RTK_WIDE];
+            plan_costs(c, id, &costs[RTK_WIDE * (ctop + 1)], &costs[RTK_WIDE * ctop], out);
+            memcpy(&costs[RTK_WIDE * ctop++], out, sizeof out);
         } else {
             stack[top++] = id, stack[top++] = 1;
             stack[top++] = n->offset, stack[top++] = 0;
@@ -202,50 +285,45 @@ static int count_triangles(collapser *c)
         }
     }
     free(stack);
-    return 1;
+    free(costs);
+    return top == 0 && ctop == 1;
 }
 
-/* A binary subtree this small becomes one leaf block: one four-lane test
- * instead of a node and several part-empty blocks. */
-#define RTK_WIDE_MERGE RTK_WIDE_TRIS
-
-/* Whether binary node id ends a wide path: a leaf or a small subtree. */
+/* Whether binary node id ends a wide path: a leaf of the plan. */
 static int is_wide_leaf(const collapser *c, uint32_t id)
 {
-    return c->s->nodes[id].count > 0 || c->tri_total[id] <= RTK_WIDE_MERGE;
+    return (c->plan[id] & PLAN_LEAF) != 0;
 }
 
-/* The children of the wide node for binary node bin, into kids: its
- * children, then repeatedly the inner child of largest surface area
- * replaced by its two children (Wald et al. 2008), until RTK_WIDE children
- * or only leaves remain. Returns their number. */
+/* Appends the subtrees of C(id, j) to kids from *n on. */
+static void decompose(const collapser *c, uint32_t id, int j, uint32_t kids[RTK_WIDE], int *n)
+{
+    const rtk_bvh_node *bn = &c->s->nodes[id];
+    while (j > 1 && bn->count == 0 && !(c->plan[id] & PLAN_SPLIT(j)))
+        j--;
+    if (j == 1 || bn->count > 0) {
+        kids[(*n)++] = id;
+        return;
+    }
+    int k = (int)(c->plan[id] >> PLAN_K_SHIFT(j) & 7u);
+    decompose(c, bn->offset, k, kids, n);
+    decompose(c, bn->offset + 1, j - k, kids, n);
+}
+
+/* The children of the wide node for binary node bin, into kids: the
+ * subtrees of D(bin, RTK_WIDE), or a binary leaf alone. Returns their
+ * number. */
 static int choose_kids(const collapser *c, uint32_t bin, uint32_t kids[RTK_WIDE])
 {
-    const rtk_bvh_node *bn = c->s->nodes;
+    const rtk_bvh_node *bn = &c->s->nodes[bin];
     int n = 0;
-    if (bn[bin].count > 0) {
+    if (bn->count > 0) {
         kids[n++] = bin;
-    } else {
-        kids[n++] = bn[bin].offset;
-        kids[n++] = bn[bin].offset + 1;
+        return n;
     }
-    while (n < RTK_WIDE) {
-        int best = -1;
-        float best_area = -1.0f;
-        for (int i = 0; i < n; i++) {
-            const rtk_bvh_node *k = &bn[kids[i]];
-            if (is_wide_leaf(c, kids[i]))
-                continue;
-            float a = half_area(k->lower, k->upper);
-            if (a > best_area)
-                best = i, best_area = a;
-        }
-        if (best < 0)
-            break;
-        uint32_t open = kids[best];
-        kids[best] = bn[open].offset;
-        kids[n++] = bn[open].offset + 1;
-    }
+    int k = (int)(c->plan[bin] >> PLAN_K_SHIFT(RTK_WIDE) & 7u);
+    decompose(c, bn->offset, k, kids, &n);
+    decompose(c, bn->offset + 1, RTK_WIDE - k, kids, &n);
     return n;
 }
 
@@ -484,10 +562,11 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
     memset(&c, 0, sizeof c);
     c.s = s;
     c.tri_total = rtk_alloc(sizeof *c.tri_total * (size_t)s->node_count);
+    c.plan = rtk_alloc(sizeof *c.plan * (size_t)s->node_count);
     wide_plan pl;
     memset(&pl, 0, sizeof pl);
     uint32_t *order = NULL;
-    if (!c.tri_total || !count_triangles(&c)) {
+    if (!c.tri_total || !c.plan || !count_triangles(&c)) {
         c.failed = 1;
     } else {
         /* Counting pass: planned nodes and items, in the serial order. */
@@ -538,6 +617,7 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
         c.node_count = node_cap, c.tri_count = tri_cap;
     }
     free(c.tri_total);
+    free(c.plan);
     free(pl.items);
     free(pl.fixups);
     free(order);
