@@ -219,10 +219,11 @@ static void plan_costs(collapser *c, uint32_t id, const double *left, const doub
     for (int j = 2; j <= RTK_WIDE; j++) {
         double best = INFINITY;
         int best_k = 1;
-        for (int k = 1; k < j; k++) {
+        for (int k = 1; k < j; k++) { /* without branches: 28 a node, unpredictable */
             double v = left[k - 1] + right[j - k - 1];
-            if (v < best)
-                best = v, best_k = k;
+            int less = v < best;
+            best = less ? v : best;
+            best_k = less ? k : best_k;
         }
         dist[j] = best;
         plan |= (uint32_t)best_k << PLAN_K_SHIFT(j);
@@ -235,58 +236,160 @@ static void plan_costs(collapser *c, uint32_t id, const double *left, const doub
         out[0] = inner;
     }
     for (int j = 2; j <= RTK_WIDE; j++) {
-        if (dist[j] <= out[j - 2]) {
-            out[j - 1] = dist[j];
-            plan |= PLAN_SPLIT(j);
-        } else {
-            out[j - 1] = out[j - 2];
-        }
+        int split = dist[j] <= out[j - 2];
+        out[j - 1] = split ? dist[j] : out[j - 2];
+        plan |= split ? PLAN_SPLIT(j) : 0u;
     }
     c->plan[id] = plan;
 }
 
-/* Triangles below every binary node and the plan of the collapse
- * (post-order, explicit stacks: nodes, and the costs of finished
- * subtrees whose parent is pending, one per level at most). */
-static int count_triangles(collapser *c)
+/* Scratch of one plan walk: node stack (id, depth, done) and the costs
+ * of finished subtrees whose parent is pending (one per level at most). */
+typedef struct plan_scratch {
+    uint32_t *stack;
+    double *costs;
+    size_t levels;
+} plan_scratch;
+
+static int plan_scratch_init(plan_scratch *w, const rtk_scene *s)
 {
-    const rtk_scene *s = c->s;
-    const size_t levels = (size_t)s->bvh_depth + 2;
-    /* each level replaces one pair by three */
-    uint32_t *stack = rtk_alloc(sizeof *stack * 4 * levels);
-    double *costs = rtk_alloc(sizeof *costs * RTK_WIDE * 2 * levels);
-    if (!stack || !costs) {
-        free(stack);
-        free(costs);
-        return 0;
-    }
-    int top = 0;
-    size_t ctop = 0;
-    stack[top++] = 0, stack[top++] = 0; /* (node, children done) */
+    w->levels = (size_t)s->bvh_depth + 2;
+    /* each level replaces one triple by three */
+    w->stack = rtk_alloc(sizeof *w->stack * 6 * w->levels);
+    w->costs = rtk_alloc(sizeof *w->costs * RTK_WIDE * w->levels);
+    return w->stack && w->costs;
+}
+
+static void plan_scratch_free(plan_scratch *w)
+{
+    free(w->stack);
+    free(w->costs);
+}
+
+/* Triangles below every binary node under root (at depth root_depth) and
+ * the plan of the collapse, post-order, left subtree first (builders lay
+ * subtrees out in that order, so the walk reads memory forwards). Inner
+ * nodes at depth frontier are not entered: their triangle counts are
+ * known and their costs are taken from known[*next], in this order.
+ * The root's costs go to out. 0 if the tree is deeper than bvh_depth
+ * said (never: it was validated). */
+static int plan_walk(collapser *c, plan_scratch *w, uint32_t root, uint32_t root_depth, uint32_t frontier,
+                     const double *known, uint32_t *next, double *out)
+{
+    const rtk_bvh_node *nodes = c->s->nodes;
+    uint32_t *stack = w->stack;
+    double *costs = w->costs;
+    size_t top = 0, ctop = 0;
+    stack[top++] = root, stack[top++] = root_depth, stack[top++] = 0;
     while (top > 0) {
-        uint32_t done = stack[--top], id = stack[--top];
-        const rtk_bvh_node *n = &s->nodes[id];
+        uint32_t done = stack[--top], depth = stack[--top], id = stack[--top];
+        const rtk_bvh_node *n = &nodes[id];
+        if (ctop + 1 >= w->levels)
+            return 0;
         if (n->count > 0) {
             c->tri_total[id] = n->count;
-            if (ctop == 2 * levels)
-                break; /* deeper than bvh_depth: never */
             plan_costs(c, id, NULL, NULL, &costs[RTK_WIDE * ctop++]);
+        } else if (depth == frontier) {
+            memcpy(&costs[RTK_WIDE * ctop++], &known[RTK_WIDE * (*next)++], sizeof *costs * RTK_WIDE);
         } else if (done) {
             c->tri_total[id] = c->tri_total[n->offset] + c->tri_total[n->offset + 1];
-            /* the right child finished first: the left one is on top */
+            /* the left child finished first: the right one is on top */
             ctop -= 2;
-            double out[RTK_WIDE];
-            plan_costs(c, id, &costs[RTK_WIDE * (ctop + 1)], &costs[RTK_WIDE * ctop], out);
-            memcpy(&costs[RTK_WIDE * ctop++], out, sizeof out);
+            double cost[RTK_WIDE];
+            plan_costs(c, id, &costs[RTK_WIDE * ctop], &costs[RTK_WIDE * (ctop + 1)], cost);
+            memcpy(&costs[RTK_WIDE * ctop++], cost, sizeof cost);
         } else {
-            stack[top++] = id, stack[top++] = 1;
-            stack[top++] = n->offset, stack[top++] = 0;
-            stack[top++] = n->offset + 1, stack[top++] = 0;
+            if (top + 9 > 6 * w->levels)
+                return 0;
+            stack[top++] = id, stack[top++] = depth, stack[top++] = 1;
+            stack[top++] = n->offset + 1, stack[top++] = depth + 1, stack[top++] = 0;
+            stack[top++] = n->offset, stack[top++] = depth + 1, stack[top++] = 0;
         }
     }
-    free(stack);
+    if (ctop != 1)
+        return 0;
+    memcpy(out, costs, sizeof *costs * RTK_WIDE);
+    return 1;
+}
+
+/* Large trees are planned on threads: the subtrees below the inner nodes
+ * at this depth each by one thread, then the levels above them. */
+#define PLAN_FRONTIER 8
+#define PLAN_PARALLEL_NODES 65536u
+
+/* The inner nodes at depth PLAN_FRONTIER under id, in walk order. */
+static void collect_frontier(const rtk_scene *s, uint32_t id, uint32_t depth, uint32_t *ids, uint32_t *count)
+{
+    const rtk_bvh_node *n = &s->nodes[id];
+    if (n->count > 0)
+        return;
+    if (depth == PLAN_FRONTIER) {
+        ids[(*count)++] = id;
+        return;
+    }
+    collect_frontier(s, n->offset, depth + 1, ids, count);
+    collect_frontier(s, n->offset + 1, depth + 1, ids, count);
+}
+
+typedef struct plan_job {
+    collapser *c;
+    const uint32_t *ids;
+    double *costs;
+    uint32_t count;
+    atomic_uint next;
+    atomic_int failed;
+} plan_job;
+
+static void plan_worker(void *ctx, uint32_t begin, uint32_t end)
+{
+    (void)begin, (void)end;
+    plan_job *job = ctx;
+    plan_scratch w;
+    int ok = plan_scratch_init(&w, job->c->s);
+    for (;;) {
+        uint32_t k = atomic_fetch_add(&job->next, 1u);
+        if (k >= job->count)
+            break;
+        if (ok)
+            ok = plan_walk(job->c, &w, job->ids[k], PLAN_FRONTIER, UINT32_MAX, NULL, NULL,
+                           &job->costs[RTK_WIDE * (size_t)k]);
+    }
+    if (!ok)
+        atomic_store(&job->failed, 1);
+    plan_scratch_free(&w);
+}
+
+/* tri_total and plan of every binary node, on up to threads threads;
+ * the same on any number of them. */
+static int plan_tree(collapser *c, uint32_t threads)
+{
+    const rtk_scene *s = c->s;
+    plan_scratch w;
+    double root[RTK_WIDE];
+    int ok = plan_scratch_init(&w, s);
+    uint32_t *ids = NULL, count = 0, next = 0;
+    double *costs = NULL;
+    if (ok && threads > 1 && s->node_count >= PLAN_PARALLEL_NODES) {
+        ids = rtk_alloc(sizeof *ids << PLAN_FRONTIER);
+        ok = ids != NULL;
+        if (ok)
+            collect_frontier(s, 0, 0, ids, &count);
+        costs = count ? rtk_alloc(sizeof *costs * RTK_WIDE * count) : NULL;
+        ok = ok && (count == 0 || costs);
+        if (ok && count) {
+            plan_job job = {.c = c, .ids = ids, .costs = costs, .count = count};
+            atomic_init(&job.next, 0u);
+            atomic_init(&job.failed, 0);
+            rtk_parallel_ranges(threads, threads, 1, plan_worker, &job);
+            ok = !atomic_load(&job.failed);
+        }
+    }
+    if (ok)
+        ok = plan_walk(c, &w, 0, 0, count ? PLAN_FRONTIER : UINT32_MAX, costs, &next, root);
+    free(ids);
     free(costs);
-    return top == 0 && ctop == 1;
+    plan_scratch_free(&w);
+    return ok && next == count;
 }
 
 /* Whether binary node id ends a wide path: a leaf of the plan. */
@@ -566,7 +669,7 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
     wide_plan pl;
     memset(&pl, 0, sizeof pl);
     uint32_t *order = NULL;
-    if (!c.tri_total || !c.plan || !count_triangles(&c)) {
+    if (!c.tri_total || !c.plan || !plan_tree(&c, threads)) {
         c.failed = 1;
     } else {
         /* Counting pass: planned nodes and items, in the serial order. */
