@@ -765,6 +765,32 @@ static void radix_sort(uint32_t *keys, uint32_t *ids, uint32_t *tmp_keys, uint32
         memcpy(ids, is, sizeof *ids * n);
 }
 
+/* One thread's part of the refs: filled from the bounds, and its boxes. */
+typedef struct fill_part {
+    build *b;
+    uint32_t begin, end;
+    job bounds;
+} fill_part;
+
+static void *fill_refs(void *arg)
+{
+    fill_part *f = arg;
+    const rtk_bounds *pb = f->b->a->prim_bounds;
+    ref *refs = f->b->refs;
+    box_empty(&f->bounds.geom), box_empty(&f->bounds.cent);
+    for (uint32_t i = f->begin; i < f->end; i++) {
+        refs[i] = (ref){{pb[i].lower.x, pb[i].lower.y, pb[i].lower.z}, i,
+                        {pb[i].upper.x, pb[i].upper.y, pb[i].upper.z}, 0};
+        ref_grow(&f->bounds, &refs[i]);
+    }
+    return NULL;
+}
+
+/* Threads filling the refs: at least this many primitives each. The
+ * first touch of the array's pages is most of the work. */
+#define SAH_FILL_PART 65536
+#define SAH_FILL_MAX_THREADS 64
+
 static rtk_status build_binned(build *b, job *root)
 {
     rtk_build_args *a = b->a;
@@ -772,11 +798,28 @@ static rtk_status build_binned(build *b, job *root)
     b->refs = malloc(sizeof *b->refs * n);
     if (!b->refs)
         return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+    uint32_t parts = a->thread_count < SAH_FILL_MAX_THREADS ? a->thread_count : SAH_FILL_MAX_THREADS;
+    if (parts > n / SAH_FILL_PART)
+        parts = n / SAH_FILL_PART;
+    if (parts < 1)
+        parts = 1;
+    fill_part fp[SAH_FILL_MAX_THREADS];
+    pthread_t ids[SAH_FILL_MAX_THREADS];
+    int started[SAH_FILL_MAX_THREADS];
+    for (uint32_t t = 0; t < parts; t++) {
+        fp[t] = (fill_part){.b = b, .begin = (uint32_t)((uint64_t)n * t / parts),
+                            .end = (uint32_t)((uint64_t)n * (t + 1) / parts)};
+        started[t] = t > 0 && pthread_create(&ids[t], NULL, fill_refs, &fp[t]) == 0;
+    }
+    for (uint32_t t = 0; t < parts; t++)
+        if (!started[t])
+            fill_refs(&fp[t]);
     box_empty(&root->geom), box_empty(&root->cent);
-    for (uint32_t i = 0; i < n; i++) {
-        const rtk_bounds *pb = &a->prim_bounds[i];
-        b->refs[i] = (ref){{pb->lower.x, pb->lower.y, pb->lower.z}, i, {pb->upper.x, pb->upper.y, pb->upper.z}, 0};
-        ref_grow(root, &b->refs[i]);
+    for (uint32_t t = 0; t < parts; t++) {
+        if (started[t])
+            pthread_join(ids[t], NULL);
+        box_grow(&root->geom, fp[t].bounds.geom.lo, fp[t].bounds.geom.hi);
+        box_grow(&root->cent, fp[t].bounds.cent.lo, fp[t].bounds.cent.hi);
     }
     rtk_status st = run_build(b, root, a->thread_count);
     free(b->refs);

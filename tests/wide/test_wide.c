@@ -390,6 +390,65 @@ static void check_threads_same(rtk_scene *s, const char *mesh, const char *build
           builder, made->node_count, made->tri_block_count);
 }
 
+/* 150,000 random triangles, finished (bounds set) for a build. */
+static rtk_scene *large_soup(void)
+{
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 150000u, 7u);
+    rtk_scene *s = rtk_scene_new("large soup", 0);
+    rtk_bounds b = {rtk_vec3_make(INFINITY, INFINITY, INFINITY), rtk_vec3_make(-INFINITY, -INFINITY, -INFINITY)};
+    for (int i = 0; i < 150000; i++) {
+        rtk_vec3 c = rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1));
+        rtk_vec3 v[3];
+        for (int k = 0; k < 3; k++) {
+            v[k] = rtk_vec3_add(c, rtk_vec3_make(frand(&rng, -.02f, .02f), frand(&rng, -.02f, .02f),
+                                                 frand(&rng, -.02f, .02f)));
+            b.lower = rtk_vec3_make(fminf(b.lower.x, v[k].x), fminf(b.lower.y, v[k].y), fminf(b.lower.z, v[k].z));
+            b.upper = rtk_vec3_make(fmaxf(b.upper.x, v[k].x), fmaxf(b.upper.y, v[k].y), fmaxf(b.upper.z, v[k].z));
+        }
+        add_tri(s, v[0], v[1], v[2]);
+    }
+    s->bounds = b;
+    return s;
+}
+
+/* A builder on 150,000 triangles, enough for every threaded path (the
+ * builders' parts and queues, the kernel's inputs, validation, leaf check
+ * and collapse plan): the same binary tree, leaf order and wide tree on 1,
+ * 2 and 3 threads, byte for byte. */
+static void check_builder_threads(const rtk_plugin *p)
+{
+    rtk_scene *first = NULL;
+    int same = 1, built = 1;
+    uint32_t nodes = 0;
+    for (uint32_t t = 1; t <= 3; t++) {
+        rtk_scene *s = large_soup();
+        rtk_params *params = rtk_params_defaults(p);
+        if (rtk_bvh_build(s, p, params, t) != RTK_OK || !s->wide) {
+            built = 0;
+        } else if (!first) {
+            first = s, s = NULL;
+            nodes = first->node_count;
+        } else {
+            same &= s->node_count == first->node_count &&
+                    memcmp(s->nodes, first->nodes, sizeof *s->nodes * s->node_count) == 0 &&
+                    memcmp(s->prim_ids, first->prim_ids, sizeof *s->prim_ids * s->triangle_count) == 0 &&
+                    s->wide->node_count == first->wide->node_count &&
+                    s->wide->tri_block_count == first->wide->tri_block_count &&
+                    memcmp(s->wide->nodes, first->wide->nodes, sizeof *s->wide->nodes * s->wide->node_count) == 0 &&
+                    memcmp(s->wide->tris, first->wide->tris, sizeof *s->wide->tris * s->wide->tri_block_count) == 0;
+        }
+        rtk_params_destroy(params);
+        if (s)
+            rtk_scene_free(s);
+    }
+    check(built, "150,000 triangles / %s: builds on 1, 2 and 3 threads", p->name);
+    check(built && same, "150,000 triangles / %s: the same tree (%u nodes), leaf order and wide tree on 1, 2 and 3 "
+          "threads", p->name, nodes);
+    if (first)
+        rtk_scene_free(first);
+}
+
 static void check_measure_service(rtk_scene *s)
 {
     rtk_ctx ctx;
@@ -486,6 +545,9 @@ int main(void)
             rtk_scene_free(s);
         }
     }
+    for (int bi = 0; bi < nb; bi++)
+        if (builders[bi] != &one_leaf && builders[bi] != &chain)
+            check_builder_threads(builders[bi]);
     rtk_registry_destroy(reg);
     printf("%d passed, %d failed\n", passed, failed);
     return failed != 0;
