@@ -21,7 +21,7 @@ void *rtk_realloc_array(void *ptr, size_t count, size_t size);
  * bytes), growing by half; 1 on success, 0 (error set) when out of memory
  * or past 2^31 items, *array left alone. */
 int rtk_grow_array(void **array, uint32_t *cap, uint32_t count, size_t size);
-/* rtk_alloc for large arrays, on a 64-byte boundary; from 1 MiB on,
+/* rtk_alloc for large arrays, on a 64-byte boundary; from 8 MiB on,
  * rounded up to whole 2 MiB pages on a 2 MiB boundary, advised as
  * transparent huge pages, which cuts the cost of first touching it and
  * keeps traversal out of TLB misses. Freed with free(). */
