@@ -131,6 +131,17 @@ def test_recipe(rtk):
                   "wall: the table prints the recipe's keys")
             if "embree" in accels and len(accels) > 1:
                 check("against embree" in proc.stdout, "wall: ratios to embree printed")
+        # -v: the work counters, known here without a tracer: every ray
+        # tests the root node's children; the quad's two triangles (one
+        # leaf, or two leaves with the quad's box each) are tested by the
+        # half of the primary rays that hit it; AO rays leave the wall.
+        proc = subprocess.run([rtk, "bench", wall, "-v", "--runs", "1", "--threads", "1", "--width", str(w),
+                               "--height", str(h), "--camera", "0,0,1,0,0,0,45"], capture_output=True, text=True)
+        for a in accels:
+            want = ("primary 0.000 nodes, 0.000 triangles; AO 0.000 nodes, 0.000 triangles" if a == "embree" else
+                    "primary 1.000 nodes, 1.000 triangles; AO 1.000 nodes, 0.000 triangles")
+            line = "bench: %s, 1 threads: work per ray: %s" % (a, want)
+            check(proc.returncode == 0 and line in proc.stderr, "wall: -v logs %s's work per ray: %s" % (a, want))
         # Bad files are refused with file:line.
         bad = [("f 1 2 9", "bad.obj:4:"), ("v 1 2", "bad.obj:1:"), ("f 1 2", "no triangles"), ("f 1 0 2", "bad.obj:4:"),
                ("f 1 x 2", "bad.obj:4:")]
