@@ -64,17 +64,11 @@ RTK_API int rtk_intersect_triangle(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, r
                                    float *u_out, float *v_out)
 {
     /* Woop, Benthin, Wald 2013: shear into ray space with z the dominant axis. */
-    float adx = fabsf(ray->dir.x), ady = fabsf(ray->dir.y), adz = fabsf(ray->dir.z);
-    int kz = adx > ady ? (adx > adz ? 0 : 2) : (ady > adz ? 1 : 2);
-    int kx = kz == 2 ? 0 : kz + 1;
-    int ky = kx == 2 ? 0 : kx + 1;
-    float dz = axis(ray->dir, kz);
-    if (dz < 0.0f) {
-        int tmp = kx;
-        kx = ky;
-        ky = tmp;
-    }
-    float sx = axis(ray->dir, kx) / dz, sy = axis(ray->dir, ky) / dz, sz = 1.0f / dz;
+    const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
+    int kx, ky, kz;
+    rtk_shear_axes(d, &kx, &ky, &kz);
+    float dz = d[kz];
+    float sx = d[kx] / dz, sy = d[ky] / dz, sz = 1.0f / dz;
     rtk_vec3 A = rtk_vec3_sub(a, ray->org), B = rtk_vec3_sub(b, ray->org), C = rtk_vec3_sub(c, ray->org);
     float ax = axis(A, kx) - sx * axis(A, kz), ay = axis(A, ky) - sy * axis(A, kz);
     float bx = axis(B, kx) - sx * axis(B, kz), by = axis(B, ky) - sy * axis(B, kz);

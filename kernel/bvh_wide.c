@@ -809,7 +809,7 @@ rtk_simd_path rtk_simd_from_env(void)
  * when a ray reaches its first leaf: most primary rays of a mesh that
  * fills part of the image miss the root's children and never do. */
 typedef struct wide_ray {
-    float org[3], inv[3], inv_far[3];
+    float org[3], inv[4], inv_far[3]; /* inv[3]: lane of the packed division, unused */
     int near[3], far[3];   /* rows of rtk_wide_node.bounds: entry and exit plane per axis */
 } wide_ray;
 
@@ -821,8 +821,15 @@ RTK_INLINE void wide_prepare(const rtk_ray *r, wide_ray *p)
 {
     const float d[3] = {r->dir.x, r->dir.y, r->dir.z};
     p->org[0] = r->org.x, p->org[1] = r->org.y, p->org[2] = r->org.z;
-    for (int k = 0; k < 3; k++) {
+#if RTK_HAVE_X86
+    /* The three reciprocals in one packed division: the same IEEE
+     * quotients, without three trips through the divider per ray. */
+    _mm_storeu_ps(p->inv, _mm_div_ps(_mm_set1_ps(1.0f), _mm_set_ps(1.0f, d[2], d[1], d[0])));
+#else
+    for (int k = 0; k < 3; k++)
         p->inv[k] = 1.0f / d[k];
+#endif
+    for (int k = 0; k < 3; k++) {
         p->inv_far[k] = p->inv[k] * slab_slack;
         int neg = signbit(d[k]) != 0;
         p->near[k] = 2 * k + neg;
@@ -1017,27 +1024,6 @@ RTK_INLINE int scalar_traverse(const rtk_scene *s, const rtk_ray *ray_in, rtk_hi
 
 /* ---- four triangles at once (SSE2; VEX-encoded inside the AVX2 path) ---- */
 
-/* wide_prepare with the three reciprocals in one packed division: the
- * same IEEE quotients, without three dependent trips through the divider
- * at the start of every ray. */
-RTK_INLINE void wide_prepare_sse(const rtk_ray *r, wide_ray *p)
-{
-    const __m128 d = _mm_set_ps(1.0f, r->dir.z, r->dir.y, r->dir.x);
-    const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), d);
-    float fi[4], ff[4];
-    _mm_storeu_ps(fi, inv);
-    _mm_storeu_ps(ff, _mm_mul_ps(inv, _mm_set1_ps(slab_slack)));
-    const int signs = _mm_movemask_ps(d);
-    p->org[0] = r->org.x, p->org[1] = r->org.y, p->org[2] = r->org.z;
-    for (int k = 0; k < 3; k++) {
-        p->inv[k] = fi[k];
-        p->inv_far[k] = ff[k];
-        int neg = (signs >> k) & 1;
-        p->near[k] = 2 * k + neg;
-        p->far[k] = 2 * k + 1 - neg;
-    }
-}
-
 /* Ray constants of the triangle test, broadcast. */
 typedef struct tri_ray {
     __m128 ox, oy, oz; /* origin components kx, ky, kz */
@@ -1045,23 +1031,15 @@ typedef struct tri_ray {
     int kx, ky, kz;
 } tri_ray;
 
-/* rtk_intersect_triangle's shear constants: kz the axis of the largest
- * |direction| component, kx and ky the others (swapped when d[kz] < 0),
+/* rtk_intersect_triangle's shear constants (axes from rtk_shear_axes):
  * d[kx] / d[kz], d[ky] / d[kz] and 1 / d[kz] in one packed division. */
 RTK_INLINE void tri_prepare(const rtk_ray *ray, tri_ray *r)
 {
     const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
     const float o[3] = {ray->org.x, ray->org.y, ray->org.z};
-    float adx = fabsf(d[0]), ady = fabsf(d[1]), adz = fabsf(d[2]);
-    int kz = adx > ady ? (adx > adz ? 0 : 2) : (ady > adz ? 1 : 2);
-    int kx = kz == 2 ? 0 : kz + 1;
-    int ky = kx == 2 ? 0 : kx + 1;
+    int kx, ky, kz;
+    rtk_shear_axes(d, &kx, &ky, &kz);
     float dz = d[kz];
-    if (dz < 0.0f) {
-        int tmp = kx;
-        kx = ky;
-        ky = tmp;
-    }
     r->kx = kx, r->ky = ky, r->kz = kz;
     const __m128 q = _mm_div_ps(_mm_set_ps(1.0f, 1.0f, d[ky], d[kx]), _mm_set1_ps(dz));
     r->sx = _mm_shuffle_ps(q, q, 0x00);
@@ -1226,7 +1204,7 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
 {
     const rtk_wide_bvh *w = s->wide;
     wide_ray p;
-    wide_prepare_sse(ray, &p);
+    wide_prepare(ray, &p);
     tri_ray tr;
     int tri_ready = 0;
     const __m128 ox = _mm_set1_ps(p.org[0]), oy = _mm_set1_ps(p.org[1]), oz = _mm_set1_ps(p.org[2]);
@@ -1292,7 +1270,7 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
 {
     const rtk_wide_bvh *w = s->wide;
     wide_ray p;
-    wide_prepare_sse(ray, &p);
+    wide_prepare(ray, &p);
     tri_ray tr;
     int tri_ready = 0;
     const __m256 ox = _mm256_set1_ps(p.org[0]), oy = _mm256_set1_ps(p.org[1]), oz = _mm256_set1_ps(p.org[2]);

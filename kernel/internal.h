@@ -7,6 +7,7 @@
 #include <rtk/host.h>
 #include <rtk/rtk.h>
 
+#include <math.h>
 #include <string.h>
 
 RTK_EXTERN_C_BEGIN
@@ -337,6 +338,24 @@ struct rtk_scene {
     uint32_t tlas_node_count, tlas_depth;
     uint32_t *tlas_order;        /* top-level leaf slot -> instance */
 };
+
+/* The axes of the watertight triangle test (Woop, Benthin, Wald 2013) for
+ * direction d: kz that of the largest |component|, kx and ky the next two
+ * cyclically, swapped when d[kz] < 0 to keep the winding. The scalar test
+ * and the wide traversal's four-lane one take them from here. */
+static inline void rtk_shear_axes(const float d[3], int *kx, int *ky, int *kz)
+{
+    float ax = fabsf(d[0]), ay = fabsf(d[1]), az = fabsf(d[2]);
+    int z = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
+    int x = z == 2 ? 0 : z + 1;
+    int y = x == 2 ? 0 : x + 1;
+    if (d[z] < 0.0f) {
+        int t = x;
+        x = y;
+        y = t;
+    }
+    *kx = x, *ky = y, *kz = z;
+}
 
 /* The corners of triangle prim (scene order), 9 floats. */
 static inline void rtk_triangle_corners(const rtk_scene *s, uint32_t prim, float v[9])

@@ -390,25 +390,33 @@ static void check_threads_same(rtk_scene *s, const char *mesh, const char *build
           builder, made->node_count, made->tri_block_count);
 }
 
-/* 150,000 random triangles, finished (bounds set) for a build. */
+/* The scene's bounds from its vertices (raw scenes skip rtk_scene_finish). */
+static void set_bounds(rtk_scene *s)
+{
+    rtk_bounds b = {rtk_vec3_make(INFINITY, INFINITY, INFINITY), rtk_vec3_make(-INFINITY, -INFINITY, -INFINITY)};
+    for (uint32_t v = 0; v < s->vertex_count; v++) {
+        const float *p = s->positions + 3 * (size_t)v;
+        b.lower = rtk_vec3_make(fminf(b.lower.x, p[0]), fminf(b.lower.y, p[1]), fminf(b.lower.z, p[2]));
+        b.upper = rtk_vec3_make(fmaxf(b.upper.x, p[0]), fmaxf(b.upper.y, p[1]), fmaxf(b.upper.z, p[2]));
+    }
+    s->bounds = b;
+}
+
+/* 150,000 random triangles, bounds set for a build. */
 static rtk_scene *large_soup(void)
 {
     rtk_pcg32 rng;
     rtk_pcg32_seed(&rng, 150000u, 7u);
     rtk_scene *s = rtk_scene_new("large soup", 0);
-    rtk_bounds b = {rtk_vec3_make(INFINITY, INFINITY, INFINITY), rtk_vec3_make(-INFINITY, -INFINITY, -INFINITY)};
     for (int i = 0; i < 150000; i++) {
         rtk_vec3 c = rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1));
         rtk_vec3 v[3];
-        for (int k = 0; k < 3; k++) {
+        for (int k = 0; k < 3; k++)
             v[k] = rtk_vec3_add(c, rtk_vec3_make(frand(&rng, -.02f, .02f), frand(&rng, -.02f, .02f),
                                                  frand(&rng, -.02f, .02f)));
-            b.lower = rtk_vec3_make(fminf(b.lower.x, v[k].x), fminf(b.lower.y, v[k].y), fminf(b.lower.z, v[k].z));
-            b.upper = rtk_vec3_make(fmaxf(b.upper.x, v[k].x), fmaxf(b.upper.y, v[k].y), fmaxf(b.upper.z, v[k].z));
-        }
         add_tri(s, v[0], v[1], v[2]);
     }
-    s->bounds = b;
+    set_bounds(s);
     return s;
 }
 
@@ -519,15 +527,8 @@ int main(void)
                 printf("skip  %s: not available\n", mesh);
                 break;
             }
-            if (m != MESH_BUNNY) {
-                rtk_bounds b = {rtk_vec3_make(INFINITY, INFINITY, INFINITY), rtk_vec3_make(-INFINITY, -INFINITY, -INFINITY)};
-                for (uint32_t v = 0; v < s->vertex_count; v++) {
-                    const float *p = s->positions + 3 * (size_t)v;
-                    b.lower = rtk_vec3_make(fminf(b.lower.x, p[0]), fminf(b.lower.y, p[1]), fminf(b.lower.z, p[2]));
-                    b.upper = rtk_vec3_make(fmaxf(b.upper.x, p[0]), fmaxf(b.upper.y, p[1]), fmaxf(b.upper.z, p[2]));
-                }
-                s->bounds = b;
-            }
+            if (m != MESH_BUNNY)
+                set_bounds(s);
             int own = builders[bi] == &one_leaf || builders[bi] == &chain;
             rtk_params *params = own ? NULL : rtk_params_defaults(builders[bi]);
             rtk_status st = rtk_bvh_build(s, builders[bi], params, 2);
