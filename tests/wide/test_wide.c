@@ -29,6 +29,19 @@ static void add_tri(rtk_scene *s, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c)
     rtk_scene_add_triangle(s, i0, i1, i2, NULL, NULL, RTK_INVALID_ID);
 }
 
+/* count random triangles in [-1, 1]^3, corners within size of a centre. */
+static void add_soup(rtk_scene *s, rtk_pcg32 *rng, int count, float size)
+{
+    for (int i = 0; i < count; i++) {
+        rtk_vec3 c = rtk_vec3_make(frand(rng, -1, 1), frand(rng, -1, 1), frand(rng, -1, 1));
+        rtk_vec3 v[3];
+        for (int k = 0; k < 3; k++)
+            v[k] = rtk_vec3_add(c, rtk_vec3_make(frand(rng, -size, size), frand(rng, -size, size),
+                                                 frand(rng, -size, size)));
+        add_tri(s, v[0], v[1], v[2]);
+    }
+}
+
 /* Axis-aligned box [lo, hi] as 12 triangles. */
 static void add_box(rtk_scene *s, rtk_vec3 lo, rtk_vec3 hi)
 {
@@ -61,14 +74,7 @@ static rtk_scene *make_mesh(int which, const char **name)
     switch (which) {
     case MESH_SOUP:
         *name = "3000 random triangles";
-        for (int i = 0; i < 3000; i++) {
-            rtk_vec3 c = rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1));
-            rtk_vec3 v[3];
-            for (int k = 0; k < 3; k++)
-                v[k] = rtk_vec3_add(c, rtk_vec3_make(frand(&rng, -.1f, .1f), frand(&rng, -.1f, .1f),
-                                                     frand(&rng, -.1f, .1f)));
-            add_tri(s, v[0], v[1], v[2]);
-        }
+        add_soup(s, &rng, 3000, .1f);
         break;
     case MESH_DEGENERATE:
         *name = "degenerate, duplicate and coplanar triangles";
@@ -408,14 +414,7 @@ static rtk_scene *large_soup(void)
     rtk_pcg32 rng;
     rtk_pcg32_seed(&rng, 150000u, 7u);
     rtk_scene *s = rtk_scene_new("large soup", 0);
-    for (int i = 0; i < 150000; i++) {
-        rtk_vec3 c = rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1));
-        rtk_vec3 v[3];
-        for (int k = 0; k < 3; k++)
-            v[k] = rtk_vec3_add(c, rtk_vec3_make(frand(&rng, -.02f, .02f), frand(&rng, -.02f, .02f),
-                                                 frand(&rng, -.02f, .02f)));
-        add_tri(s, v[0], v[1], v[2]);
-    }
+    add_soup(s, &rng, 150000, .02f);
     set_bounds(s);
     return s;
 }
