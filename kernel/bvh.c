@@ -297,6 +297,8 @@ int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
     if (s->instance_count)
         return rtk_instances_closest(s, ray, hit, NULL);
     hit->inst = RTK_INVALID_ID;
+    if (use_wide(s, ray) && !s->own_traversal)
+        return rtk_wide_closest_path[s->wide->path](s, ray, hit);
     return rtk_bvh_closest_own(s, ray, hit, NULL);
 }
 
@@ -304,6 +306,8 @@ int rtk_bvh_any(const rtk_scene *s, const rtk_ray *ray)
 {
     if (s->instance_count)
         return rtk_instances_any(s, ray, NULL);
+    if (use_wide(s, ray) && !s->own_traversal)
+        return rtk_wide_any_path[s->wide->path](s, ray);
     return rtk_bvh_any_own(s, ray, NULL);
 }
 

@@ -809,7 +809,7 @@ rtk_simd_path rtk_simd_from_env(void)
  * when a ray reaches its first leaf: most primary rays of a mesh that
  * fills part of the image miss the root's children and never do. */
 typedef struct wide_ray {
-    float org[3], inv[4], inv_far[3]; /* inv[3]: lane of the packed division, unused */
+    float org[3], inv[4], inv_far[4]; /* lane 3: of the packed arithmetic, unused */
     int near[3], far[3];   /* rows of rtk_wide_node.bounds: entry and exit plane per axis */
 } wide_ray;
 
@@ -822,19 +822,24 @@ RTK_INLINE void wide_prepare(const rtk_ray *r, wide_ray *p)
     const float d[3] = {r->dir.x, r->dir.y, r->dir.z};
     p->org[0] = r->org.x, p->org[1] = r->org.y, p->org[2] = r->org.z;
 #if RTK_HAVE_X86
-    /* The three reciprocals in one packed division: the same IEEE
-     * quotients, without three trips through the divider per ray. */
-    _mm_storeu_ps(p->inv, _mm_div_ps(_mm_set1_ps(1.0f), _mm_set_ps(1.0f, d[2], d[1], d[0])));
+    /* The three reciprocals in one packed division, the widened ones in one
+     * multiplication: the same IEEE results as one at a time, without three
+     * trips through the divider per ray; the signs in one movemask. */
+    const __m128 d4 = _mm_set_ps(1.0f, d[2], d[1], d[0]);
+    const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), d4);
+    _mm_storeu_ps(p->inv, inv);
+    _mm_storeu_ps(p->inv_far, _mm_mul_ps(inv, _mm_set1_ps(slab_slack)));
+    const int neg = _mm_movemask_ps(d4);
 #else
-    for (int k = 0; k < 3; k++)
-        p->inv[k] = 1.0f / d[k];
-#endif
+    int neg = 0;
     for (int k = 0; k < 3; k++) {
+        p->inv[k] = 1.0f / d[k];
         p->inv_far[k] = p->inv[k] * slab_slack;
-        int neg = signbit(d[k]) != 0;
-        p->near[k] = 2 * k + neg;
-        p->far[k] = 2 * k + 1 - neg;
+        neg |= (signbit(d[k]) != 0) << k;
     }
+#endif
+    p->near[0] = neg & 1, p->near[1] = 2 + (neg >> 1 & 1), p->near[2] = 4 + (neg >> 2 & 1);
+    p->far[0] = p->near[0] ^ 1, p->far[1] = p->near[1] ^ 1, p->far[2] = p->near[2] ^ 1;
 }
 
 /* The widened tmax of the box test (bvh.c's). */
@@ -916,6 +921,14 @@ RTK_INLINE int record_hit(rtk_hit *hit, float t, float u, float v, uint32_t prim
     return 0;
 }
 
+/* The hit before traversal, as rtk_bvh_closest reports a miss. */
+RTK_INLINE void hit_reset(rtk_hit *hit, const rtk_ray *ray)
+{
+    hit->prim = RTK_INVALID_ID;
+    hit->t = ray->tmax;
+    hit->u = hit->v = 0.0f;
+}
+
 /* ---- plain C ---- */
 
 /* Entry distance of child i, or +inf when missed; same arithmetic and
@@ -963,6 +976,8 @@ RTK_INLINE int scalar_traverse(const rtk_scene *s, const rtk_ray *ray_in, rtk_hi
 {
     const rtk_wide_bvh *w = s->wide;
     rtk_ray ray = *ray_in;
+    if (!any)
+        hit_reset(hit, ray_in);
     wide_ray p;
     wide_prepare(&ray, &p);
     float tmax_w = widen(ray.tmax);
@@ -1071,12 +1086,14 @@ RTK_INLINE int tri_test4(const rtk_wide_tris *b, const tri_ray *r, float tmin, f
     __m128 V = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
     __m128 W = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
     __m128 onedge = _mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(U, zero), _mm_cmpeq_ps(V, zero)), _mm_cmpeq_ps(W, zero));
-    __m128 neg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(U, zero), _mm_cmplt_ps(V, zero)), _mm_cmplt_ps(W, zero));
-    __m128 pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(U, zero), _mm_cmpgt_ps(V, zero)), _mm_cmpgt_ps(W, zero));
+    /* Signs mixed: the least below 0 and the greatest above. */
+    __m128 lo = _mm_min_ps(_mm_min_ps(U, V), W), hi = _mm_max_ps(_mm_max_ps(U, V), W);
+    __m128 mixed = _mm_and_ps(_mm_cmplt_ps(lo, zero), _mm_cmpgt_ps(hi, zero));
     __m128 det = _mm_add_ps(_mm_add_ps(U, V), W);
-    /* det is NaN in unused lanes. */
-    __m128 miss = _mm_or_ps(_mm_or_ps(_mm_and_ps(neg, pos), _mm_cmpeq_ps(det, zero)),
-                            _mm_or_ps(onedge, _mm_cmpunord_ps(det, det)));
+    /* det is NaN in unused lanes (and wherever U, V or W is: min and max
+     * may pass a NaN over, the sum does not). U, V, W of one strict sign
+     * cannot sum to 0, so det == 0 needs no test of its own. */
+    __m128 miss = _mm_or_ps(_mm_or_ps(mixed, onedge), _mm_cmpunord_ps(det, det));
     *scalar = _mm_movemask_ps(onedge);
     if (_mm_movemask_ps(miss) == 0xf)
         return 0;
@@ -1203,6 +1220,8 @@ RTK_INLINE __m128 sse_box4(const rtk_wide_node *n, int half, const wide_ray *p, 
 RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, int any, rtk_trace_work *work)
 {
     const rtk_wide_bvh *w = s->wide;
+    if (!any)
+        hit_reset(hit, ray);
     wide_ray p;
     wide_prepare(ray, &p);
     tri_ray tr;
@@ -1257,18 +1276,29 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
 
 /* ---- AVX2: the eight children at once ---- */
 
-/* Leaves out of line: the node loop keeps its registers. */
-static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf(const rtk_scene *s, const rtk_wide_bvh *w,
-                                                               uint32_t ref, const tri_ray *r, const rtk_ray *ray,
-                                                               rtk_hit *hit, int any, rtk_trace_work *work)
+/* Leaves out of line: the node loop keeps its registers. One per mode,
+ * so that occlusion carries none of closest hit's bookkeeping. */
+static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf_any(const rtk_scene *s, const rtk_wide_bvh *w,
+                                                                   uint32_t ref, const tri_ray *r,
+                                                                   const rtk_ray *ray, rtk_trace_work *work)
 {
-    return leaf_test(s, w, ref, r, ray, hit, any, work);
+    return leaf_test(s, w, ref, r, ray, NULL, 1, work);
+}
+
+static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf_closest(const rtk_scene *s, const rtk_wide_bvh *w,
+                                                                       uint32_t ref, const tri_ray *r,
+                                                                       const rtk_ray *ray, rtk_hit *hit,
+                                                                       rtk_trace_work *work)
+{
+    return leaf_test(s, w, ref, r, ray, hit, 0, work);
 }
 
 RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, int any,
                                              rtk_trace_work *work)
 {
     const rtk_wide_bvh *w = s->wide;
+    if (!any)
+        hit_reset(hit, ray);
     wide_ray p;
     wide_prepare(ray, &p);
     tri_ray tr;
@@ -1330,7 +1360,7 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
             tri_prepare(ray, &tr);
             tri_ready = 1;
         }
-        if (avx2_leaf(s, w, cur, &tr, ray, hit, any, work)) {
+        if (any ? avx2_leaf_any(s, w, cur, &tr, ray, work) : avx2_leaf_closest(s, w, cur, &tr, ray, hit, work)) {
             if (any)
                 return 1;
             tmax_w = widen(hit->t);
@@ -1390,11 +1420,32 @@ static int scalar_any(const rtk_scene *s, const rtk_ray *r, rtk_trace_work *wk)
     return scalar_traverse(s, r, NULL, 1, wk);
 }
 
+static int scalar_closest_fast(const rtk_scene *s, const rtk_ray *r, rtk_hit *h)
+{
+    return scalar_traverse(s, r, h, 0, NULL);
+}
+static int scalar_any_fast(const rtk_scene *s, const rtk_ray *r)
+{
+    return scalar_traverse(s, r, NULL, 1, NULL);
+}
+
+rtk_wide_closest_fn const rtk_wide_closest_path[4] = {
+    [RTK_SIMD_SCALAR] = scalar_closest_fast,
+#if RTK_HAVE_X86
+    [RTK_SIMD_SSE] = sse_closest,
+    [RTK_SIMD_AVX2] = avx2_closest,
+#endif
+};
+rtk_wide_any_fn const rtk_wide_any_path[4] = {
+    [RTK_SIMD_SCALAR] = scalar_any_fast,
+#if RTK_HAVE_X86
+    [RTK_SIMD_SSE] = sse_any,
+    [RTK_SIMD_AVX2] = avx2_any,
+#endif
+};
+
 int rtk_wide_closest(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
 {
-    hit->prim = RTK_INVALID_ID;
-    hit->t = ray->tmax;
-    hit->u = hit->v = 0.0f;
     switch (path) {
 #if RTK_HAVE_X86
     case RTK_SIMD_AVX2:

@@ -105,6 +105,14 @@ int rtk_wide_closest(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray,
                      rtk_trace_work *work);
 int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_trace_work *work);
 
+/* The same without counts, by path (NULL for RTK_SIMD_BINARY, and for SSE
+ * and AVX2 off x86): rtk_bvh_closest / rtk_bvh_any reach a ray's traversal
+ * through one indirect call instead of three calls. */
+typedef int (*rtk_wide_closest_fn)(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit);
+typedef int (*rtk_wide_any_fn)(const rtk_scene *s, const rtk_ray *ray);
+extern rtk_wide_closest_fn const rtk_wide_closest_path[4];
+extern rtk_wide_any_fn const rtk_wide_any_path[4];
+
 /* rtk_bvh_closest / rtk_bvh_any (bvh.c) that also count the work done on
  * the path the scene uses (zero counts for a plugin's own traversal). */
 int rtk_bvh_closest_measure(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work);

@@ -345,16 +345,19 @@ struct rtk_scene {
  * and the wide traversal's four-lane one take them from here. */
 static inline void rtk_shear_axes(const float d[3], int *kx, int *ky, int *kz)
 {
+    /* In integer arithmetic on comparisons, so that compilers emit no
+     * branch: directions of AO and diffuse rays are random, and branches
+     * here would be mispredicted every other ray. Same result as
+     * z = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2), x and y the
+     * next two cyclically, swapped when d[z] < 0. */
     float ax = fabsf(d[0]), ay = fabsf(d[1]), az = fabsf(d[2]);
-    int z = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
-    int x = z == 2 ? 0 : z + 1;
-    int y = x == 2 ? 0 : x + 1;
-    if (d[z] < 0.0f) {
-        int t = x;
-        x = y;
-        y = t;
-    }
-    *kx = x, *ky = y, *kz = z;
+    int xy = ax > ay;
+    int top = (xy ? ax : ay) > az;
+    int z = 2 - top * (1 + xy);
+    int x = 9 >> (2 * z) & 3;  /* 1, 2, 0 for z = 0, 1, 2 */
+    int y = 18 >> (2 * z) & 3; /* 2, 0, 1 */
+    int swap = (x ^ y) & -(d[z] < 0.0f);
+    *kx = x ^ swap, *ky = y ^ swap, *kz = z;
 }
 
 /* The corners of triangle prim (scene order), 9 floats. */
