@@ -898,15 +898,13 @@ RTK_INLINE uint32_t push_sorted(const rtk_wide_node *n, uint32_t mask, const flo
 }
 
 /* Occlusion needs no order: pushes all hit children but the first and
- * returns that one. */
+ * returns that one. Their distances are left unset: occlusion pops
+ * without reading them. */
 RTK_INLINE uint32_t push_unsorted(const rtk_wide_node *n, uint32_t mask, stack_entry *stack, int *top)
 {
     uint32_t first = n->child[__builtin_ctz(mask)];
-    for (mask &= mask - 1; mask; mask &= mask - 1) {
-        stack[*top].ref = n->child[__builtin_ctz(mask)];
-        stack[*top].t = 0.0f;
-        ++*top;
-    }
+    for (mask &= mask - 1; mask; mask &= mask - 1)
+        stack[(*top)++].ref = n->child[__builtin_ctz(mask)];
     return first;
 }
 
