@@ -711,7 +711,6 @@ static void tree_stats(const rtk_scene *s, bench_row *row)
     row->memory = (size_t)s->node_count * sizeof(rtk_bvh_node) + (size_t)s->triangle_count * sizeof(uint32_t);
 }
 
-/* Builds with a on threads (median of the runs) and traces both passes. */
 /* With -v: the kernel's work counters over the same rays, untimed (the
  * figures do not depend on the machine; zero for an own traversal). */
 static void log_work(const bench *b, const bench_accel *a, uint32_t threads, size_t n_ao)
@@ -734,6 +733,7 @@ static void log_work(const bench *b, const bench_accel *a, uint32_t threads, siz
             "%.3f triangles", a->label, threads, (double)pn / np, (double)pt / np, (double)an / na, (double)at / na);
 }
 
+/* Builds with a on threads (median of the runs) and traces both passes. */
 static rtk_status measure(bench *b, const bench_accel *a, uint32_t threads, bench_row *row)
 {
     rtk_scene *s = b->scene;

@@ -261,17 +261,18 @@ static inline __attribute__((always_inline)) int binary_any(const rtk_scene *s, 
 
 /* The wide tree serves rays with tmin >= 0 (its box test widens exit
  * distances through the reciprocal, which assumes it); the binary tree
- * the rest, and everything when RTK_SIMD=binary. */
+ * the rest, and everything when RTK_SIMD=binary. A plugin's own traversal
+ * takes every ray. */
 static int use_wide(const rtk_scene *s, const rtk_ray *ray)
 {
-    return s->wide && s->wide->path != RTK_SIMD_BINARY && ray->tmin >= 0.0f;
+    return s->wide && s->wide->path != RTK_SIMD_BINARY && ray->tmin >= 0.0f && !s->own_traversal;
 }
 
 int rtk_bvh_closest_own(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
 {
     if (work)
         work->nodes = work->triangles = 0;
-    if (use_wide(s, ray) && !s->own_traversal)
+    if (use_wide(s, ray))
         return rtk_wide_closest(s, s->wide->path, ray, hit, work);
     hit->prim = RTK_INVALID_ID;
     hit->t = ray->tmax;
@@ -297,7 +298,7 @@ int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
     if (s->instance_count)
         return rtk_instances_closest(s, ray, hit, NULL);
     hit->inst = RTK_INVALID_ID;
-    if (use_wide(s, ray) && !s->own_traversal)
+    if (use_wide(s, ray))
         return rtk_wide_closest_path[s->wide->path](s, ray, hit);
     return rtk_bvh_closest_own(s, ray, hit, NULL);
 }
@@ -306,7 +307,7 @@ int rtk_bvh_any(const rtk_scene *s, const rtk_ray *ray)
 {
     if (s->instance_count)
         return rtk_instances_any(s, ray, NULL);
-    if (use_wide(s, ray) && !s->own_traversal)
+    if (use_wide(s, ray))
         return rtk_wide_any_path[s->wide->path](s, ray);
     return rtk_bvh_any_own(s, ray, NULL);
 }
