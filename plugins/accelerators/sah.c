@@ -9,7 +9,8 @@
  * halved by count, so the depth stays within the kernel's 256.
  *
  * Parameters:
- *   bins      int [4, 256]         16      bins per axis (binned mode)
+ *   bins      int [4, 256]         16      bins per axis (binned mode; a node of n
+ *                                          primitives uses min(bins, 4 + n / 20))
  *   mode      string binned|sweep  binned  binned: bin boundaries; sweep: every object split
  *   t_node    float [0.01, 100]    1.0     cost of visiting an inner node
  *   t_tri     float [0.01, 100]    1.0     cost of one ray/triangle test
@@ -229,20 +230,33 @@ typedef struct split {
     int axis;
     uint32_t at;
     float cost;
+    uint8_t order[SAH_SMALL]; /* small nodes: the slots in order along axis */
 } split;
+
+/* Bins per axis of a node over count primitives: 4 + count / 20, at
+ * most the option (as Embree's binner): a node of a hundred primitives
+ * has little to gain from 16 bins and pays for clearing and sweeping
+ * them (13% fewer instructions over the elephant's build, SAH cost
+ * 0.5% higher). */
+static uint32_t node_bins(const sah *o, uint32_t count)
+{
+    uint32_t nb = 4 + count / 20;
+    return nb < o->bins ? nb : o->bins;
+}
 
 /* Per-axis binning parameters of a node: scale 0 on a flat axis. */
 static void bin_setup(const sah *o, const job *j, v4 *scale, v4 *last)
 {
+    const uint32_t nb = node_bins(o, j->end - j->begin);
     float lo[4], hi[4], s[4] = {0.0f, 0.0f, 0.0f, 0.0f};
     v4_store(lo, j->cent.lo);
     v4_store(hi, j->cent.hi);
     for (int k = 0; k < 3; k++) {
         float extent = hi[k] - lo[k];
-        s[k] = extent > 0.0f ? (float)o->bins / extent : 0.0f;
+        s[k] = extent > 0.0f ? (float)nb / extent : 0.0f;
     }
     *scale = v4_load(s);
-    *last = v4_set1((float)(o->bins - 1));
+    *last = v4_set1((float)(nb - 1));
 }
 
 /* Bins of one node: a box and a count per bin and axis. */
@@ -276,7 +290,7 @@ static inline void binning_add(binning *bn, const ref *r, v4 clo, v4 scale, v4 l
 static split find_binned(const build *b, const job *j)
 {
     const sah *o = b->opt;
-    const uint32_t nb = o->bins, count = j->end - j->begin;
+    const uint32_t count = j->end - j->begin, nb = node_bins(o, count);
     binning bn[2];
     float rweight[256];
     uint32_t rcount[256];
@@ -305,7 +319,7 @@ static split find_binned(const build *b, const job *j)
         binning_add(&bn[0], &b->refs[i], clo, scale, last);
     float sc[4];
     v4_store(sc, scale);
-    split best = {-1, 0, INFINITY};
+    split best = {.axis = -1, .cost = INFINITY};
     float best_weight = INFINITY;
     for (int k = 0; k < 3; k++) {
         if (sc[k] == 0.0f)
@@ -447,13 +461,13 @@ static split find_small(const build *b, const job *j)
     const sah *o = b->opt;
     const ref *refs = b->refs + j->begin;
     const uint32_t m = j->end - j->begin;
-    split best = {-1, 0, INFINITY};
+    split best = {.axis = -1, .cost = INFINITY};
     float best_weight = INFINITY, rweight[SAH_SMALL];
     uint32_t best_skew = UINT32_MAX;
     if (m == 2) {
         /* One split, the same on every axis; the order stays. */
         vbox one = {ref_lo(&refs[0]), ref_hi(&refs[0])}, two = {ref_lo(&refs[1]), ref_hi(&refs[1])};
-        best = (split){0, 1, 0.0f};
+        best = (split){.axis = 0, .at = 1};
         best_weight = half_area(&one) + half_area(&two);
         best.cost = split_cost(o, best_weight, half_area(&j->geom), m);
         return best;
@@ -482,20 +496,20 @@ static split find_small(const build *b, const job *j)
         }
     }
     best.cost = split_cost(o, best_weight, half_area(&j->geom), m);
+    if (best.axis >= 0)
+        memcpy(best.order, order[best.axis], m);
     return best;
 }
 
-/* Reorders the refs of j along s.axis and fills both children's bounds.
- * Returns the first slot of the right side. */
+/* Reorders the refs of j as find_small ordered them along s.axis and
+ * fills both children's bounds. Returns the first slot of the right side. */
 static uint32_t partition_small(const build *b, const job *j, split s, job *l, job *r)
 {
     ref *refs = b->refs + j->begin, tmp[SAH_SMALL];
     const uint32_t m = j->end - j->begin;
     if (m > 2) {
-        uint8_t order[3][SAH_SMALL];
-        sort_small(refs, m, order);
         for (uint32_t i = 0; i < m; i++)
-            tmp[i] = refs[order[s.axis][i]];
+            tmp[i] = refs[s.order[i]];
         memcpy(refs, tmp, sizeof *refs * m);
     }
     box_empty(&l->geom), box_empty(&l->cent), box_empty(&r->geom), box_empty(&r->cent);
@@ -520,7 +534,7 @@ static split find_sweep(const build *b, const job *j)
     const sah *o = b->opt;
     const uint32_t begin = j->begin, end = j->end, count = end - begin;
     const float parent = half_area(&j->geom);
-    split best = {-1, 0, INFINITY};
+    split best = {.axis = -1, .cost = INFINITY};
     uint32_t best_skew = UINT32_MAX;
     for (int k = 0; k < 3; k++) {
         const uint32_t *ids = b->ord[k];
@@ -538,7 +552,7 @@ static split find_sweep(const build *b, const job *j)
             float cost = split_cost(o, half_area(&acc) * (float)(i - begin) + b->area[i] * (float)(end - i), parent, count);
             uint32_t skew = 2 * i > begin + end ? 2 * i - begin - end : begin + end - 2 * i;
             if (cost < best.cost || (cost == best.cost && skew < best_skew)) {
-                best = (split){k, i, cost};
+                best = (split){.axis = k, .at = i, .cost = cost};
                 best_skew = skew;
             }
         }
@@ -592,7 +606,7 @@ static void build_subtree(const build *b, const job *root)
         const uint32_t count = j.end - j.begin;
         if (o->sweep)
             bounds_of_ids(b, b->ord[0], j.begin, j.end, &j.geom);
-        split s = {-1, 0, INFINITY};
+        split s = {.axis = -1, .cost = INFINITY};
         if (count > 1 && j.depth < SAH_HALVING_DEPTH)
             s = o->sweep ? find_sweep(b, &j) : count <= SAH_SMALL ? find_small(b, &j) : find_binned(b, &j);
         if (count == 1 || (count <= o->max_leaf && (s.axis < 0 || o->t_tri * (float)count <= s.cost))) {
@@ -621,7 +635,7 @@ static void build_subtree(const build *b, const job *root)
             /* Nothing separates the centroids, or too deep: halve. */
             mid = j.begin + count / 2;
             if (o->sweep) {
-                partition_sweep(b, &j, (split){0, mid, 0.0f});
+                partition_sweep(b, &j, (split){.axis = 0, .at = mid});
             } else {
                 bounds_of_refs(b, j.begin, mid, &l);
                 bounds_of_refs(b, mid, j.end, &r);
@@ -884,7 +898,7 @@ static void sah_destroy(void *state)
 
 static const rtk_param_desc sah_params[] = {
     {.name = "bins", .type = RTK_PARAM_INT, .def = 16, .min = 4, .max = 256,
-     .doc = "bins per axis in binned mode"},
+     .doc = "bins per axis in binned mode (a node of n primitives uses min(bins, 4 + n / 20))"},
     {.name = "mode", .type = RTK_PARAM_STRING, .def_string = "binned", .choices = "binned|sweep",
      .doc = "binned: best bin boundary, O(n) per node; sweep: best of every object split (exact SAH)"},
     {.name = "t_node", .type = RTK_PARAM_FLOAT, .def = 1.0, .min = 0.01, .max = 100.0,
