@@ -586,34 +586,22 @@ static void prep_range(void *ctx, uint32_t begin, uint32_t end)
     }
 }
 
-/* The corners in leaf order: slot i gets those of triangle order[i]. */
-typedef struct gather_job {
-    const float *from;
-    const uint32_t *order;
-    float *to;
-} gather_job;
-
-static void gather_range(void *ctx, uint32_t begin, uint32_t end)
-{
-    const gather_job *j = ctx;
-    for (uint32_t slot = begin; slot < end; slot++)
-        memcpy(j->to + 9 * (size_t)slot, j->from + 9 * (size_t)j->order[slot], 9 * sizeof(float));
-}
-
-/* Every leaf's box against its triangles' corners in leaf order: the
- * check validation skips, here with memory read in order. */
+/* Every leaf's box against its triangles' corners: the check validation
+ * skips. */
 typedef struct leaf_check {
+    const rtk_scene *s;
     const rtk_bvh_node *nodes;
-    const float *corners;
+    const uint32_t *prim_order;
     uint32_t bad_node; /* lowest failing node (UINT32_MAX: none) */
 } leaf_check;
 
 /* The first slot of leaf n whose corners leave its box, or the end. */
-static uint32_t first_outside(const rtk_bvh_node *n, const float *corners)
+static uint32_t first_outside(const leaf_check *c, const rtk_bvh_node *n)
 {
     uint32_t slot = n->offset;
     for (; slot < n->offset + n->count; slot++) {
-        const float *v = corners + 9 * (size_t)slot;
+        float v[9];
+        rtk_triangle_corners(c->s, c->prim_order[slot], v);
         int inside = 1;
         for (int k = 0; k < 9; k++)
             inside &= n->lower[k % 3] <= v[k] && v[k] <= n->upper[k % 3];
@@ -628,7 +616,7 @@ static void leaf_check_range(void *ctx, uint32_t begin, uint32_t end)
     leaf_check *c = ctx;
     for (uint32_t id = begin; id < end; id++) {
         const rtk_bvh_node *n = &c->nodes[id];
-        if (n->count == 0 || first_outside(n, c->corners) == n->offset + n->count)
+        if (n->count == 0 || first_outside(c, n) == n->offset + n->count)
             continue;
         /* Ranges run concurrently: keep the lowest node, as one thread
          * would report. */
@@ -640,15 +628,31 @@ static void leaf_check_range(void *ctx, uint32_t begin, uint32_t end)
     }
 }
 
-rtk_status rtk_bvh_check_leaves(const rtk_bvh_node *nodes, uint32_t node_count, const uint32_t *prim_order,
-                                const float *corners, uint32_t threads)
+rtk_status rtk_bvh_leaf_error(const rtk_scene *s, uint32_t leaf)
 {
-    leaf_check c = {nodes, corners, UINT32_MAX};
-    rtk_parallel_ranges(node_count, threads, 65536, leaf_check_range, &c);
-    if (c.bad_node == UINT32_MAX)
-        return RTK_OK;
-    return rtk_error(RTK_ERR_PLUGIN, "builder output: leaf %u does not enclose primitive %u", c.bad_node,
-                     prim_order[first_outside(&nodes[c.bad_node], corners)]);
+    leaf_check c = {s, s->nodes, s->prim_ids, leaf};
+    return rtk_error(RTK_ERR_PLUGIN, "builder output: leaf %u does not enclose primitive %u", leaf,
+                     s->prim_ids[first_outside(&c, &s->nodes[leaf])]);
+}
+
+rtk_status rtk_bvh_check_leaves(const rtk_scene *s, uint32_t threads)
+{
+    leaf_check c = {s, s->nodes, s->prim_ids, UINT32_MAX};
+    rtk_parallel_ranges(s->node_count, threads, 65536, leaf_check_range, &c);
+    return c.bad_node == UINT32_MAX ? RTK_OK : rtk_bvh_leaf_error(s, c.bad_node);
+}
+
+rtk_status rtk_bvh_finish(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes)
+{
+    if (s->own_traversal) {
+        free(spare);
+        return rtk_bvh_check_leaves(s, threads);
+    }
+    rtk_status st = rtk_wide_build(s, threads, spare, spare_bytes);
+    if (st == RTK_OK || st == RTK_ERR_PLUGIN)
+        return st;
+    rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
+    return rtk_bvh_check_leaves(s, threads);
 }
 
 rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads)
@@ -656,8 +660,7 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     rtk_bvh_release(s);
     free(s->nodes);
     free(s->prim_ids);
-    free(s->tri_verts);
-    s->nodes = NULL, s->prim_ids = NULL, s->tri_verts = NULL;
+    s->nodes = NULL, s->prim_ids = NULL;
     s->node_count = 0, s->bvh_depth = 0;
     uint32_t n = s->triangle_count;
     if (n == 0)
@@ -671,21 +674,21 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     a.max_nodes = 2 * n - 1;
     a.thread_count = threads ? threads : 1;
     double t0 = rtk_now();
-    /* The bounds and centroids share one block of 36 bytes a triangle,
-     * the size of its corners: once the tree is built they are dead, and
-     * the corners are gathered into leaf order there, in memory already
-     * faulted in rather than in a fresh array (first touches are costly). */
-    char *inputs = rtk_alloc_large((sizeof(rtk_bounds) + sizeof(rtk_vec3)) * (size_t)n);
+    /* The builder's inputs (bounds, centroids, corners: 72 bytes a
+     * triangle) share one block, dead once the tree is built: the wide
+     * tree is written there, in memory already faulted in rather than in
+     * a fresh array (first touches are costly). */
+    const size_t input_bytes = (sizeof(rtk_bounds) + sizeof(rtk_vec3) * 4) * (size_t)n;
+    char *inputs = rtk_alloc_large(input_bytes);
     rtk_bounds *bounds = (rtk_bounds *)(void *)inputs;
     rtk_vec3 *centroids = inputs ? (rtk_vec3 *)(void *)(inputs + sizeof(rtk_bounds) * (size_t)n) : NULL;
-    rtk_vec3 *vertices = rtk_alloc_large(sizeof *vertices * 3 * (size_t)n);
-    _Static_assert(sizeof(rtk_bounds) + sizeof(rtk_vec3) == 9 * sizeof(float), "inputs hold the corners after");
+    rtk_vec3 *vertices = centroids ? centroids + n : NULL;
     a.nodes = rtk_calloc(a.max_nodes, sizeof *a.nodes);
     a.prim_order = rtk_calloc(n, sizeof *a.prim_order);
     rtk_status st = RTK_OK;
     void *state = NULL;
     const rtk_accelerator_fns *fns = plugin->functions;
-    if (!inputs || !vertices || !a.nodes || !a.prim_order) {
+    if (!inputs || !a.nodes || !a.prim_order) {
         st = RTK_ERR_NOMEM;
         goto fail;
     }
@@ -723,27 +726,27 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
         s->own_state = state;
         if (a.node_count == 0) {
             free(inputs);
-            free(vertices);
             free(a.nodes);
             free(a.prim_order);
             return RTK_OK;
         }
     }
     double t2 = rtk_now();
-    /* The structure first; the leaves' boxes against the corners once
-     * those are in leaf order, where the check reads memory in order. */
+    /* The structure first; the leaves' boxes against the corners as the
+     * wide tree gathers them. */
     st = rtk_bvh_validate(&a, 0, &s->bvh_depth);
     double t3 = rtk_now();
-    float *corners = (float *)(void *)inputs;
     if (st == RTK_OK) {
-        gather_job gather = {&vertices[0].x, a.prim_order, corners};
-        rtk_parallel_ranges(n, a.thread_count, 32768, gather_range, &gather);
+        s->nodes = a.nodes;
+        s->node_count = a.node_count;
+        s->prim_ids = a.prim_order;
+        st = rtk_bvh_finish(s, a.thread_count, inputs, input_bytes);
+        inputs = NULL; /* taken */
+        if (st != RTK_OK) {
+            s->nodes = NULL, s->prim_ids = NULL;
+            s->node_count = 0, s->bvh_depth = 0;
+        }
     }
-    free(vertices);
-    vertices = NULL;
-    double t4 = rtk_now();
-    if (st == RTK_OK)
-        st = rtk_bvh_check_leaves(a.nodes, a.node_count, a.prim_order, corners, a.thread_count);
     if (st == RTK_ERR_PLUGIN) {
         char msg[2048];
         snprintf(msg, sizeof msg, "%s", rtk_error_message());
@@ -751,27 +754,14 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     }
     if (st != RTK_OK)
         goto fail;
-    double t5 = rtk_now();
-    s->nodes = a.nodes;
-    s->node_count = a.node_count;
-    s->prim_ids = a.prim_order;
-    s->tri_verts = corners;
-    if (!s->own_traversal && rtk_wide_build(s, a.thread_count) != RTK_OK)
-        rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
-    /* Traversal reads corners from the wide blocks or, on the binary tree,
-     * from the scene: no second copy of the triangles stays. */
-    free(s->tri_verts);
-    s->tri_verts = NULL;
     rtk_log(RTK_LOG_DEBUG,
-            "BVH build (%s, %u threads): %u triangles, %u nodes (inputs %.3f s, builder %.3f s, validation %.3f s "
-            "+ leaves %.3f s, layout %.3f s, wide tree %.3f s)",
-            plugin->name, a.thread_count, n, s->node_count, t1 - t0, t2 - t1, t3 - t2, t5 - t4, t4 - t3,
-            rtk_now() - t5);
+            "BVH build (%s, %u threads): %u triangles, %u nodes (inputs %.3f s, builder %.3f s, validation %.3f s, "
+            "wide tree and leaf check %.3f s)",
+            plugin->name, a.thread_count, n, s->node_count, t1 - t0, t2 - t1, t3 - t2, rtk_now() - t3);
     return RTK_OK;
 fail:
     rtk_bvh_release(s);
     free(inputs);
-    free(vertices);
     free(a.nodes);
     free(a.prim_order);
     return st;

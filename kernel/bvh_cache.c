@@ -181,8 +181,7 @@ static void clear_bvh(rtk_scene *s)
     rtk_bvh_release(s);
     free(s->nodes);
     free(s->prim_ids);
-    free(s->tri_verts);
-    s->nodes = NULL, s->prim_ids = NULL, s->tri_verts = NULL;
+    s->nodes = NULL, s->prim_ids = NULL;
     s->node_count = 0, s->bvh_depth = 0;
 }
 
@@ -344,10 +343,9 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
     }
     rtk_bvh_node *nodes = rtk_alloc(sizeof *nodes * (size_t)h.node_count);
     uint32_t *prims = rtk_alloc(sizeof *prims * (size_t)n);
-    float *tri_verts = rtk_alloc_large(sizeof(float) * 9 * (size_t)n);
     int ok = 0;
     uint64_t stored = 0;
-    if (!nodes || !prims || !tri_verts) {
+    if (!nodes || !prims) {
         snprintf(why, why_size, "out of memory for %u nodes", h.node_count);
         goto done;
     }
@@ -380,18 +378,23 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
     args.prim_order = prims;
     args.thread_count = threads ? threads : 1;
     uint32_t depth = 0;
-    /* The structure, then the corners in leaf order, then the leaves'
-     * boxes against them. */
+    /* The structure, then (as the wide tree gathers the corners) the
+     * leaves' boxes against them. */
     int valid = rtk_bvh_validate(&args, 0, &depth) == RTK_OK;
     double t3 = rtk_now();
-    if (valid) {
-        for (uint32_t slot = 0; slot < n; slot++)
-            rtk_triangle_corners(s, prims[slot], tri_verts + 9 * (size_t)slot);
+    if (valid && depth != h.depth) {
+        snprintf(why, why_size, "header says depth %u, the tree has %u", h.depth, depth);
+        goto done;
     }
-    double t4 = rtk_now();
-    if (valid)
-        valid = rtk_bvh_check_leaves(nodes, h.node_count, prims, tri_verts, threads ? threads : 1) == RTK_OK;
-    double t5 = rtk_now();
+    if (valid) {
+        s->nodes = nodes, s->node_count = h.node_count, s->bvh_depth = depth;
+        s->prim_ids = prims;
+        valid = rtk_bvh_finish(s, threads ? threads : 1, NULL, 0) == RTK_OK;
+        if (!valid) {
+            s->nodes = NULL, s->prim_ids = NULL;
+            s->node_count = 0, s->bvh_depth = 0;
+        }
+    }
     if (!valid) {
         const char *msg = rtk_error_message();
         const char *prefix = "builder output: ";
@@ -400,26 +403,15 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
         snprintf(why, why_size, "invalid tree: %s", msg);
         goto done;
     }
-    if (depth != h.depth) {
-        snprintf(why, why_size, "header says depth %u, the tree has %u", h.depth, depth);
-        goto done;
-    }
-    s->nodes = nodes, s->node_count = h.node_count, s->bvh_depth = depth;
-    s->prim_ids = prims, s->tri_verts = tri_verts;
-    nodes = NULL, prims = NULL, tri_verts = NULL;
-    if (rtk_wide_build(s, threads ? threads : 1) != RTK_OK)
-        rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
-    free(s->tri_verts); /* as after a build: traversal reads the scene */
-    s->tri_verts = NULL;
+    nodes = NULL, prims = NULL; /* the scene's now */
     ok = 1;
     rtk_log(RTK_LOG_DEBUG,
-            "BVH cache %s: loaded %u nodes, depth %u (read %.3f s, checksum %.3f s, validation %.3f s "
-            "+ leaves %.3f s, layout %.3f s, wide tree %.3f s)",
-            path, s->node_count, depth, t1 - t0, t2 - t1, t3 - t2, t5 - t4, t4 - t3, rtk_now() - t5);
+            "BVH cache %s: loaded %u nodes, depth %u (read %.3f s, checksum %.3f s, validation %.3f s, "
+            "wide tree and leaf check %.3f s)",
+            path, s->node_count, depth, t1 - t0, t2 - t1, t3 - t2, rtk_now() - t3);
 done:
     free(nodes);
     free(prims);
-    free(tri_verts);
     return ok;
 }
 

@@ -50,6 +50,8 @@ typedef struct collapser {
     uint32_t *tri_total;  /* per binary node: triangles below it */
     uint32_t *plan;       /* per binary node: the collapse's choices (PLAN_*) */
     uint32_t *slots;      /* scratch: the slots of one merged subtree */
+    float *corners;       /* scratch: their corners, 9 floats each */
+    uint32_t bad_leaf;    /* lowest binary leaf met whose box misses its corners */
     uint32_t depth;
     int failed;
 } collapser;
@@ -82,24 +84,21 @@ static void set_child(collapser *c, uint32_t node, int i, const float lo[3], con
     n->child[i] = ref;
 }
 
-/* Bounds of the triangles in slots[0, n). */
-static void slot_bounds(const rtk_scene *s, const uint32_t *slots, uint32_t n, float lo[3], float hi[3])
+/* Bounds of the n triangles whose corners are v[0, 9n). */
+static void corner_bounds(const float *v, uint32_t n, float lo[3], float hi[3])
 {
     for (int k = 0; k < 3; k++)
         lo[k] = INFINITY, hi[k] = -INFINITY;
-    for (uint32_t i = 0; i < n; i++) {
-        float v[9];
-        rtk_slot_corners(s, slots[i], v);
-        for (int j = 0; j < 9; j++) {
-            int k = j % 3;
-            lo[k] = v[j] < lo[k] ? v[j] : lo[k]; /* positions are finite */
-            hi[k] = v[j] > hi[k] ? v[j] : hi[k];
-        }
+    for (size_t j = 0; j < 9 * (size_t)n; j++) {
+        int k = (int)(j % 3);
+        lo[k] = v[j] < lo[k] ? v[j] : lo[k]; /* positions are finite */
+        hi[k] = v[j] > hi[k] ? v[j] : hi[k];
     }
 }
 
-/* Leaf reference for slots[0, n), at most RTK_WIDE_LEAF_BLOCKS blocks. */
-static uint32_t make_blocks(collapser *c, const uint32_t *slots, uint32_t n)
+/* Leaf reference for slots[0, n) with corners v[0, 9n), at most
+ * RTK_WIDE_LEAF_BLOCKS blocks. */
+static uint32_t make_blocks(collapser *c, const uint32_t *slots, const float *v, uint32_t n)
 {
     uint32_t blocks = (n + RTK_WIDE_TRIS - 1) / RTK_WIDE_TRIS;
     if (blocks > c->tri_cap - c->tri_count) { /* the counting pass was wrong: never */
@@ -112,10 +111,8 @@ static uint32_t make_blocks(collapser *c, const uint32_t *slots, uint32_t n)
         for (uint32_t lane = 0; lane < RTK_WIDE_TRIS; lane++) {
             uint32_t i = b * RTK_WIDE_TRIS + lane;
             if (i < n) {
-                float v[9];
-                rtk_slot_corners(c->s, slots[i], v);
                 for (int j = 0; j < 9; j++)
-                    t->v[j][lane] = v[j];
+                    t->v[j][lane] = v[9 * (size_t)i + j];
                 t->prim[lane] = c->s->prim_ids[slots[i]];
             } else {
                 /* NaN corners: every comparison of the test fails, a miss. */
@@ -128,13 +125,14 @@ static uint32_t make_blocks(collapser *c, const uint32_t *slots, uint32_t n)
     return RTK_WIDE_LEAF | first << RTK_WIDE_LEAF_SHIFT | (blocks - 1);
 }
 
-/* Reference for a leaf over slots[0, n): blocks directly, or a node over
- * up to RTK_WIDE pieces when the leaf is too large for one reference. */
-static uint32_t make_leaf(collapser *c, const uint32_t *slots, uint32_t n, uint32_t depth)
+/* Reference for a leaf over slots[0, n) with corners v[0, 9n): blocks
+ * directly, or a node over up to RTK_WIDE pieces when the leaf is too
+ * large for one reference. */
+static uint32_t make_leaf(collapser *c, const uint32_t *slots, const float *v, uint32_t n, uint32_t depth)
 {
     const uint32_t per_ref = RTK_WIDE_LEAF_BLOCKS * RTK_WIDE_TRIS;
     if (n <= per_ref)
-        return make_blocks(c, slots, n);
+        return make_blocks(c, slots, v, n);
     if (depth > RTK_WIDE_MAX_DEPTH) {
         c->failed = 1;
         return RTK_WIDE_LEAF;
@@ -151,8 +149,8 @@ static uint32_t make_leaf(collapser *c, const uint32_t *slots, uint32_t n, uint3
     for (uint32_t b = 0; b < n; b += piece, i++) {
         uint32_t m = n - b < piece ? n - b : piece;
         float lo[3], hi[3];
-        slot_bounds(c->s, slots + b, m, lo, hi);
-        uint32_t ref = make_leaf(c, slots + b, m, depth + 1);
+        corner_bounds(v + 9 * (size_t)b, m, lo, hi);
+        uint32_t ref = make_leaf(c, slots + b, v + 9 * (size_t)b, m, depth + 1);
         if (c->failed)
             return RTK_WIDE_LEAF;
         set_child(c, node, i, lo, hi, ref);
@@ -160,13 +158,26 @@ static uint32_t make_leaf(collapser *c, const uint32_t *slots, uint32_t n, uint3
     return node;
 }
 
-/* Appends the slots of binary subtree bin to c->slots from *n on. */
+/* Appends the slots of binary subtree bin to c->slots and their corners
+ * to c->corners from *n on. On the way each binary leaf's box is checked
+ * against its triangles' corners, the check validation leaves out (every
+ * binary leaf is gathered exactly once): a failing leaf lowers
+ * c->bad_leaf. */
 static void gather_slots(collapser *c, uint32_t bin, uint32_t *n)
 {
     const rtk_bvh_node *bn = c->s->nodes;
     if (bn[bin].count > 0) {
-        for (uint32_t i = 0; i < bn[bin].count; i++)
-            c->slots[(*n)++] = bn[bin].offset + i;
+        const rtk_bvh_node *leaf = &bn[bin];
+        int inside = 1;
+        for (uint32_t i = 0; i < leaf->count; i++) {
+            float *v = c->corners + 9 * (size_t)*n;
+            rtk_slot_corners(c->s, leaf->offset + i, v);
+            for (int k = 0; k < 9; k++)
+                inside &= leaf->lower[k % 3] <= v[k] && v[k] <= leaf->upper[k % 3];
+            c->slots[(*n)++] = leaf->offset + i;
+        }
+        if (!inside && bin < c->bad_leaf)
+            c->bad_leaf = bin;
         return;
     }
     gather_slots(c, bn[bin].offset, n);
@@ -490,7 +501,7 @@ static uint32_t collapse(collapser *c, uint32_t bin, uint32_t depth)
         if (is_wide_leaf(c, kids[i])) {
             uint32_t count = 0;
             gather_slots(c, kids[i], &count);
-            ref = make_leaf(c, c->slots, count, depth + 1);
+            ref = make_leaf(c, c->slots, c->corners, count, depth + 1);
         } else {
             ref = collapse(c, kids[i], depth + 1);
         }
@@ -505,8 +516,8 @@ void rtk_wide_free(rtk_scene *s)
 {
     if (!s->wide)
         return;
-    free(s->wide->nodes);
-    free(s->wide->tris);
+    free(s->wide->mem[0]);
+    free(s->wide->mem[1]);
     free(s->wide);
     s->wide = NULL;
 }
@@ -528,6 +539,7 @@ typedef struct wide_item {
     uint32_t node_start, node_count; /* its range of wide nodes */
     uint32_t tri_start, tri_count;   /* its range of blocks */
     uint32_t ref, depth_out;         /* results */
+    uint32_t bad_leaf;               /* lowest failing binary leaf, or UINT32_MAX */
     int failed;
 } wide_item;
 
@@ -601,10 +613,11 @@ static void collapse_item(collapser *c, wide_item *it)
     c->tri_count = it->tri_start, c->tri_cap = it->tri_start + it->tri_count;
     c->depth = 0;
     c->failed = 0;
+    c->bad_leaf = UINT32_MAX;
     if (is_wide_leaf(c, it->kid)) {
         uint32_t count = 0;
         gather_slots(c, it->kid, &count);
-        it->ref = make_leaf(c, c->slots, count, it->depth);
+        it->ref = make_leaf(c, c->slots, c->corners, count, it->depth);
     } else {
         it->ref = collapse(c, it->kid, it->depth);
     }
@@ -612,6 +625,7 @@ static void collapse_item(collapser *c, wide_item *it)
     if (c->node_count != c->node_cap || c->tri_count != c->tri_cap)
         c->failed = 1;
     it->depth_out = c->depth;
+    it->bad_leaf = c->bad_leaf;
     it->failed = c->failed;
 }
 
@@ -621,6 +635,7 @@ static void wide_worker(void *ctx, uint32_t begin, uint32_t end)
     wide_job *job = ctx;
     collapser c = *job->proto;
     c.slots = NULL;
+    c.corners = NULL;
     uint32_t slot_cap = 0;
     for (;;) {
         uint32_t k = atomic_fetch_add(&job->next, 1u);
@@ -630,16 +645,19 @@ static void wide_worker(void *ctx, uint32_t begin, uint32_t end)
         uint32_t need = c.tri_total[it->kid];
         if (need > slot_cap) {
             free(c.slots);
+            free(c.corners);
             c.slots = rtk_alloc(sizeof *c.slots * (size_t)need);
-            slot_cap = c.slots ? need : 0;
+            c.corners = rtk_alloc(sizeof *c.corners * 9 * (size_t)need);
+            slot_cap = c.slots && c.corners ? need : 0;
         }
-        if (!c.slots) {
+        if (slot_cap == 0) {
             it->failed = 1;
             continue;
         }
         collapse_item(&c, it);
     }
     free(c.slots);
+    free(c.corners);
 }
 
 /* The items in order[0, n), largest first (ties by index): the longest
@@ -656,11 +674,41 @@ static void order_items(const wide_item *items, uint32_t n, uint32_t *order)
     }
 }
 
-rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
+/* Places the nodes and blocks: in spare when they fit there (nodes
+ * first, whole 256-byte nodes keep the blocks 64-byte aligned), else the
+ * blocks alone when they fit, else fresh memory; mem[] gets what to free
+ * and spare is freed if unused. 0 when out of memory. */
+static int place_arrays(collapser *c, void *spare, size_t spare_bytes, void *mem[2])
+{
+    const size_t node_bytes = sizeof *c->nodes * (size_t)c->node_cap;
+    const size_t tri_bytes = sizeof *c->tris * (size_t)c->tri_cap;
+    _Static_assert(sizeof(rtk_wide_node) % 64 == 0, "nodes keep what follows them aligned");
+    mem[0] = mem[1] = NULL;
+    if (spare && node_bytes + tri_bytes <= spare_bytes) {
+        mem[0] = spare;
+        c->nodes = spare;
+        c->tris = (rtk_wide_tris *)(void *)((char *)spare + node_bytes);
+        rtk_release_tail(spare, node_bytes + tri_bytes, spare_bytes);
+        return 1;
+    }
+    if (spare && tri_bytes <= spare_bytes) {
+        mem[0] = c->tris = spare;
+        rtk_release_tail(spare, tri_bytes, spare_bytes);
+    } else {
+        free(spare); /* before the fresh allocation: its pages go back first */
+        mem[0] = c->tris = rtk_alloc_large(tri_bytes);
+    }
+    mem[1] = c->nodes = rtk_alloc_large(node_bytes);
+    return c->nodes && c->tris;
+}
+
+rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes)
 {
     rtk_wide_free(s);
-    if (s->node_count == 0 || !s->prim_ids)
+    if (s->node_count == 0 || !s->prim_ids) {
+        free(spare);
         return RTK_OK;
+    }
     collapser c;
     memset(&c, 0, sizeof c);
     c.s = s;
@@ -669,6 +717,8 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
     wide_plan pl;
     memset(&pl, 0, sizeof pl);
     uint32_t *order = NULL;
+    void *mem[2] = {NULL, NULL};
+    uint32_t bad_leaf = UINT32_MAX;
     if (!c.tri_total || !c.plan || !plan_tree(&c, threads)) {
         c.failed = 1;
     } else {
@@ -678,12 +728,13 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
         c.failed |= pl.failed;
     }
     if (!c.failed) {
-        c.nodes = rtk_alloc_large(sizeof *c.nodes * (size_t)c.node_cap);
-        c.tris = rtk_alloc_large(sizeof *c.tris * (size_t)c.tri_cap);
+        c.failed = !place_arrays(&c, spare, spare_bytes, mem);
+        spare = NULL;
         order = rtk_alloc(sizeof *order * (size_t)(pl.item_count ? pl.item_count : 1));
-        if (!c.nodes || !c.tris || !order)
+        if (!order)
             c.failed = 1;
     }
+    free(spare);
     if (!c.failed) {
         uint32_t node_cap = c.node_cap, tri_cap = c.tri_cap;
         /* The planned nodes, empty until their references are known. */
@@ -707,6 +758,8 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
             c.depth = pl.depth;
             for (uint32_t i = 0; i < pl.item_count; i++) {
                 c.failed |= pl.items[i].failed;
+                if (pl.items[i].bad_leaf < bad_leaf)
+                    bad_leaf = pl.items[i].bad_leaf;
                 if (pl.items[i].depth_out > c.depth)
                     c.depth = pl.items[i].depth_out;
             }
@@ -725,6 +778,11 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
     free(pl.fixups);
     free(order);
     rtk_wide_bvh *w = NULL;
+    if (!c.failed && bad_leaf != UINT32_MAX) {
+        free(mem[0]);
+        free(mem[1]);
+        return rtk_bvh_leaf_error(s, bad_leaf);
+    }
     if (!c.failed && c.tri_count >= 1u << (31 - RTK_WIDE_LEAF_SHIFT))
         c.failed = 1;
     if (!c.failed) {
@@ -734,6 +792,8 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
         } else {
             w->nodes = c.nodes;
             w->tris = c.tris;
+            w->mem[0] = mem[0];
+            w->mem[1] = mem[1];
             w->node_count = c.node_count;
             w->tri_block_count = c.tri_count;
             w->depth = c.depth;
@@ -741,8 +801,8 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads)
         }
     }
     if (c.failed) {
-        free(c.nodes);
-        free(c.tris);
+        free(mem[0]);
+        free(mem[1]);
         return rtk_error(RTK_ERR_NOMEM, "wide BVH: out of memory or tree too deep");
     }
     s->wide = w;

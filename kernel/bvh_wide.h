@@ -3,9 +3,8 @@
  * plain C, chosen at run time. Rules for callers:
  * - rtk_wide_build runs after the binary tree and prim_ids are final (end
  *   of rtk_bvh_build, or after loading them from a cache), reading the
- *   corners from tri_verts while the build still holds them (in leaf
- *   order, fast) or else from the scene (rtk_slot_corners); it replaces
- *   any previous wide tree. [main thread]
+ *   corners from the scene (rtk_slot_corners); it replaces any previous
+ *   wide tree. [main thread]
  * - Traversal reads the scene only: any thread, concurrently.
  * - Results are those of the binary traversal bit for bit: same triangle,
  *   same t, u, v, equal distances resolved to the lowest triangle id. */
@@ -78,13 +77,20 @@ typedef struct rtk_wide_bvh {
     uint32_t tri_block_count;
     uint32_t depth;         /* levels below the root, at most */
     rtk_simd_path path;     /* what rtk_bvh_closest/any use */
+    void *mem[2];           /* the blocks holding nodes and tris, to free */
 } rtk_wide_bvh;
 
-/* Collapses s's binary tree into s->wide and picks the traversal path:
- * the best the CPU supports, or RTK_SIMD. Large trees are collapsed on up
- * to threads threads; the result does not depend on their number.
- * RTK_ERR_NOMEM on failure (the scene then keeps the binary traversal). */
-rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads);
+/* Collapses s's binary tree (its structure validated) into s->wide and
+ * picks the traversal path: the best the CPU supports, or RTK_SIMD. Large
+ * trees are collapsed on up to threads threads; the result does not
+ * depend on their number. spare (NULL, or spare_bytes of rtk_alloc_large
+ * memory whose contents are dead) is taken over: the wide arrays go there
+ * when they fit, else it is freed. On the way every binary leaf's box is
+ * checked against its triangles' corners: RTK_ERR_PLUGIN (error set as
+ * rtk_bvh_check_leaves sets it) when one fails, RTK_ERR_NOMEM on other
+ * failures (the leaves are then unchecked; the scene keeps the binary
+ * traversal). */
+rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes);
 /* Frees s->wide and sets it to NULL. */
 void rtk_wide_free(rtk_scene *s);
 

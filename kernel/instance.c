@@ -539,8 +539,6 @@ static size_t own_bvh_bytes(const rtk_scene *s)
     size_t bytes = (size_t)s->node_count * sizeof(rtk_bvh_node);
     if (s->prim_ids)
         bytes += (size_t)s->triangle_count * sizeof(uint32_t);
-    if (s->tri_verts)
-        bytes += (size_t)s->triangle_count * 9 * sizeof(float);
     if (s->wide)
         bytes += (size_t)s->wide->node_count * sizeof(rtk_wide_node) +
                  (size_t)s->wide->tri_block_count * sizeof(rtk_wide_tris);

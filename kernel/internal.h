@@ -27,6 +27,9 @@ int rtk_grow_array(void **array, uint32_t *cap, uint32_t count, size_t size);
  * transparent huge pages, which cuts the cost of first touching it and
  * keeps traversal out of TLB misses. Freed with free(). */
 void *rtk_alloc_large(size_t size);
+/* Gives the whole pages of block[used, size) back to the system (they
+ * read as zeros if touched again); the block stays allocated. */
+void rtk_release_tail(void *block, size_t used, size_t size);
 /* Calls fn(ctx, begin, end) over [0, n) cut into at most threads
  * contiguous ranges, the first on the calling thread, the others on
  * threads of their own (run on the caller when a thread cannot start);
@@ -312,9 +315,6 @@ struct rtk_scene {
     uint32_t node_count;
     uint32_t bvh_depth;
     uint32_t *prim_ids;          /* leaf slot -> triangle id */
-    float *tri_verts;            /* 9 floats per leaf slot, the triangle's corners: only
-                                    while a build or cache load runs, NULL after
-                                    (see rtk_slot_corners) */
     /* An accelerator with its own traversal (ABI 1.1), kept alive while
      * the scene lives; NULL for kernel traversal. */
     const rtk_accelerator_fns *own_traversal;
@@ -368,16 +368,12 @@ static inline void rtk_triangle_corners(const rtk_scene *s, uint32_t prim, float
         memcpy(v + 3 * c, s->positions + 3 * (size_t)idx[c], 3 * sizeof(float));
 }
 
-/* The corners of leaf slot slot, 9 floats: from tri_verts while a build
- * holds them in leaf order, else from the scene's indexed positions (the
- * same floats). The binary traversal and a later wide collapse read them
- * this way, so the scene keeps no second copy of its triangles. */
+/* The corners of leaf slot slot, 9 floats, from the scene's indexed
+ * positions: the binary traversal, the leaf check and the wide collapse
+ * read them this way, so the scene keeps no second copy of its triangles. */
 static inline void rtk_slot_corners(const rtk_scene *s, uint32_t slot, float v[9])
 {
-    if (s->tri_verts)
-        memcpy(v, s->tri_verts + 9 * (size_t)slot, 9 * sizeof(float));
-    else
-        rtk_triangle_corners(s, s->prim_ids[slot], v);
+    rtk_triangle_corners(s, s->prim_ids[slot], v);
 }
 
 /* Empty scene that keeps the data in needs (RTK_NEED_*). [caller frees] */
@@ -471,11 +467,19 @@ void rtk_bvh_release(rtk_scene *scene);
  * root, inner bounds enclosing their children, and with leaf_bounds set,
  * leaf bounds enclosing their primitives' prim_bounds. Sets the depth. */
 rtk_status rtk_bvh_validate(const rtk_build_args *args, int leaf_bounds, uint32_t *depth);
-/* The leaf check left out above, for triangles: corners holds 9 floats per
- * slot in leaf order; nodes passed rtk_bvh_validate. Leaves are split
- * over threads; the lowest failing leaf is reported. */
-rtk_status rtk_bvh_check_leaves(const rtk_bvh_node *nodes, uint32_t node_count, const uint32_t *prim_order,
-                                const float *corners, uint32_t threads);
+/* The leaf check left out above, for triangles: every leaf of s's tree
+ * (its structure validated) against its triangles' corners. Leaves are
+ * split over threads; the lowest failing leaf is reported. */
+rtk_status rtk_bvh_check_leaves(const rtk_scene *s, uint32_t threads);
+/* RTK_ERR_PLUGIN with the message of a failed check of leaf (the first
+ * triangle it does not enclose). */
+rtk_status rtk_bvh_leaf_error(const rtk_scene *s, uint32_t leaf);
+/* Ends a build or cache load of s's tree (its structure validated): the
+ * wide tree, which checks the leaves as it gathers their corners (spare as
+ * rtk_wide_build takes it), or the leaf check alone for a plugin's own
+ * traversal or when the collapse fails (warned: binary traversal).
+ * RTK_ERR_PLUGIN when a leaf fails (s->wide left NULL). */
+rtk_status rtk_bvh_finish(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes);
 /* Traversal of the whole scene, instances included. Return 1 on hit. */
 int rtk_bvh_closest(const rtk_scene *scene, const rtk_ray *ray, rtk_hit *hit);
 int rtk_bvh_any(const rtk_scene *scene, const rtk_ray *ray);

@@ -81,7 +81,6 @@ void rtk_scene_free(rtk_scene *scene)
     rtk_instances_free(scene);
     free(scene->nodes);
     free(scene->prim_ids);
-    free(scene->tri_verts);
     rtk_bvh_release(scene);
     rtk_lights_free(scene->lights);
     free(scene->punctual);

@@ -48,6 +48,15 @@ void *rtk_alloc_large(size_t size)
     return p;
 }
 
+void rtk_release_tail(void *block, size_t used, size_t size)
+{
+    const uintptr_t page = (uintptr_t)sysconf(_SC_PAGESIZE);
+    uintptr_t from = ((uintptr_t)block + used + page - 1) / page * page;
+    uintptr_t to = ((uintptr_t)block + size) / page * page;
+    if (page > 0 && to > from)
+        madvise((void *)from, to - from, MADV_DONTNEED); /* advice: a refusal changes nothing */
+}
+
 void *rtk_calloc(size_t count, size_t size)
 {
     void *p = calloc(count ? count : 1, size ? size : 1);
