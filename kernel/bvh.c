@@ -458,7 +458,7 @@ static int all_set(const uint8_t *seen, uint32_t n)
 }
 
 /* Below this many nodes the walk stays on one thread. */
-#define VALIDATION_PARALLEL_NODES 65536u
+#define VALIDATION_PARALLEL_NODES 16384u
 
 rtk_status rtk_bvh_validate(const rtk_build_args *a, int leaf_bounds, uint32_t *depth_out)
 {

@@ -343,7 +343,7 @@ static int plan_walk(collapser *c, plan_scratch *w, uint32_t root, uint32_t root
 /* Large trees are planned on threads: the subtrees below the inner nodes
  * at this depth each by one thread, then the levels above them. */
 #define PLAN_FRONTIER 8
-#define PLAN_PARALLEL_NODES 65536u
+#define PLAN_PARALLEL_NODES 16384u
 
 /* The inner nodes at depth PLAN_FRONTIER under id, in walk order. */
 static void collect_frontier(const rtk_scene *s, uint32_t id, uint32_t depth, uint32_t *ids, uint32_t *count)
@@ -768,7 +768,7 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
             order_items(pl.items, pl.item_count, order);
             wide_job job = {.proto = &c, .items = pl.items, .order = order, .item_count = pl.item_count};
             atomic_init(&job.next, 0u);
-            uint32_t workers = s->triangle_count >= 65536 && threads > 1 ? threads : 1;
+            uint32_t workers = s->triangle_count >= 16384 && threads > 1 ? threads : 1;
             if (workers > pl.item_count)
                 workers = pl.item_count ? pl.item_count : 1;
             rtk_parallel_ranges(workers, workers, 1, wide_worker, &job);
