@@ -217,10 +217,23 @@ static void gather_slots(collapser *c, uint32_t bin, uint32_t *n)
 #define WIDE_LEAF_MAX RTK_WIDE_TRIS
 
 /* Bits of collapser.plan: for j = 2 .. RTK_WIDE, whether C(n, j) is
- * D(n, j), and the k of D(n, j); whether C(n, 1) is a leaf. */
+ * D(n, j), and the k of D(n, j); whether C(n, 1) is a leaf; the binary
+ * leaves below n, at most RTK_WIDE, minus one. A subtree of L leaves
+ * cannot fill more than L children: C(n, j) = C(n, L) for j > L, so only
+ * j <= L and splits k that give each side at most its leaves are tried
+ * (the same least costs, in a fraction of the steps near the bottom of
+ * the tree, where most nodes are), and above L no split bit is set and
+ * k is that of D(n, L). */
 #define PLAN_K_SHIFT(j) (3 * ((j) - 2))
 #define PLAN_SPLIT(j) (1u << (19 + (j)))
 #define PLAN_LEAF (1u << 28)
+#define PLAN_LEAVES_SHIFT 29
+_Static_assert(RTK_WIDE == 8, "the plan packs k in 3 bits and the leaves below in 3");
+
+static uint32_t plan_leaves(uint32_t plan)
+{
+    return (plan >> PLAN_LEAVES_SHIFT) + 1;
+}
 
 static double half_area(const float lo[3], const float hi[3])
 {
@@ -242,12 +255,16 @@ static void plan_costs(collapser *c, uint32_t id, const double *left, const doub
         c->plan[id] = PLAN_LEAF;
         return;
     }
-    uint32_t plan = 0;
+    const int ll = (int)plan_leaves(c->plan[n->offset]), lr = (int)plan_leaves(c->plan[n->offset + 1]);
+    const int lmax = ll + lr < RTK_WIDE ? ll + lr : RTK_WIDE;
+    uint32_t plan = (uint32_t)(lmax - 1) << PLAN_LEAVES_SHIFT;
     double dist[RTK_WIDE + 1];
-    for (int j = 2; j <= RTK_WIDE; j++) {
+    int best_k = 1;
+    for (int j = 2; j <= lmax; j++) {
         double best = INFINITY;
-        int best_k = 1;
-        for (int k = 1; k < j; k++) { /* without branches: 28 a node, unpredictable */
+        const int k_lo = j - lr > 1 ? j - lr : 1, k_hi = j - 1 < ll ? j - 1 : ll;
+        best_k = k_lo;
+        for (int k = k_lo; k <= k_hi; k++) { /* without branches: unpredictable */
             double v = left[k - 1] + right[j - k - 1];
             int less = v < best;
             best = less ? v : best;
@@ -256,18 +273,22 @@ static void plan_costs(collapser *c, uint32_t id, const double *left, const doub
         dist[j] = best;
         plan |= (uint32_t)best_k << PLAN_K_SHIFT(j);
     }
-    double inner = area * WIDE_COST_NODE + dist[RTK_WIDE];
+    for (int j = lmax + 1; j <= RTK_WIDE; j++)
+        plan |= (uint32_t)best_k << PLAN_K_SHIFT(j);
+    double inner = area * WIDE_COST_NODE + dist[lmax];
     if (tris <= WIDE_LEAF_MAX && leaf <= inner) {
         out[0] = leaf;
         plan |= PLAN_LEAF;
     } else {
         out[0] = inner;
     }
-    for (int j = 2; j <= RTK_WIDE; j++) {
+    for (int j = 2; j <= lmax; j++) {
         int split = dist[j] <= out[j - 2];
         out[j - 1] = split ? dist[j] : out[j - 2];
         plan |= split ? PLAN_SPLIT(j) : 0u;
     }
+    for (int j = lmax + 1; j <= RTK_WIDE; j++)
+        out[j - 1] = out[lmax - 1];
     c->plan[id] = plan;
 }
 
