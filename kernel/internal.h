@@ -200,8 +200,15 @@ typedef struct rtk_image {
     int has_alpha; /* the file has an alpha channel (else A reads as 1) */
 } rtk_image;
 
+/* Whether this librtk (or the static copy in a test) runs from the build
+ * tree (plugins.c): plugins and the image module are then taken from
+ * there rather than from the install directories. */
+int rtk_running_from_build_tree(void);
+
 /* Decodes a file (bytes == NULL) or an in-memory encoded image through
- * OpenImageIO into linear RGBA; srgb: the 8-bit data is sRGB-encoded. */
+ * OpenImageIO into linear RGBA; srgb: the 8-bit data is sRGB-encoded.
+ * This and rtk_image_write load the image module on first use
+ * (kernel/image.c); a module that cannot load is an RTK_ERR_IO naming it. */
 rtk_status rtk_image_read(const char *path, const void *bytes, size_t byte_count, int srgb,
                           rtk_image *out);
 

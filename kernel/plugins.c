@@ -240,7 +240,7 @@ static void add_dir_list(rtk_registry *r, const char *list, const char *origin)
 }
 
 /* True when this code runs from the build tree rather than an install. */
-static int running_from_build_tree(void)
+int rtk_running_from_build_tree(void)
 {
     Dl_info info;
     if (!dladdr((void *)&rtk_registry_create, &info) || !info.dli_fname)
@@ -257,7 +257,7 @@ RTK_API rtk_status rtk_registry_create(rtk_registry **out)
     rtk_registry *r = rtk_calloc(1, sizeof *r);
     if (!r)
         return RTK_ERR_NOMEM;
-    if (running_from_build_tree())
+    if (rtk_running_from_build_tree())
         add_dir_list(r, RTK_BUILD_PLUGIN_DIRS, "build tree");
     else
         add_dir(r, RTK_INSTALL_PLUGIN_DIR, "installed plugins");

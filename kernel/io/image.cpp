@@ -1,7 +1,11 @@
 /* Image decode and encode through OpenImageIO, behind the C interface of
- * internal.h. Rules for this file: no exception leaves it (every entry point
- * catches everything and turns it into an rtk_status), and every error names
- * the file (or the embedded image's name) and the reason. */
+ * internal.h. This file is its own module (rtk_image.so), which librtk
+ * loads the first time an image is read or written (kernel/image.c):
+ * OpenImageIO brings some 250 libraries whose symbol binding took most
+ * of every rtk process's start (0.4 s). Rules for this file: no exception
+ * leaves it (every entry point catches everything and turns it into an
+ * rtk_status), and every error names the file (or the embedded image's
+ * name) and the reason. */
 #include "../internal.h"
 
 #include <OpenImageIO/filesystem.h>
@@ -398,8 +402,8 @@ rtk_status write_image(const char *path, int width, int height, int nchannels,
 
 } // namespace
 
-extern "C" rtk_status rtk_image_read(const char *path, const void *bytes, size_t byte_count, int srgb,
-                                     rtk_image *out)
+extern "C" RTK_EXPORT rtk_status rtk_image_module_read(const char *path, const void *bytes, size_t byte_count,
+                                                      int srgb, rtk_image *out)
 {
     if (!out)
         return rtk_error(RTK_ERR_INVALID, "rtk_image_read: no output image given");
@@ -420,8 +424,9 @@ extern "C" rtk_status rtk_image_read(const char *path, const void *bytes, size_t
     }
 }
 
-extern "C" rtk_status rtk_image_write(const char *path, int width, int height, int nchannels,
-                                      const char *const *channel_names, const float *pixels, int half)
+extern "C" RTK_EXPORT rtk_status rtk_image_module_write(const char *path, int width, int height, int nchannels,
+                                                       const char *const *channel_names, const float *pixels,
+                                                       int half)
 {
     if (!path || !path[0])
         return rtk_error(RTK_ERR_INVALID, "rtk_image_write: no output file name given");

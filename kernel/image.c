@@ -1,0 +1,69 @@
+/* rtk_image_read / rtk_image_write: the image adapter (io/image.cpp, built
+ * as the module rtk_image.so with OpenImageIO) is loaded on first use.
+ * Linking OpenImageIO into librtk put some 250 libraries into every rtk
+ * process, and binding their symbols took 0.4 s of each start, also for
+ * commands that never touch an image (`rtk plugins`, `rtk bench`, most of
+ * the test suite). */
+#include "internal.h"
+
+#include <dlfcn.h>
+#include <pthread.h>
+#include <stdio.h>
+
+typedef rtk_status (*image_read_fn)(const char *path, const void *bytes, size_t byte_count, int srgb,
+                                    rtk_image *out);
+typedef rtk_status (*image_write_fn)(const char *path, int width, int height, int nchannels,
+                                     const char *const *channel_names, const float *pixels, int half);
+
+static pthread_once_t module_once = PTHREAD_ONCE_INIT;
+static image_read_fn module_read;
+static image_write_fn module_write;
+static char module_problem[1024];
+
+static const char *module_path(void)
+{
+    return rtk_running_from_build_tree() ? RTK_BUILD_IMAGE_MODULE : RTK_INSTALL_IMAGE_MODULE;
+}
+
+static void load_module(void)
+{
+    const char *path = module_path();
+    /* Kept for the life of the process; RTLD_LOCAL: OpenImageIO's symbols
+     * stay out of the plugins' way. */
+    void *handle = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    if (!handle) {
+        const char *why = dlerror();
+        snprintf(module_problem, sizeof module_problem, "the image adapter %s cannot be loaded (%s); it is part "
+                 "of rtk: rebuild or reinstall rtk", path, why ? why : "unknown reason");
+        return;
+    }
+    image_read_fn r = (image_read_fn)dlsym(handle, "rtk_image_module_read");
+    image_write_fn w = (image_write_fn)dlsym(handle, "rtk_image_module_write");
+    if (!r || !w) {
+        snprintf(module_problem, sizeof module_problem, "the image adapter %s lacks its entry points (a module "
+                 "from another rtk version?): rebuild or reinstall rtk", path);
+        return;
+    }
+    module_read = r;
+    module_write = w;
+}
+
+rtk_status rtk_image_read(const char *path, const void *bytes, size_t byte_count, int srgb, rtk_image *out)
+{
+    pthread_once(&module_once, load_module);
+    if (!module_read) {
+        if (out)
+            out->width = out->height = out->channels = out->has_alpha = 0, out->rgba = NULL;
+        return rtk_error(RTK_ERR_IO, "cannot read image '%s': %s", path ? path : "embedded image", module_problem);
+    }
+    return module_read(path, bytes, byte_count, srgb, out);
+}
+
+rtk_status rtk_image_write(const char *path, int width, int height, int nchannels,
+                           const char *const *channel_names, const float *pixels, int half)
+{
+    pthread_once(&module_once, load_module);
+    if (!module_write)
+        return rtk_error(RTK_ERR_IO, "cannot write image '%s': %s", path ? path : "(none)", module_problem);
+    return module_write(path, width, height, nchannels, channel_names, pixels, half);
+}
