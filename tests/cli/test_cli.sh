@@ -99,6 +99,26 @@ if command -v meson >/dev/null && command -v cc >/dev/null &&
     else
         bad "out-of-tree plugin compiles with pkg-config --cflags rtk"; cat "$tmp/cc.log"
     fi
+    # The image module is installed, and an rtk that cannot load it says
+    # which file is missing and writes nothing. A copy of the command and
+    # librtk outside the build tree looks for the installed module, which
+    # exists only in the staging directory (skipped where rtk is installed).
+    staged=$(find "$tmp/stage" -name rtk_image.so | head -n 1)
+    [ -n "$staged" ] && ok "meson install ships the image module" || bad "meson install ships the image module"
+    installed=${staged#"$tmp/stage"}
+    if [ -n "$staged" ] && [ ! -e "$installed" ]; then
+        mkdir -p "$tmp/moved"
+        cp "$rtk" "$tmp/moved/rtk"
+        cp -L "$build/kernel/librtk.so.0" "$tmp/moved/librtk.so.0"
+        plugin_dirs="$build/plugins/integrators:$build/plugins/accelerators:$build/plugins/filters"
+        printf 'scene = "quad.obj";\nfilm = { output = "moved.png"; width = 8; height = 8; };\n' >"$tmp/moved.cfg"
+        expect "a missing image module is an error naming it" fail "image adapter $installed cannot be loaded" \
+            "moved.png" -- env LD_LIBRARY_PATH="$tmp/moved" RTK_PLUGIN_PATH="$plugin_dirs" "$tmp/moved/rtk" render \
+            "$tmp/moved.cfg"
+        [ ! -e "$tmp/moved.png" ] && ok "no image written without the module" || bad "no image written without the module"
+    else
+        echo "skip  a missing image module (rtk is installed at ${installed:-?})"
+    fi
 else
     bad "meson install of the SDK"; cat "$tmp/install.log"
 fi
