@@ -590,18 +590,16 @@ static void prep_range(void *ctx, uint32_t begin, uint32_t end)
  * skips. */
 typedef struct leaf_check {
     const rtk_scene *s;
-    const rtk_bvh_node *nodes;
-    const uint32_t *prim_order;
     uint32_t bad_node; /* lowest failing node (UINT32_MAX: none) */
 } leaf_check;
 
-/* The first slot of leaf n whose corners leave its box, or the end. */
-static uint32_t first_outside(const leaf_check *c, const rtk_bvh_node *n)
+/* The first slot of leaf n of s whose corners leave its box, or the end. */
+static uint32_t first_outside(const rtk_scene *s, const rtk_bvh_node *n)
 {
     uint32_t slot = n->offset;
     for (; slot < n->offset + n->count; slot++) {
         float v[9];
-        rtk_triangle_corners(c->s, c->prim_order[slot], v);
+        rtk_slot_corners(s, slot, v);
         int inside = 1;
         for (int k = 0; k < 9; k++)
             inside &= n->lower[k % 3] <= v[k] && v[k] <= n->upper[k % 3];
@@ -615,8 +613,8 @@ static void leaf_check_range(void *ctx, uint32_t begin, uint32_t end)
 {
     leaf_check *c = ctx;
     for (uint32_t id = begin; id < end; id++) {
-        const rtk_bvh_node *n = &c->nodes[id];
-        if (n->count == 0 || first_outside(c, n) == n->offset + n->count)
+        const rtk_bvh_node *n = &c->s->nodes[id];
+        if (n->count == 0 || first_outside(c->s, n) == n->offset + n->count)
             continue;
         /* Ranges run concurrently: keep the lowest node, as one thread
          * would report. */
@@ -630,14 +628,13 @@ static void leaf_check_range(void *ctx, uint32_t begin, uint32_t end)
 
 rtk_status rtk_bvh_leaf_error(const rtk_scene *s, uint32_t leaf)
 {
-    leaf_check c = {s, s->nodes, s->prim_ids, leaf};
     return rtk_error(RTK_ERR_PLUGIN, "builder output: leaf %u does not enclose primitive %u", leaf,
-                     s->prim_ids[first_outside(&c, &s->nodes[leaf])]);
+                     s->prim_ids[first_outside(s, &s->nodes[leaf])]);
 }
 
 rtk_status rtk_bvh_check_leaves(const rtk_scene *s, uint32_t threads)
 {
-    leaf_check c = {s, s->nodes, s->prim_ids, UINT32_MAX};
+    leaf_check c = {s, UINT32_MAX};
     rtk_parallel_ranges(s->node_count, threads, 65536, leaf_check_range, &c);
     return c.bad_node == UINT32_MAX ? RTK_OK : rtk_bvh_leaf_error(s, c.bad_node);
 }

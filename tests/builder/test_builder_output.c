@@ -340,6 +340,28 @@ int main(void)
                         (!got_found[i] || (got[i].prim == want[i].prim && got[i].t == want[i].t));
             check(st == RTK_OK && same == rays, "[%u threads] %s: the scene builds and traces again after", threads,
                   damages[d].name);
+            if (st == RTK_OK && (d == LAST_LEAF_MISSES || d == TWO_LEAVES_MISS)) {
+                /* The standalone leaf check (no wide tree: a plugin's own
+                 * traversal, a failed collapse) names the same leaf. */
+                uint32_t last = s->node_count - 1, first = last;
+                if (d == TWO_LEAVES_MISS)
+                    for (first = 0; s->nodes[first].count == 0; first++)
+                        ;
+                rtk_bvh_node keep_first = s->nodes[first], keep_last = s->nodes[last];
+                for (int k = 0; k < 3; k++) {
+                    s->nodes[first].upper[k] = s->nodes[first].lower[k];
+                    s->nodes[last].upper[k] = s->nodes[last].lower[k];
+                }
+                char want_msg[128];
+                snprintf(want_msg, sizeof want_msg, "leaf %u does not enclose primitive %u", expect_leaf, expect_prim);
+                st = rtk_bvh_check_leaves(s, threads);
+                check(st == RTK_ERR_PLUGIN && strstr(rtk_error_message(), want_msg) != NULL,
+                      "[%u threads] %s: rtk_bvh_check_leaves names the lowest such leaf (%s)", threads,
+                      damages[d].name, rtk_error_message());
+                s->nodes[first] = keep_first, s->nodes[last] = keep_last;
+                check(rtk_bvh_check_leaves(s, threads) == RTK_OK, "[%u threads] %s: and passes the sound tree",
+                      threads, damages[d].name);
+            }
         }
     }
     rtk_scene_free(s);
