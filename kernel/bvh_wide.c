@@ -907,14 +907,20 @@ rtk_simd_path rtk_simd_from_env(void)
  * when a ray reaches its first leaf: most primary rays of a mesh that
  * fills part of the image miss the root's children and never do. */
 typedef struct wide_ray {
-    float org[3], inv[4], inv_far[4]; /* lane 3: of the packed arithmetic, unused */
+    float org[3], ninv[4], ninv_far[4]; /* -1 / d and its widening; lane 3 unused */
     int near[3], far[3];   /* rows of rtk_wide_node.bounds: entry and exit plane per axis */
 } wide_ray;
 
 /* The exit distance is widened through the reciprocal: more roundings
  * than bvh.c's, still inside 1 + 2 gamma(3) (see the callers: only rays
  * with tmin >= 0 come here, so a negative exit distance is a box behind
- * the origin and needs no care). 1 / +-0 gives +-inf. */
+ * the origin and needs no care). 1 / +-0 gives +-inf.
+ *
+ * The paths compute a slab distance as (o - b) * (-1 / d): negation is
+ * exact and rounding symmetric, so this is (b - o) * (1 / d) bit for bit
+ * (NaN where that is NaN; a 0 may change sign, and the box test treats
+ * +0 and -0 alike), and the subtraction can take the node's bounds
+ * straight from memory. */
 RTK_INLINE void wide_prepare(const rtk_ray *r, wide_ray *p)
 {
     const float d[3] = {r->dir.x, r->dir.y, r->dir.z};
@@ -924,15 +930,15 @@ RTK_INLINE void wide_prepare(const rtk_ray *r, wide_ray *p)
      * multiplication: the same IEEE results as one at a time, without three
      * trips through the divider per ray; the signs in one movemask. */
     const __m128 d4 = _mm_set_ps(1.0f, d[2], d[1], d[0]);
-    const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), d4);
-    _mm_storeu_ps(p->inv, inv);
-    _mm_storeu_ps(p->inv_far, _mm_mul_ps(inv, _mm_set1_ps(slab_slack)));
+    const __m128 ninv = _mm_div_ps(_mm_set1_ps(-1.0f), d4);
+    _mm_storeu_ps(p->ninv, ninv);
+    _mm_storeu_ps(p->ninv_far, _mm_mul_ps(ninv, _mm_set1_ps(slab_slack)));
     const int neg = _mm_movemask_ps(d4);
 #else
     int neg = 0;
     for (int k = 0; k < 3; k++) {
-        p->inv[k] = 1.0f / d[k];
-        p->inv_far[k] = p->inv[k] * slab_slack;
+        p->ninv[k] = -1.0f / d[k];
+        p->ninv_far[k] = p->ninv[k] * slab_slack;
         neg |= (signbit(d[k]) != 0) << k;
     }
 #endif
@@ -1051,8 +1057,8 @@ RTK_INLINE int scalar_box(const rtk_wide_node *n, int i, const wide_ray *p, floa
 {
     float a[3], b[3];
     for (int k = 0; k < 3; k++) {
-        a[k] = (n->bounds[p->near[k]][i] - p->org[k]) * p->inv[k];
-        b[k] = (n->bounds[p->far[k]][i] - p->org[k]) * p->inv_far[k];
+        a[k] = (p->org[k] - n->bounds[p->near[k]][i]) * p->ninv[k];
+        b[k] = (p->org[k] - n->bounds[p->far[k]][i]) * p->ninv_far[k];
     }
     float t0 = max_ps(max_ps(a[1], a[2]), max_ps(a[0], tmin));
     float t1 = min_ps(min_ps(b[1], b[2]), min_ps(b[0], tmax_w));
@@ -1139,7 +1145,7 @@ RTK_INLINE int scalar_traverse(const rtk_scene *s, const rtk_ray *ray_in, rtk_hi
 typedef struct tri_ray {
     __m128 ox, oy, oz; /* origin components kx, ky, kz */
     __m128 sx, sy, sz;
-    int kx, ky, kz;
+    size_t rx, ry, rz; /* byte offsets of rows kx, ky, kz in rtk_wide_tris.v */
 } tri_ray;
 
 /* rtk_intersect_triangle's shear constants (axes from rtk_shear_axes):
@@ -1151,7 +1157,8 @@ RTK_INLINE void tri_prepare(const rtk_ray *ray, tri_ray *r)
     int kx, ky, kz;
     rtk_shear_axes(d, &kx, &ky, &kz);
     float dz = d[kz];
-    r->kx = kx, r->ky = ky, r->kz = kz;
+    r->rx = (size_t)kx * sizeof(float[RTK_WIDE_TRIS]), r->ry = (size_t)ky * sizeof(float[RTK_WIDE_TRIS]),
+    r->rz = (size_t)kz * sizeof(float[RTK_WIDE_TRIS]);
     const __m128 q = _mm_div_ps(_mm_set_ps(1.0f, 1.0f, d[ky], d[kx]), _mm_set1_ps(dz));
     r->sx = _mm_shuffle_ps(q, q, 0x00);
     r->sy = _mm_shuffle_ps(q, q, 0x55);
@@ -1169,27 +1176,34 @@ RTK_INLINE int tri_test4(const rtk_wide_tris *b, const tri_ray *r, float tmin, f
                          __m128 *u_out, __m128 *v_out, int *scalar)
 {
     const __m128 zero = _mm_setzero_ps();
-    __m128 Az = _mm_sub_ps(_mm_loadu_ps(b->v[r->kz]), r->oz);
-    __m128 Bz = _mm_sub_ps(_mm_loadu_ps(b->v[3 + r->kz]), r->oz);
-    __m128 Cz = _mm_sub_ps(_mm_loadu_ps(b->v[6 + r->kz]), r->oz);
-    __m128 ax = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[r->kx]), r->ox), _mm_mul_ps(r->sx, Az));
-    __m128 ay = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[r->ky]), r->oy), _mm_mul_ps(r->sy, Az));
-    __m128 bx = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[3 + r->kx]), r->ox), _mm_mul_ps(r->sx, Bz));
-    __m128 by = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[3 + r->ky]), r->oy), _mm_mul_ps(r->sy, Bz));
-    __m128 cx = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[6 + r->kx]), r->ox), _mm_mul_ps(r->sx, Cz));
-    __m128 cy = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[6 + r->ky]), r->oy), _mm_mul_ps(r->sy, Cz));
+    /* Row k of corner c: v[3 c + k]. */
+    const char *base = (const char *)b->v;
+    const size_t corner = 3 * sizeof(float[RTK_WIDE_TRIS]);
+#define RTK_ROW(c, off) _mm_loadu_ps((const float *)(base + (c) * corner + (off)))
+    __m128 Az = _mm_sub_ps(RTK_ROW(0, r->rz), r->oz);
+    __m128 Bz = _mm_sub_ps(RTK_ROW(1, r->rz), r->oz);
+    __m128 Cz = _mm_sub_ps(RTK_ROW(2, r->rz), r->oz);
+    __m128 ax = _mm_sub_ps(_mm_sub_ps(RTK_ROW(0, r->rx), r->ox), _mm_mul_ps(r->sx, Az));
+    __m128 ay = _mm_sub_ps(_mm_sub_ps(RTK_ROW(0, r->ry), r->oy), _mm_mul_ps(r->sy, Az));
+    __m128 bx = _mm_sub_ps(_mm_sub_ps(RTK_ROW(1, r->rx), r->ox), _mm_mul_ps(r->sx, Bz));
+    __m128 by = _mm_sub_ps(_mm_sub_ps(RTK_ROW(1, r->ry), r->oy), _mm_mul_ps(r->sy, Bz));
+    __m128 cx = _mm_sub_ps(_mm_sub_ps(RTK_ROW(2, r->rx), r->ox), _mm_mul_ps(r->sx, Cz));
+    __m128 cy = _mm_sub_ps(_mm_sub_ps(RTK_ROW(2, r->ry), r->oy), _mm_mul_ps(r->sy, Cz));
+#undef RTK_ROW
     __m128 U = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
     __m128 V = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
     __m128 W = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
     __m128 onedge = _mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(U, zero), _mm_cmpeq_ps(V, zero)), _mm_cmpeq_ps(W, zero));
-    /* Signs mixed: the least below 0 and the greatest above. */
+    /* Signs mixed: the least below 0 and the greatest above. Where none
+     * is 0 (onedge) or NaN (det, below), that is the least's sign bit set
+     * and the greatest's clear: the sign bit of lo & ~hi. */
     __m128 lo = _mm_min_ps(_mm_min_ps(U, V), W), hi = _mm_max_ps(_mm_max_ps(U, V), W);
-    __m128 mixed = _mm_and_ps(_mm_cmplt_ps(lo, zero), _mm_cmpgt_ps(hi, zero));
+    __m128 mixed = _mm_andnot_ps(hi, lo);
     __m128 det = _mm_add_ps(_mm_add_ps(U, V), W);
     /* det is NaN in unused lanes (and wherever U, V or W is: min and max
      * may pass a NaN over, the sum does not). U, V, W of one strict sign
      * cannot sum to 0, so det == 0 needs no test of its own. */
-    __m128 miss = _mm_or_ps(_mm_or_ps(mixed, onedge), _mm_cmpunord_ps(det, det));
+    __m128 miss = _mm_or_ps(_mm_or_ps(mixed, onedge), _mm_cmpunord_ps(det, det)); /* sign bits */
     *scalar = _mm_movemask_ps(onedge);
     if (_mm_movemask_ps(miss) == 0xf)
         return 0;
@@ -1198,26 +1212,28 @@ RTK_INLINE int tri_test4(const rtk_wide_tris *b, const tri_ray *r, float tmin, f
     __m128 rcp = _mm_div_ps(_mm_set1_ps(1.0f), det);
     __m128 t = _mm_mul_ps(T, rcp);
     int cand = ~_mm_movemask_ps(miss) & 0xf;
-    /* bvh.c's bound on the error of t (pbrt-v4): where it may exceed
-     * RTK_T_TOLERANCE * t (checked with a factor 2 to spare), the scalar
-     * test decides in double. */
-    const __m128 g2 = _mm_set1_ps(2.0f * 0.5f * FLT_EPSILON / (1.0f - 2.0f * 0.5f * FLT_EPSILON));
-    const __m128 g3 = _mm_set1_ps(3.0f * 0.5f * FLT_EPSILON / (1.0f - 3.0f * 0.5f * FLT_EPSILON));
+    /* bvh.c's bound on the error of t (pbrt-v4), 3 (g3 mE mZ + dE mZ +
+     * dZ mE) |rcp| with dZ = g3 mZ, dE = 2 ((g2 + 2 g5) mX mY + g5 mZ (mX +
+     * mY)) (mX the largest |ax|, |bx|, |cx|, and so on), taken twice (6 for
+     * 3) to cover its rounding and this one's: where it may exceed
+     * RTK_T_TOLERANCE * t, the scalar test decides in double. mE, the
+     * largest of |U|, |V|, |W|, is not computed: they share a sign, so
+     * mE <= |det| and mE |rcp| <= 1 + 2^-24, and
+     * 6 |rcp| (2 g3 mE mZ + dE mZ) <= mZ (12 g3 (1 + 2^-20) + 12 |rcp| dE / 2). */
+    const __m128 k0 = _mm_set1_ps(12.0f * (3.0f * 0.5f * FLT_EPSILON / (1.0f - 3.0f * 0.5f * FLT_EPSILON)) *
+                                  (1.0f + 1.0f / 1048576.0f));
+    const __m128 g25 = _mm_set1_ps((2.0f * 0.5f * FLT_EPSILON / (1.0f - 2.0f * 0.5f * FLT_EPSILON)) +
+                                   2.0f * (5.0f * 0.5f * FLT_EPSILON / (1.0f - 5.0f * 0.5f * FLT_EPSILON)));
     const __m128 g5 = _mm_set1_ps(5.0f * 0.5f * FLT_EPSILON / (1.0f - 5.0f * 0.5f * FLT_EPSILON));
     const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
 #define RTK_ABS(x) _mm_and_ps(x, abs_mask)
 #define RTK_MAX3(a, b, c) _mm_max_ps(RTK_ABS(a), _mm_max_ps(RTK_ABS(b), RTK_ABS(c)))
     __m128 max_z = RTK_MAX3(az, bz, cz), max_x = RTK_MAX3(ax, bx, cx), max_y = RTK_MAX3(ay, by, cy);
-    __m128 max_e = RTK_MAX3(U, V, W);
 #undef RTK_MAX3
-    __m128 dz = _mm_mul_ps(g3, max_z);
-    __m128 dx = _mm_mul_ps(g5, _mm_add_ps(max_x, max_z)), dy = _mm_mul_ps(g5, _mm_add_ps(max_y, max_z));
-    __m128 de = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(g2, max_x), max_y), _mm_mul_ps(dy, max_x)),
-                           _mm_mul_ps(dx, max_y));
-    de = _mm_add_ps(de, de);
-    __m128 bound = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(g3, max_e), max_z), _mm_mul_ps(de, max_z)),
-                              _mm_mul_ps(dz, max_e));
-    bound = _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(6.0f), bound), RTK_ABS(rcp));
+    __m128 de_half = _mm_add_ps(_mm_mul_ps(g25, _mm_mul_ps(max_x, max_y)),
+                                _mm_mul_ps(_mm_mul_ps(g5, max_z), _mm_add_ps(max_x, max_y)));
+    __m128 rcp12 = _mm_mul_ps(_mm_set1_ps(12.0f), RTK_ABS(rcp));
+    __m128 bound = _mm_mul_ps(max_z, _mm_add_ps(k0, _mm_mul_ps(de_half, rcp12)));
     __m128 allowed = _mm_mul_ps(_mm_set1_ps(RTK_T_TOLERANCE), RTK_ABS(t));
 #undef RTK_ABS
     int near = _mm_movemask_ps(_mm_cmpnlt_ps(bound, allowed)) & cand;
@@ -1248,20 +1264,31 @@ RTK_INLINE int lane_scalar(const rtk_wide_tris *b, int lane, const rtk_ray *ray,
     return scalar_lane(b, lane, &r, t, u, v);
 }
 
-/* Tests a leaf's blocks; for closest hit updates hit and returns 1 when
- * it changed, for any hit returns 1 on the first hit. Hits on cutout
- * triangles count only where their alpha is opaque. */
-RTK_INLINE int leaf_test(const rtk_scene *s, const rtk_wide_bvh *w, uint32_t ref, const tri_ray *r,
-                         const rtk_ray *ray, rtk_hit *hit, int any, rtk_trace_work *work)
+RTK_INLINE const rtk_wide_tris *leaf_blocks(const rtk_wide_bvh *w, uint32_t ref, const rtk_wide_tris **end)
 {
     const rtk_wide_tris *b = &w->tris[(ref & ~RTK_WIDE_LEAF) >> RTK_WIDE_LEAF_SHIFT];
-    const rtk_wide_tris *end = b + (ref & (RTK_WIDE_LEAF_BLOCKS - 1)) + 1;
+    *end = b + (ref & (RTK_WIDE_LEAF_BLOCKS - 1)) + 1;
+    return b;
+}
+
+/* Counts a block's triangles into work. */
+RTK_INLINE void count_block(const rtk_wide_tris *b, rtk_trace_work *work)
+{
+    if (work) {
+        __m128i invalid = _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)b->prim), _mm_set1_epi32(-1));
+        work->triangles += 4 - (uint32_t)__builtin_popcount((unsigned)_mm_movemask_ps(_mm_castsi128_ps(invalid)));
+    }
+}
+
+/* Tests blocks [b, end); for closest hit updates hit and returns 1 when
+ * it changed, for any hit returns 1 on the first hit. Hits on cutout
+ * triangles count only where their alpha is opaque. */
+RTK_INLINE int blocks_test(const rtk_scene *s, const rtk_wide_tris *b, const rtk_wide_tris *end, const tri_ray *r,
+                           const rtk_ray *ray, rtk_hit *hit, int any, rtk_trace_work *work)
+{
     int changed = 0;
     for (; b < end; b++) {
-        if (work) {
-            __m128i invalid = _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)b->prim), _mm_set1_epi32(-1));
-            work->triangles += 4 - (uint32_t)__builtin_popcount((unsigned)_mm_movemask_ps(_mm_castsi128_ps(invalid)));
-        }
+        count_block(b, work);
         __m128 t, u, v;
         int scalar;
         int mask = tri_test4(b, r, ray->tmin, any ? ray->tmax : hit->t, &t, &u, &v, &scalar);
@@ -1293,6 +1320,15 @@ RTK_INLINE int leaf_test(const rtk_scene *s, const rtk_wide_bvh *w, uint32_t ref
     return changed;
 }
 
+/* Tests a leaf's blocks (blocks_test). */
+RTK_INLINE int leaf_test(const rtk_scene *s, const rtk_wide_bvh *w, uint32_t ref, const tri_ray *r,
+                         const rtk_ray *ray, rtk_hit *hit, int any, rtk_trace_work *work)
+{
+    const rtk_wide_tris *end;
+    const rtk_wide_tris *b = leaf_blocks(w, ref, &end);
+    return blocks_test(s, b, end, r, ray, hit, any, work);
+}
+
 /* ---- SSE: the eight children as two groups of four ---- */
 
 RTK_INLINE __m128 sse_box4(const rtk_wide_node *n, int half, const wide_ray *p, __m128 ox, __m128 oy, __m128 oz,
@@ -1300,12 +1336,12 @@ RTK_INLINE __m128 sse_box4(const rtk_wide_node *n, int half, const wide_ray *p, 
                            __m128 tmax4, int *mask)
 {
     const int o = 4 * half;
-    __m128 nx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->near[0]][o]), ox), ix);
-    __m128 ny = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->near[1]][o]), oy), iy);
-    __m128 nz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->near[2]][o]), oz), iz);
-    __m128 gx = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->far[0]][o]), ox), fx);
-    __m128 gy = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->far[1]][o]), oy), fy);
-    __m128 gz = _mm_mul_ps(_mm_sub_ps(_mm_load_ps(&n->bounds[p->far[2]][o]), oz), fz);
+    __m128 nx = _mm_mul_ps(_mm_sub_ps(ox, _mm_load_ps(&n->bounds[p->near[0]][o])), ix);
+    __m128 ny = _mm_mul_ps(_mm_sub_ps(oy, _mm_load_ps(&n->bounds[p->near[1]][o])), iy);
+    __m128 nz = _mm_mul_ps(_mm_sub_ps(oz, _mm_load_ps(&n->bounds[p->near[2]][o])), iz);
+    __m128 gx = _mm_mul_ps(_mm_sub_ps(ox, _mm_load_ps(&n->bounds[p->far[0]][o])), fx);
+    __m128 gy = _mm_mul_ps(_mm_sub_ps(oy, _mm_load_ps(&n->bounds[p->far[1]][o])), fy);
+    __m128 gz = _mm_mul_ps(_mm_sub_ps(oz, _mm_load_ps(&n->bounds[p->far[2]][o])), fz);
     /* See box_reduce_note. */
     __m128 t0 = _mm_max_ps(_mm_max_ps(ny, nz), _mm_max_ps(nx, tmin4));
     __m128 t1 = _mm_min_ps(_mm_min_ps(gy, gz), _mm_min_ps(gx, tmax4));
@@ -1323,8 +1359,8 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
     tri_ray tr;
     int tri_ready = 0;
     const __m128 ox = _mm_set1_ps(p.org[0]), oy = _mm_set1_ps(p.org[1]), oz = _mm_set1_ps(p.org[2]);
-    const __m128 ix = _mm_set1_ps(p.inv[0]), iy = _mm_set1_ps(p.inv[1]), iz = _mm_set1_ps(p.inv[2]);
-    const __m128 fx = _mm_set1_ps(p.inv_far[0]), fy = _mm_set1_ps(p.inv_far[1]), fz = _mm_set1_ps(p.inv_far[2]);
+    const __m128 ix = _mm_set1_ps(p.ninv[0]), iy = _mm_set1_ps(p.ninv[1]), iz = _mm_set1_ps(p.ninv[2]);
+    const __m128 fx = _mm_set1_ps(p.ninv_far[0]), fy = _mm_set1_ps(p.ninv_far[1]), fz = _mm_set1_ps(p.ninv_far[2]);
     const __m128 tmin4 = _mm_set1_ps(ray->tmin);
     float tmax_w = widen(any ? ray->tmax : hit->t);
     __m128 tmax4 = _mm_set1_ps(tmax_w);
@@ -1381,6 +1417,22 @@ static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf_any(const rtk_sce
     return leaf_test(s, w, ref, r, ray, NULL, 1, work);
 }
 
+/* Occlusion's leaf after its first block, tested in the node loop,
+ * found no hit: that block's lanes left to the scalar test (scalar), then
+ * the leaf's other blocks. Only without cutouts. */
+static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf_any_rest(const rtk_scene *s, const rtk_wide_tris *b,
+                                                                        const rtk_wide_tris *end, int scalar,
+                                                                        const tri_ray *r, const rtk_ray *ray,
+                                                                        rtk_trace_work *work)
+{
+    for (; scalar; scalar &= scalar - 1) {
+        float st, su, sv;
+        if (lane_scalar(b, __builtin_ctz((unsigned)scalar), ray, ray->tmax, &st, &su, &sv))
+            return 1;
+    }
+    return blocks_test(s, b + 1, end, r, ray, NULL, 1, work);
+}
+
 static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf_closest(const rtk_scene *s, const rtk_wide_bvh *w,
                                                                        uint32_t ref, const tri_ray *r,
                                                                        const rtk_ray *ray, rtk_hit *hit,
@@ -1400,9 +1452,9 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
     tri_ray tr;
     int tri_ready = 0;
     const __m256 ox = _mm256_set1_ps(p.org[0]), oy = _mm256_set1_ps(p.org[1]), oz = _mm256_set1_ps(p.org[2]);
-    const __m256 ix = _mm256_set1_ps(p.inv[0]), iy = _mm256_set1_ps(p.inv[1]), iz = _mm256_set1_ps(p.inv[2]);
-    const __m256 fx = _mm256_set1_ps(p.inv_far[0]), fy = _mm256_set1_ps(p.inv_far[1]),
-                 fz = _mm256_set1_ps(p.inv_far[2]);
+    const __m256 ix = _mm256_set1_ps(p.ninv[0]), iy = _mm256_set1_ps(p.ninv[1]), iz = _mm256_set1_ps(p.ninv[2]);
+    const __m256 fx = _mm256_set1_ps(p.ninv_far[0]), fy = _mm256_set1_ps(p.ninv_far[1]),
+                 fz = _mm256_set1_ps(p.ninv_far[2]);
     const __m256 tmin8 = _mm256_set1_ps(ray->tmin);
     /* Entry rows; the exit row of an axis is its entry row ^ 1. */
     const size_t nx = (size_t)p.near[0] * RTK_WIDE, ny = (size_t)p.near[1] * RTK_WIDE,
@@ -1419,12 +1471,12 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
             const float *bb = &n->bounds[0][0];
             if (work)
                 work->nodes++;
-            __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + nx), ox), ix);
-            __m256 tny = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + ny), oy), iy);
-            __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + nz), oz), iz);
-            __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + (nx ^ RTK_WIDE)), ox), fx);
-            __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + (ny ^ RTK_WIDE)), oy), fy);
-            __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(_mm256_load_ps(bb + (nz ^ RTK_WIDE)), oz), fz);
+            __m256 tnx = _mm256_mul_ps(_mm256_sub_ps(ox, _mm256_load_ps(bb + nx)), ix);
+            __m256 tny = _mm256_mul_ps(_mm256_sub_ps(oy, _mm256_load_ps(bb + ny)), iy);
+            __m256 tnz = _mm256_mul_ps(_mm256_sub_ps(oz, _mm256_load_ps(bb + nz)), iz);
+            __m256 tfx = _mm256_mul_ps(_mm256_sub_ps(ox, _mm256_load_ps(bb + (nx ^ RTK_WIDE))), fx);
+            __m256 tfy = _mm256_mul_ps(_mm256_sub_ps(oy, _mm256_load_ps(bb + (ny ^ RTK_WIDE))), fy);
+            __m256 tfz = _mm256_mul_ps(_mm256_sub_ps(oz, _mm256_load_ps(bb + (nz ^ RTK_WIDE))), fz);
             /* See box_reduce_note. */
             __m256 t0 = _mm256_max_ps(_mm256_max_ps(tny, tnz), _mm256_max_ps(tnx, tmin8));
             __m256 t1 = _mm256_min_ps(_mm256_min_ps(tfy, tfz), _mm256_min_ps(tfx, tmax8));
@@ -1456,7 +1508,20 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
             tri_prepare(ray, &tr);
             tri_ready = 1;
         }
-        if (any ? avx2_leaf_any(s, w, cur, &tr, ray, work) : avx2_leaf_closest(s, w, cur, &tr, ray, hit, work)) {
+        if (any && !s->has_cutouts) {
+            /* Most leaves are one block and most blocks miss: the first
+             * block here, the rest (and lanes for the scalar test) out of
+             * line. */
+            const rtk_wide_tris *end;
+            const rtk_wide_tris *b = leaf_blocks(w, cur, &end);
+            count_block(b, work);
+            __m128 t, u, v;
+            int scalar;
+            if (tri_test4(b, &tr, ray->tmin, ray->tmax, &t, &u, &v, &scalar))
+                return 1;
+            if ((scalar || b + 1 < end) && avx2_leaf_any_rest(s, b, end, scalar, &tr, ray, work))
+                return 1;
+        } else if (any ? avx2_leaf_any(s, w, cur, &tr, ray, work) : avx2_leaf_closest(s, w, cur, &tr, ray, hit, work)) {
             if (any)
                 return 1;
             tmax_w = widen(hit->t);
