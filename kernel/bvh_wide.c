@@ -1409,7 +1409,9 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
 /* ---- AVX2: the eight children at once ---- */
 
 /* Leaves out of line: the node loop keeps its registers. One per mode,
- * so that occlusion carries none of closest hit's bookkeeping. */
+ * so that occlusion carries none of closest hit's bookkeeping; occlusion
+ * comes here only in scenes with cutouts (otherwise the node loop tests a
+ * leaf's first block itself and calls avx2_leaf_any_rest for the rest). */
 static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf_any(const rtk_scene *s, const rtk_wide_bvh *w,
                                                                    uint32_t ref, const tri_ray *r,
                                                                    const rtk_ray *ray, rtk_trace_work *work)
