@@ -752,9 +752,10 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     if (st != RTK_OK)
         goto fail;
     rtk_log(RTK_LOG_DEBUG,
-            "BVH build (%s, %u threads): %u triangles, %u nodes (inputs %.3f s, builder %.3f s, validation %.3f s, "
-            "wide tree and leaf check %.3f s)",
-            plugin->name, a.thread_count, n, s->node_count, t1 - t0, t2 - t1, t3 - t2, rtk_now() - t3);
+            "BVH build (%s, %u threads): %u triangles, %u nodes (inputs %.2f ms, builder %.2f ms, validation %.2f ms, "
+            "wide tree and leaf check %.2f ms)",
+            plugin->name, a.thread_count, n, s->node_count, 1e3 * (t1 - t0), 1e3 * (t2 - t1), 1e3 * (t3 - t2),
+            1e3 * (rtk_now() - t3));
     return RTK_OK;
 fail:
     rtk_bvh_release(s);

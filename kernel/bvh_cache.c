@@ -406,9 +406,9 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
     nodes = NULL, prims = NULL; /* the scene's now */
     ok = 1;
     rtk_log(RTK_LOG_DEBUG,
-            "BVH cache %s: loaded %u nodes, depth %u (read %.3f s, checksum %.3f s, validation %.3f s, "
-            "wide tree and leaf check %.3f s)",
-            path, s->node_count, depth, t1 - t0, t2 - t1, t3 - t2, rtk_now() - t3);
+            "BVH cache %s: loaded %u nodes, depth %u (read %.2f ms, checksum %.2f ms, validation %.2f ms, "
+            "wide tree and leaf check %.2f ms)",
+            path, s->node_count, depth, 1e3 * (t1 - t0), 1e3 * (t2 - t1), 1e3 * (t3 - t2), 1e3 * (rtk_now() - t3));
 done:
     free(nodes);
     free(prims);
