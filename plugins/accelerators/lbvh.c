@@ -40,6 +40,8 @@
 #define LBVH_DIGIT 11
 /* Most threads one build uses. */
 #define LBVH_MAX_THREADS 256
+/* Slots ahead whose bounds a leaf prefetches. */
+#define LBVH_PREFETCH 16
 /* Nodes the top-level planner keeps pending (> the depth bound, 96). */
 #define LBVH_PENDING 128
 
@@ -291,6 +293,10 @@ static float emit(const build *b, task t, uint32_t *bump)
     if (count <= (o->collapse ? 1 : o->max_leaf)) {
         float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
         for (uint32_t i = t.begin; i < t.end; i++) {
+            /* Leaves come in slot order and their primitives' bounds
+             * are all over memory: ask for those of a later leaf. */
+            if (i + LBVH_PREFETCH < a->prim_count)
+                __builtin_prefetch(&a->prim_bounds[a->prim_order[i + LBVH_PREFETCH]]);
             const rtk_bounds *pb = &a->prim_bounds[a->prim_order[i]];
             lo[0] = min_f(lo[0], pb->lower.x), lo[1] = min_f(lo[1], pb->lower.y), lo[2] = min_f(lo[2], pb->lower.z);
             hi[0] = max_f(hi[0], pb->upper.x), hi[1] = max_f(hi[1], pb->upper.y), hi[2] = max_f(hi[2], pb->upper.z);
