@@ -6,6 +6,9 @@
 
 #include <float.h>
 #include <math.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
@@ -335,6 +338,42 @@ static int box_contains(const float lo[3], const float hi[3], const float clo[3]
     return 1;
 }
 
+/* Node p's box encloses node c's (box_contains; any NaN fails), and
+ * whether node n's bounds hold a NaN: in SSE, a node's lower corner and
+ * its offset, then its upper corner and its count, each one 16-byte load
+ * whose fourth lane is ignored. */
+#if defined(__SSE2__)
+static int node_encloses(const rtk_bvh_node *p, const rtk_bvh_node *c)
+{
+    const float *pf = (const float *)(const void *)p, *cf = (const float *)(const void *)c;
+    __m128 ok = _mm_and_ps(_mm_cmple_ps(_mm_loadu_ps(pf), _mm_loadu_ps(cf)),
+                           _mm_cmple_ps(_mm_loadu_ps(cf + 4), _mm_loadu_ps(pf + 4)));
+    return (_mm_movemask_ps(ok) & 7) == 7;
+}
+
+static int node_has_nan(const rtk_bvh_node *n)
+{
+    const float *f = (const float *)(const void *)n;
+    return (_mm_movemask_ps(_mm_cmpunord_ps(_mm_loadu_ps(f), _mm_loadu_ps(f + 4))) & 7) != 0;
+}
+#else
+static int node_encloses(const rtk_bvh_node *p, const rtk_bvh_node *c)
+{
+    return box_contains(p->lower, p->upper, c->lower, c->upper);
+}
+
+static int node_has_nan(const rtk_bvh_node *n)
+{
+    int nan = 0;
+    for (int k = 0; k < 3; k++)
+        nan |= isnan(n->lower[k]) || isnan(n->upper[k]);
+    return nan;
+}
+#endif
+_Static_assert(offsetof(rtk_bvh_node, offset) == 12 && offsetof(rtk_bvh_node, upper) == 16 &&
+                   offsetof(rtk_bvh_node, count) == 28,
+               "node_encloses reads a corner and the word after it as four floats");
+
 /* One walk of validation: from a node down, marking what it meets. Quiet
  * walks (on threads) report only that something is wrong; a loud walk
  * says what, through rtk_error. Marks are relaxed atomics: walks on
@@ -380,9 +419,8 @@ static rtk_status walk_tree(tree_walk *w, uint32_t root, uint32_t root_depth, ui
             w->max_depth = depth;
         if (depth > RTK_BVH_MAX_DEPTH)
             WALK_FAIL("builder output: tree deeper than %d levels", RTK_BVH_MAX_DEPTH);
-        for (int k = 0; k < 3; k++)
-            if (isnan(n->lower[k]) || isnan(n->upper[k]))
-                WALK_FAIL("builder output: node %u has NaN bounds", id);
+        if (node_has_nan(n))
+            WALK_FAIL("builder output: node %u has NaN bounds", id);
         if (n->count > 0) {
             if (n->offset > a->prim_count || n->count > a->prim_count - n->offset)
                 WALK_FAIL("builder output: leaf %u covers slots %u..%u beyond %u primitives", id, n->offset,
@@ -405,7 +443,7 @@ static rtk_status walk_tree(tree_walk *w, uint32_t root, uint32_t root_depth, ui
                 WALK_FAIL("builder output: inner node %u points to children %u, %u outside 1 .. %u", id, n->offset,
                           n->offset + 1, a->node_count - 1);
             for (uint32_t c = n->offset; c <= n->offset + 1; c++) {
-                if (!box_contains(n->lower, n->upper, a->nodes[c].lower, a->nodes[c].upper))
+                if (!node_encloses(n, &a->nodes[c]))
                     WALK_FAIL("builder output: node %u does not enclose its child %u", id, c);
                 stack[top++] = c, stack[top++] = depth + 1;
             }

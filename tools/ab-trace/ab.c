@@ -1,0 +1,215 @@
+/* A/B of two tracers over the same rays in one process (see ab.sh).
+ *
+ * A is the build tree's kernel: rtk_wide_any / rtk_wide_closest on the
+ * AVX2 path, over the tree ACCEL built. B is either a variant of
+ * kernel/bvh_wide.c linked beside it (its functions renamed B_*, tracing
+ * the same tree, or with AB_REBUILD=1 a wide tree its own code built on a
+ * second copy of the scene), or, for "embree", the embree plugin through
+ * rtk_bvh_any / rtk_bvh_closest (A then goes through them too).
+ *
+ * The rays are BENCH.md's recipe (rtk bench's own functions): primary
+ * rays at 512x384, 8 AO rays per hit. Each round times A and B, in
+ * alternating order, on one eighth of the AO rays and one quarter of the
+ * primary rays, in thread CPU time; the ratios B/A of the rounds are
+ * sorted and their median and quartiles printed. Slow drifts of a shared
+ * host hit both sides of a round alike, so the median resolves
+ * differences of about 1% where runs of separate processes vary by 10%. */
+#include "bench.h"
+#include "bvh_wide.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+int B_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_trace_work *work);
+int B_wide_closest(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work);
+void B_wide_free(rtk_scene *s);
+rtk_status B_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes);
+
+enum { WIDTH = 512, HEIGHT = 384, AO_PER_HIT = 8 };
+
+static int embree_mode;
+static rtk_scene *scene_a, *scene_b;
+
+static int any_a(const rtk_ray *r, rtk_trace_work *w)
+{
+    return embree_mode ? rtk_bvh_any(scene_a, r) : rtk_wide_any(scene_a, RTK_SIMD_AVX2, r, w);
+}
+
+static int any_b(const rtk_ray *r, rtk_trace_work *w)
+{
+    return embree_mode ? rtk_bvh_any(scene_b, r) : B_wide_any(scene_b, RTK_SIMD_AVX2, r, w);
+}
+
+static int closest_a(const rtk_ray *r, rtk_hit *h)
+{
+    return embree_mode ? rtk_bvh_closest(scene_a, r, h) : rtk_wide_closest(scene_a, RTK_SIMD_AVX2, r, h, NULL);
+}
+
+static int closest_b(const rtk_ray *r, rtk_hit *h)
+{
+    return embree_mode ? rtk_bvh_closest(scene_b, r, h) : B_wide_closest(scene_b, RTK_SIMD_AVX2, r, h, NULL);
+}
+
+static double cpu_now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static void die(const char *what)
+{
+    fprintf(stderr, "ab: %s: %s\n", what, rtk_error_message());
+    exit(2);
+}
+
+static rtk_scene *load_and_build(const char *mesh, const rtk_plugin *p, const char *set)
+{
+    rtk_scene *s = NULL;
+    if (rtk_bench_read_obj(mesh, &s) != RTK_OK)
+        die(mesh);
+    rtk_params *params = rtk_params_defaults(p);
+    if (set) {
+        char key[64], value[64];
+        if (sscanf(set, "%63[^=]=%63s", key, value) != 2 || rtk_params_set_text(params, key, value) != RTK_OK)
+            die("AB_SET (KEY=VALUE)");
+    }
+    if (rtk_bvh_build(s, p, params, 1) != RTK_OK)
+        die("build");
+    rtk_params_destroy(params);
+    return s;
+}
+
+/* One timed chunk: rays [begin, end) through any (occlusion) or closest. */
+static double time_chunk(int b, int occlusion, const rtk_ray *rays, size_t begin, size_t end, size_t *sink)
+{
+    double t0 = cpu_now();
+    size_t count = 0;
+    rtk_hit h;
+    for (size_t i = begin; i < end; i++)
+        count += occlusion ? (b ? any_b(&rays[i], NULL) : any_a(&rays[i], NULL))
+                           : (b ? closest_b(&rays[i], &h) : closest_a(&rays[i], &h));
+    *sink += count;
+    return cpu_now() - t0;
+}
+
+static void report(const char *what, double *ratio, int rounds, double total_a, double total_b)
+{
+    qsort(ratio, (size_t)rounds, sizeof *ratio, cmp_double);
+    printf("%s B/A time: median %.4f (quartiles %.4f-%.4f), totals %.4f\n", what, ratio[rounds / 2],
+           ratio[rounds / 4], ratio[3 * rounds / 4], total_b / total_a);
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 3) {
+        fprintf(stderr, "usage: ab MESH.obj variant|embree [ACCEL] [ROUNDS]\n");
+        return 2;
+    }
+    const char *mesh = argv[1], *accel = argc > 3 ? argv[3] : "sah";
+    embree_mode = strcmp(argv[2], "embree") == 0;
+    const int rounds = argc > 4 ? atoi(argv[4]) : 400;
+    if (rounds < 4) {
+        fprintf(stderr, "ab: at least 4 rounds\n");
+        return 2;
+    }
+    if (!rtk_simd_supported(RTK_SIMD_AVX2)) {
+        fprintf(stderr, "ab: this CPU has no AVX2\n");
+        return 2;
+    }
+    rtk_log_set_level(RTK_LOG_WARN);
+    rtk_registry *reg = NULL;
+    const rtk_plugin *p = NULL, *pe = NULL;
+    if (rtk_registry_create(&reg) != RTK_OK || rtk_registry_find(reg, RTK_KIND_ACCELERATOR, accel, &p) != RTK_OK)
+        die(accel);
+    scene_a = scene_b = load_and_build(mesh, p, NULL);
+    if (embree_mode) {
+        if (rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "embree", &pe) != RTK_OK)
+            die("embree");
+        scene_b = load_and_build(mesh, pe, NULL);
+    } else if (getenv("AB_REBUILD")) {
+        scene_b = load_and_build(mesh, p, getenv("AB_SET"));
+        B_wide_free(scene_b);
+        if (B_wide_build(scene_b, 1, NULL, 0) != RTK_OK)
+            die("variant's wide tree");
+    }
+    rtk_bench_camera cam;
+    rtk_bench_camera_recipe(scene_a->bounds, &cam);
+    const char *c = getenv("AB_CAMERA");
+    if (c) {
+        double e[3], l[3], up[3] = {0, 1, 0}, fov;
+        if (sscanf(c, "%lf,%lf,%lf,%lf,%lf,%lf,%lf", &e[0], &e[1], &e[2], &l[0], &l[1], &l[2], &fov) != 7 ||
+            rtk_bench_camera_look(e, l, up, fov, &cam) != RTK_OK)
+            die("AB_CAMERA (EX,EY,EZ,LX,LY,LZ,FOV)");
+    }
+    const size_t pixels = (size_t)WIDTH * HEIGHT;
+    rtk_ray *primary = malloc(sizeof *primary * pixels), *ao = malloc(sizeof *ao * pixels * AO_PER_HIT);
+    rtk_hit *hits = malloc(sizeof *hits * pixels);
+    double *ratio_ao = malloc(sizeof(double) * rounds), *ratio_pr = malloc(sizeof(double) * rounds);
+    if (!primary || !ao || !hits || !ratio_ao || !ratio_pr) {
+        fprintf(stderr, "ab: out of memory\n");
+        return 2;
+    }
+    rtk_bench_primary_rays(&cam, WIDTH, HEIGHT, primary);
+    const double diag = rtk_bench_diag(scene_a->bounds);
+    size_t n_ao = 0, primary_diff = 0, ao_diff = 0, occluded = 0;
+    for (size_t i = 0; i < pixels; i++) {
+        rtk_hit hb;
+        int ha = closest_a(&primary[i], &hits[i]), hit_b = closest_b(&primary[i], &hb);
+        primary_diff += ha != hit_b || (ha && (hits[i].prim != hb.prim || hits[i].t != hb.t));
+        if (!ha)
+            continue;
+        hits[i].inst = RTK_INVALID_ID;
+        rtk_bench_ao_rays(scene_a, &primary[i], &hits[i], i, diag, AO_PER_HIT, &ao[n_ao]);
+        n_ao += AO_PER_HIT;
+    }
+    double nodes[2] = {0, 0}, tris[2] = {0, 0};
+    for (size_t i = 0; i < n_ao; i++) {
+        rtk_trace_work wa = {0, 0}, wb = {0, 0};
+        int oa = any_a(&ao[i], &wa), ob = any_b(&ao[i], &wb);
+        ao_diff += oa != ob;
+        occluded += oa;
+        nodes[0] += wa.nodes, tris[0] += wa.triangles, nodes[1] += wb.nodes, tris[1] += wb.triangles;
+    }
+    printf("%s, %s: %zu primary rays, %zu AO rays (%zu occluded); answers differing: %zu primary, %zu AO\n", mesh,
+           accel, pixels, n_ao, occluded, primary_diff, ao_diff);
+    if (!embree_mode)
+        printf("AO work per ray: A %.3f nodes, %.3f triangles; B %.3f nodes, %.3f triangles\n", nodes[0] / n_ao,
+               tris[0] / n_ao, nodes[1] / n_ao, tris[1] / n_ao);
+    /* Embree's t differs in the last bits and its non-watertight test
+     * may pick the other triangle of a shared edge: counted, not fatal. */
+    if (!embree_mode && (primary_diff || ao_diff)) {
+        fprintf(stderr, "ab: the two tracers answer differently; not timing them\n");
+        return 1;
+    }
+    const size_t ao_chunk = n_ao / 8, pr_chunk = pixels / 4;
+    double ta = 0, tb = 0, pa = 0, pb = 0;
+    size_t sink = 0;
+    for (int r = 0; r < rounds; r++) {
+        double t[2], u[2];
+        size_t ao_at = (size_t)(r % 8) * ao_chunk, pr_at = (size_t)(r % 4) * pr_chunk;
+        for (int o = 0; o < 2; o++) {
+            int b = o ^ (r & 1);
+            t[b] = time_chunk(b, 1, ao, ao_at, ao_at + ao_chunk, &sink);
+        }
+        for (int o = 0; o < 2; o++) {
+            int b = o ^ (r & 1);
+            u[b] = time_chunk(b, 0, primary, pr_at, pr_at + pr_chunk, &sink);
+        }
+        ratio_ao[r] = t[1] / t[0], ratio_pr[r] = u[1] / u[0];
+        ta += t[0], tb += t[1], pa += u[0], pb += u[1];
+    }
+    report("AO     ", ratio_ao, rounds, ta, tb);
+    report("primary", ratio_pr, rounds, pa, pb);
+    printf("A: %.2f AO, %.2f primary Mrays per CPU-second (checksum %zu)\n", (double)ao_chunk * rounds / ta / 1e6,
+           (double)pr_chunk * rounds / pa / 1e6, sink);
+    return 0;
+}

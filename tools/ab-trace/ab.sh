@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# A/B of wide traversal variants, or of rtk against Embree, in one process.
+#   tools/ab-trace/ab.sh BUILD_DIR MESH.obj VARIANT.c|embree [ACCEL] [ROUNDS]
+# VARIANT.c is a modified copy of kernel/bvh_wide.c: it is compiled with the
+# kernel's flags, its external symbols renamed rtk_* -> B_*, and linked
+# beside BUILD_DIR's kernel (A). "embree" compares ACCEL (default sah)
+# with the embree plugin. Environment: AB_CAMERA=EX,EY,EZ,LX,LY,LZ,FOV
+# (default: BENCH.md's recipe camera), AB_REBUILD=1 (the variant builds
+# its own wide tree, for changes to the collapse), AB_SET=KEY=VALUE (a
+# parameter of ACCEL for the variant's tree, with AB_REBUILD). Prints the
+# median and quartiles over ROUNDS (default 400) of B's time over A's.
+set -euo pipefail
+[ $# -ge 3 ] || { sed -n '2,12p' "$0" >&2; exit 2; }
+src=$(cd "$(dirname "$0")/../.." && pwd)
+build=$(cd "$1" && pwd)
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+variant=$3
+[ "$variant" = embree ] && variant=$src/kernel/bvh_wide.c
+inc=(-I"$build/kernel" -I"$src/kernel" -I"$build/include" -I"$src/include")
+cc "${inc[@]}" -fvisibility=hidden -D_FILE_OFFSET_BITS=64 -std=c11 -O2 -g -D_GNU_SOURCE -fPIC -pthread \
+   -ffp-contract=off -fno-semantic-interposition -DRTK_BUILDING_KERNEL -c "$variant" -o "$out/variant.o"
+renames=()
+for sym in $(nm "$out/variant.o" | awk '$2 ~ /^[TDBR]$/ && $3 ~ /^rtk_/ {print $3}'); do
+    renames+=(--redefine-sym "$sym=B_${sym#rtk_}")
+done
+objcopy "${renames[@]}" "$out/variant.o" "$out/variant_b.o"
+cc "${inc[@]}" -std=c11 -O2 -g -D_GNU_SOURCE -pthread -c "$src/tools/ab-trace/ab.c" -o "$out/ab.o"
+c++ -o "$out/ab" "$out/ab.o" "$out/variant_b.o" -Wl,--whole-archive "$build/kernel/librtk_static.a" \
+    -Wl,--no-whole-archive "$build/kernel/librtk_bench.a" -Wl,--export-dynamic -lm -pthread \
+    $(pkg-config --libs tinygltf tinyobjloader libconfig 2>/dev/null || echo -ltinygltf -ltinyobjloader -lconfig)
+RTK_PLUGIN_PATH=$build/plugins/accelerators "$out/ab" "$2" "$3" "${4:-sah}" "${5:-400}"
