@@ -65,26 +65,37 @@ static int cmp_double(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-static void die(const char *what)
+/* Reports what failed with the kernel's message; main's exit status. */
+static int fail(const char *what)
 {
     fprintf(stderr, "ab: %s: %s\n", what, rtk_error_message());
-    exit(2);
+    return 2;
 }
 
+/* The mesh built by p (with set, KEY=VALUE, applied to its defaults), or
+ * NULL after a message. */
 static rtk_scene *load_and_build(const char *mesh, const rtk_plugin *p, const char *set)
 {
     rtk_scene *s = NULL;
-    if (rtk_bench_read_obj(mesh, &s) != RTK_OK)
-        die(mesh);
+    if (rtk_bench_read_obj(mesh, &s) != RTK_OK) {
+        fail("reading the mesh");
+        return NULL;
+    }
     rtk_params *params = rtk_params_defaults(p);
-    if (set) {
+    const char *failed = params ? NULL : "parameters";
+    if (set && !failed) {
         char key[64], value[64];
         if (sscanf(set, "%63[^=]=%63s", key, value) != 2 || rtk_params_set_text(params, key, value) != RTK_OK)
-            die("AB_SET (KEY=VALUE)");
+            failed = "AB_SET (KEY=VALUE)";
     }
-    if (rtk_bvh_build(s, p, params, 1) != RTK_OK)
-        die("build");
+    if (!failed && rtk_bvh_build(s, p, params, 1) != RTK_OK)
+        failed = "build";
     rtk_params_destroy(params);
+    if (failed) {
+        fail(failed);
+        rtk_scene_free(s);
+        return NULL;
+    }
     return s;
 }
 
@@ -129,26 +140,34 @@ int main(int argc, char **argv)
     rtk_registry *reg = NULL;
     const rtk_plugin *p = NULL, *pe = NULL;
     if (rtk_registry_create(&reg) != RTK_OK || rtk_registry_find(reg, RTK_KIND_ACCELERATOR, accel, &p) != RTK_OK)
-        die(accel);
+        return fail(accel);
     scene_a = scene_b = load_and_build(mesh, p, NULL);
+    if (!scene_a)
+        return 2;
     if (embree_mode) {
         if (rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "embree", &pe) != RTK_OK)
-            die("embree");
+            return fail("embree");
         scene_b = load_and_build(mesh, pe, NULL);
     } else if (getenv("AB_REBUILD")) {
         scene_b = load_and_build(mesh, p, getenv("AB_SET"));
-        B_wide_free(scene_b);
-        if (B_wide_build(scene_b, 1, NULL, 0) != RTK_OK)
-            die("variant's wide tree");
+        if (scene_b) {
+            B_wide_free(scene_b);
+            if (B_wide_build(scene_b, 1, NULL, 0) != RTK_OK)
+                return fail("variant's wide tree");
+        }
     }
+    if (!scene_b)
+        return 2;
     rtk_bench_camera cam;
     rtk_bench_camera_recipe(scene_a->bounds, &cam);
     const char *c = getenv("AB_CAMERA");
     if (c) {
         double e[3], l[3], up[3] = {0, 1, 0}, fov;
         if (sscanf(c, "%lf,%lf,%lf,%lf,%lf,%lf,%lf", &e[0], &e[1], &e[2], &l[0], &l[1], &l[2], &fov) != 7 ||
-            rtk_bench_camera_look(e, l, up, fov, &cam) != RTK_OK)
-            die("AB_CAMERA (EX,EY,EZ,LX,LY,LZ,FOV)");
+            rtk_bench_camera_look(e, l, up, fov, &cam) != RTK_OK) {
+            fprintf(stderr, "ab: AB_CAMERA=%s: give EX,EY,EZ,LX,LY,LZ,FOV (a view not along +-y, 0 < FOV < 180)\n", c);
+            return 2;
+        }
     }
     const size_t pixels = (size_t)WIDTH * HEIGHT;
     rtk_ray *primary = malloc(sizeof *primary * pixels), *ao = malloc(sizeof *ao * pixels * AO_PER_HIT);
