@@ -5,7 +5,10 @@
  * and its counts can be checked against any other's. Each accelerator is
  * built through the kernel (rtk_bvh_build) and traced through the kernel's
  * path (rtk_bvh_closest / rtk_bvh_any), which hands the rays to a plugin's
- * own traversal when it has one (embree). */
+ * own traversal when it has one (embree). The builds run in rounds, each
+ * round over every accelerator at one thread count, so that drifting load
+ * from elsewhere on the machine weighs on all of them alike; the passes
+ * follow, one accelerator at a time. */
 #include "bench.h"
 #include "bvh_wide.h"
 
@@ -446,7 +449,8 @@ typedef struct bench {
     rtk_hit *hits;
     size_t *primary_rows, *ao_rows;
     uint64_t *row_count;
-    double *times, *cpu_times;
+    double *times, *cpu_times;            /* one row's passes */
+    double *build_times, *build_cpu;      /* every row's builds: row r, round i at r * runs + i */
     bench_row *rows;
     size_t row_count_done;
     uint64_t hash;
@@ -467,6 +471,8 @@ static void bench_free(bench *b)
     free(b->row_count);
     free(b->times);
     free(b->cpu_times);
+    free(b->build_times);
+    free(b->build_cpu);
     free(b->rows);
     rtk_scene_free(b->scene);
     rtk_config_destroy(b->config);
@@ -733,28 +739,67 @@ static void log_work(const bench *b, const bench_accel *a, uint32_t threads, siz
             "%.3f triangles", a->label, threads, (double)pn / np, (double)pt / np, (double)an / na, (double)at / na);
 }
 
-/* Builds with a on threads (median of the runs) and traces both passes. */
-static rtk_status measure(bench *b, const bench_accel *a, uint32_t threads, bench_row *row)
+/* One timed build of row's accelerator on row's threads: wall-clock and
+ * process CPU seconds into *wall and *cpu. The previous tree is torn down
+ * outside the timed span. */
+static rtk_status timed_build(bench *b, const bench_row *row, double *wall, double *cpu)
 {
     rtk_scene *s = b->scene;
-    uint32_t runs = b->opt.runs;
-    memset(row, 0, sizeof *row);
-    row->accel = a;
-    row->threads = threads;
-    for (uint32_t i = 0; i < runs; i++) {
-        progress(b, a, threads, "build", i + 1, runs);
-        /* The previous instance is torn down outside the timed span. */
-        rtk_bvh_release(s);
-        double c0 = cpu_now(CLOCK_PROCESS_CPUTIME_ID), t0 = rtk_now();
-        rtk_status st = s->instance_count ? rtk_instances_build(s, a->plugin, a->params, threads, NULL, NULL)
-                                          : rtk_bvh_build(s, a->plugin, a->params, threads);
-        b->times[i] = rtk_now() - t0;
-        b->cpu_times[i] = cpu_now(CLOCK_PROCESS_CPUTIME_ID) - c0;
-        if (st != RTK_OK)
-            return st;
+    const bench_accel *a = row->accel;
+    rtk_bvh_release(s);
+    double c0 = cpu_now(CLOCK_PROCESS_CPUTIME_ID), t0 = rtk_now();
+    rtk_status st = s->instance_count ? rtk_instances_build(s, a->plugin, a->params, row->threads, NULL, NULL)
+                                      : rtk_bvh_build(s, a->plugin, a->params, row->threads);
+    *wall = rtk_now() - t0;
+    *cpu = cpu_now(CLOCK_PROCESS_CPUTIME_ID) - c0;
+    return st;
+}
+
+/* The builds of every row, in rounds: for each thread count, each round
+ * builds once with every accelerator, in order, so that the machine's
+ * other load (which drifts over seconds) falls on all of them alike
+ * rather than on whichever ran during a busy spell. The thread count
+ * changes only between its rounds (Embree's is process-wide: the embree
+ * plugin keeps one device and replaces it when the count changes).
+ * Median of the rounds. On failure *failed is the row that failed. */
+static rtk_status measure_builds(bench *b, size_t *failed)
+{
+    const uint32_t runs = b->opt.runs;
+    const size_t rows = b->accel_count * b->thread_count;
+    for (size_t t = 0; t < b->thread_count; t++) {
+        for (uint32_t i = 0; i < runs; i++) {
+            for (size_t a = 0; a < b->accel_count; a++) {
+                const size_t r = a * b->thread_count + t;
+                bench_row *row = &b->rows[r];
+                progress(b, row->accel, row->threads, "build round", i + 1, runs);
+                rtk_status st = timed_build(b, row, &b->build_times[r * runs + i], &b->build_cpu[r * runs + i]);
+                if (st != RTK_OK) {
+                    *failed = r;
+                    return st;
+                }
+            }
+        }
     }
-    row->build_ms = 1e3 * median(b->times, runs);
-    row->build_cpu_ms = 1e3 * median(b->cpu_times, runs);
+    rtk_bvh_release(b->scene);
+    for (size_t r = 0; r < rows; r++) {
+        b->rows[r].build_ms = 1e3 * median(&b->build_times[r * runs], runs);
+        b->rows[r].build_cpu_ms = 1e3 * median(&b->build_cpu[r * runs], runs);
+    }
+    return RTK_OK;
+}
+
+/* Builds row's tree once more (untimed: the build figures are
+ * measure_builds') and traces both passes, median of the runs. */
+static rtk_status measure_traces(bench *b, bench_row *row)
+{
+    rtk_scene *s = b->scene;
+    const bench_accel *a = row->accel;
+    const uint32_t threads = row->threads, runs = b->opt.runs;
+    progress(b, a, threads, "build for tracing", 1, 1);
+    double wall, cpu_build;
+    rtk_status st = timed_build(b, row, &wall, &cpu_build);
+    if (st != RTK_OK)
+        return st;
     tree_stats(s, row);
 
     bench_pass pp = {.scene = s, .rays = b->primary, .row_start = b->primary_rows, .rows = b->height,
@@ -842,7 +887,8 @@ static void print_report(const bench *b, const char *path, FILE *out)
     fprintf(out, "image %ux%u, camera eye (%.6g, %.6g, %.6g) forward (%.6g, %.6g, %.6g), vertical fov %.6g\n",
             b->width, b->height, c->eye[0], c->eye[1], c->eye[2], c->fwd[0], c->fwd[1], c->fwd[2],
             2.0 * atan(c->th) * 180.0 / M_PI);
-    fprintf(out, "AO: %u rays per hit, tfar %.6g; median of %u builds and %u timed passes (after one warm-up)\n",
+    fprintf(out, "AO: %u rays per hit, tfar %.6g; median of %u builds (per thread count, in rounds over every "
+            "accelerator) and %u timed passes (after one warm-up)\n",
             BENCH_AO_RAYS, (double)(float)(0.1 * b->diag), b->opt.runs, b->opt.runs);
     fprintf(out, "primary_ray_hash 0x%016llx\n\n", (unsigned long long)b->hash);
     int w = 11;
@@ -978,8 +1024,10 @@ RTK_API rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk
         b.times = rtk_alloc(sizeof *b.times * b.opt.runs);
         b.cpu_times = rtk_alloc(sizeof *b.cpu_times * b.opt.runs);
         b.rows = rtk_calloc(b.accel_count * b.thread_count, sizeof *b.rows);
+        b.build_times = rtk_alloc(sizeof *b.build_times * b.opt.runs * b.accel_count * b.thread_count);
+        b.build_cpu = rtk_alloc(sizeof *b.build_cpu * b.opt.runs * b.accel_count * b.thread_count);
         if (!b.primary || !b.hits || !b.ao || !b.primary_rows || !b.ao_rows || !b.row_count || !b.times || !b.cpu_times ||
-            !b.rows)
+            !b.rows || !b.build_times || !b.build_cpu)
             st = RTK_ERR_NOMEM;
     }
     if (st != RTK_OK) {
@@ -990,19 +1038,26 @@ RTK_API rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk
     b.hash = rtk_bench_ray_hash(b.primary, pixels);
     for (uint32_t y = 0; y <= b.height; y++)
         b.primary_rows[y] = (size_t)y * b.width;
-    for (size_t i = 0; i < b.accel_count && st == RTK_OK; i++) {
-        for (size_t t = 0; t < b.thread_count && st == RTK_OK; t++) {
-            st = measure(&b, &b.accels[i], b.threads[t], &b.rows[b.row_count_done]);
-            if (st == RTK_OK)
-                b.row_count_done++;
-        }
+    /* Rows in the report's order: accelerators, then thread counts. */
+    const size_t rows = b.accel_count * b.thread_count;
+    for (size_t r = 0; r < rows; r++) {
+        b.rows[r].accel = &b.accels[r / b.thread_count];
+        b.rows[r].threads = b.threads[r % b.thread_count];
+    }
+    size_t failed = 0;
+    st = measure_builds(&b, &failed);
+    for (size_t r = 0; r < rows && st == RTK_OK; r++) {
+        failed = r;
+        st = measure_traces(&b, &b.rows[r]);
+        if (st == RTK_OK)
+            b.row_count_done++;
     }
     if (b.opt.progress)
         fprintf(stderr, "\r\033[K");
     if (st != RTK_OK) {
         char msg[2048];
         snprintf(msg, sizeof msg, "%s", rtk_error_message());
-        st = rtk_error(st, "bench: %s: %s", b.accels[b.row_count_done / b.thread_count].label, msg);
+        st = rtk_error(st, "bench: %s: %s", b.rows[failed].accel->label, msg);
     }
     if (b.row_count_done > 0)
         print_report(&b, path, out);
