@@ -54,6 +54,12 @@ typedef struct collapser {
     uint32_t bad_leaf;    /* lowest binary leaf met whose box misses its corners */
     uint32_t depth;
     int failed;
+    /* The counting pass records each inner node's binary node and
+     * children (their number, then the binary nodes) in the order
+     * collapse makes the nodes; collapse reads them instead of choosing
+     * again. */
+    uint32_t *kid_seq;
+    size_t kid_len, kid_cap, kid_pos;
 } collapser;
 
 static uint32_t new_node(collapser *c)
@@ -507,8 +513,21 @@ static void count_collapse(collapser *c, uint32_t bin, uint32_t depth)
         c->failed = 1;
         return;
     }
+    if (c->kid_len + 2 + RTK_WIDE > c->kid_cap) {
+        size_t cap = c->kid_cap ? 2 * c->kid_cap : 4096;
+        uint32_t *grown = rtk_realloc_array(c->kid_seq, cap, sizeof *grown);
+        if (!grown) {
+            c->failed = 1;
+            return;
+        }
+        c->kid_seq = grown, c->kid_cap = cap;
+    }
     uint32_t kids[RTK_WIDE];
     int n = choose_kids(c, bin, kids);
+    c->kid_seq[c->kid_len] = bin;
+    c->kid_seq[c->kid_len + 1] = (uint32_t)n;
+    memcpy(c->kid_seq + c->kid_len + 2, kids, sizeof *kids * (size_t)n);
+    c->kid_len += 2 + (size_t)n;
     c->node_cap++;
     for (int i = 0; i < n && !c->failed; i++) {
         if (is_wide_leaf(c, kids[i]))
@@ -528,8 +547,17 @@ static uint32_t collapse(collapser *c, uint32_t bin, uint32_t depth)
     }
     if (depth > c->depth)
         c->depth = depth;
-    uint32_t kids[RTK_WIDE];
-    int n = choose_kids(c, bin, kids);
+    /* The children the counting pass chose for bin (it recorded the nodes
+     * in this order). */
+    const size_t at = c->kid_pos;
+    if (at > c->kid_len || c->kid_len - at < 2 || c->kid_seq[at] != bin || c->kid_seq[at + 1] > RTK_WIDE ||
+        c->kid_seq[at + 1] > c->kid_len - at - 2) { /* the passes disagree: never */
+        c->failed = 1;
+        return 0;
+    }
+    const int n = (int)c->kid_seq[at + 1];
+    const uint32_t *kids = c->kid_seq + at + 2;
+    c->kid_pos = at + 2 + (size_t)n;
     uint32_t node = new_node(c);
     if (c->failed)
         return 0;
@@ -575,6 +603,7 @@ typedef struct wide_item {
     uint32_t kid;                    /* binary node */
     uint32_t depth;                  /* wide depth of its reference */
     uint32_t node_start, node_count; /* its range of wide nodes */
+    size_t kid_start;                /* its first entry in collapser.kid_seq */
     uint32_t tri_start, tri_count;   /* its range of blocks */
     uint32_t ref, depth_out;         /* results */
     uint32_t bad_leaf;               /* lowest failing binary leaf, or UINT32_MAX */
@@ -627,7 +656,8 @@ static void plan_node(collapser *c, wide_plan *pl, uint32_t bin, uint32_t depth)
         }
         f->item = pl->item_count;
         wide_item *it = &pl->items[pl->item_count++];
-        *it = (wide_item){.kid = kids[i], .depth = depth + 1, .node_start = c->node_cap, .tri_start = c->tri_cap};
+        *it = (wide_item){.kid = kids[i], .depth = depth + 1, .node_start = c->node_cap, .tri_start = c->tri_cap,
+                          .kid_start = c->kid_len};
         if (is_wide_leaf(c, kids[i]))
             count_leaf(c, c->tri_total[kids[i]], depth + 1);
         else
@@ -652,6 +682,7 @@ static void collapse_item(collapser *c, wide_item *it)
     c->depth = 0;
     c->failed = 0;
     c->bad_leaf = UINT32_MAX;
+    c->kid_pos = it->kid_start;
     if (is_wide_leaf(c, it->kid)) {
         uint32_t count = 0;
         gather_slots(c, it->kid, &count);
@@ -812,6 +843,7 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
     }
     free(c.tri_total);
     free(c.plan);
+    free(c.kid_seq);
     free(pl.items);
     free(pl.fixups);
     free(order);
