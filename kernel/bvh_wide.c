@@ -114,19 +114,37 @@ static uint32_t make_blocks(collapser *c, const uint32_t *slots, const float *v,
     uint32_t first = c->tri_count;
     for (uint32_t b = 0; b < blocks; b++) {
         rtk_wide_tris *t = &c->tris[c->tri_count++];
-        for (uint32_t lane = 0; lane < RTK_WIDE_TRIS; lane++) {
-            uint32_t i = b * RTK_WIDE_TRIS + lane;
-            if (i < n) {
-                for (int j = 0; j < 9; j++)
-                    t->v[j][lane] = v[9 * (size_t)i + j];
-                t->prim[lane] = c->s->prim_ids[slots[i]];
-            } else {
-                /* NaN corners: every comparison of the test fails, a miss. */
-                for (int j = 0; j < 9; j++)
-                    t->v[j][lane] = NAN;
-                t->prim[lane] = RTK_INVALID_ID;
-            }
+        const uint32_t base = b * RTK_WIDE_TRIS, lanes = n - base < RTK_WIDE_TRIS ? n - base : RTK_WIDE_TRIS;
+        /* A partial block's lanes from a copy padded with NaN corners:
+         * every comparison of the test fails on them, a miss. */
+        float pad[9 * RTK_WIDE_TRIS];
+        const float *src = v + 9 * (size_t)base;
+        if (lanes < RTK_WIDE_TRIS) {
+            for (int j = 0; j < 9 * RTK_WIDE_TRIS; j++)
+                pad[j] = NAN;
+            memcpy(pad, src, sizeof(float) * 9 * lanes);
+            src = pad;
         }
+        for (uint32_t lane = 0; lane < RTK_WIDE_TRIS; lane++)
+            t->prim[lane] = lane < lanes ? c->s->prim_ids[slots[base + lane]] : RTK_INVALID_ID;
+#if RTK_HAVE_X86
+        /* Four triangles of 9 floats into 9 rows of 4: two 4x4 transposes
+         * (corners 0-1 and 1-2) and the last row by hand. */
+        _Static_assert(RTK_WIDE_TRIS == 4, "blocks of four");
+        __m128 a0 = _mm_loadu_ps(src), a1 = _mm_loadu_ps(src + 9), a2 = _mm_loadu_ps(src + 18),
+               a3 = _mm_loadu_ps(src + 27);
+        _MM_TRANSPOSE4_PS(a0, a1, a2, a3);
+        _mm_storeu_ps(t->v[0], a0), _mm_storeu_ps(t->v[1], a1), _mm_storeu_ps(t->v[2], a2), _mm_storeu_ps(t->v[3], a3);
+        __m128 b0 = _mm_loadu_ps(src + 4), b1 = _mm_loadu_ps(src + 13), b2 = _mm_loadu_ps(src + 22),
+               b3 = _mm_loadu_ps(src + 31);
+        _MM_TRANSPOSE4_PS(b0, b1, b2, b3);
+        _mm_storeu_ps(t->v[4], b0), _mm_storeu_ps(t->v[5], b1), _mm_storeu_ps(t->v[6], b2), _mm_storeu_ps(t->v[7], b3);
+        _mm_storeu_ps(t->v[8], _mm_setr_ps(src[8], src[17], src[26], src[35]));
+#else
+        for (uint32_t lane = 0; lane < RTK_WIDE_TRIS; lane++)
+            for (int j = 0; j < 9; j++)
+                t->v[j][lane] = src[9 * lane + j];
+#endif
     }
     return RTK_WIDE_LEAF | first << RTK_WIDE_LEAF_SHIFT | (blocks - 1);
 }
