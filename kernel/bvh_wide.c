@@ -1458,6 +1458,50 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
 
 /* ---- AVX2: the eight children at once ---- */
 
+/* Occlusion pushes a node's hit children without a branch on how many
+ * were hit: for each 8-bit hit mask, the lanes of its set bits but the
+ * lowest, in order, 3 bits each from bit 0 (entry m is the sum over the
+ * set bits of m but the lowest, the j-th of them at lane l, of
+ * l << 3 j). One permutation packs those children, one store pushes
+ * them (all eight lanes; the stack has room), and the lowest hit child
+ * is traversed next: the order of the loop this replaces, whose branches
+ * on the number of hits the predictor missed (AO 6-7 percent faster on
+ * the meshes, measured with tools/ab-trace). */
+static const uint32_t pack_lanes[256] = {
+    0x000000, 0x000000, 0x000000, 0x000001, 0x000000, 0x000002, 0x000002, 0x000011,
+    0x000000, 0x000003, 0x000003, 0x000019, 0x000003, 0x00001a, 0x00001a, 0x0000d1,
+    0x000000, 0x000004, 0x000004, 0x000021, 0x000004, 0x000022, 0x000022, 0x000111,
+    0x000004, 0x000023, 0x000023, 0x000119, 0x000023, 0x00011a, 0x00011a, 0x0008d1,
+    0x000000, 0x000005, 0x000005, 0x000029, 0x000005, 0x00002a, 0x00002a, 0x000151,
+    0x000005, 0x00002b, 0x00002b, 0x000159, 0x00002b, 0x00015a, 0x00015a, 0x000ad1,
+    0x000005, 0x00002c, 0x00002c, 0x000161, 0x00002c, 0x000162, 0x000162, 0x000b11,
+    0x00002c, 0x000163, 0x000163, 0x000b19, 0x000163, 0x000b1a, 0x000b1a, 0x0058d1,
+    0x000000, 0x000006, 0x000006, 0x000031, 0x000006, 0x000032, 0x000032, 0x000191,
+    0x000006, 0x000033, 0x000033, 0x000199, 0x000033, 0x00019a, 0x00019a, 0x000cd1,
+    0x000006, 0x000034, 0x000034, 0x0001a1, 0x000034, 0x0001a2, 0x0001a2, 0x000d11,
+    0x000034, 0x0001a3, 0x0001a3, 0x000d19, 0x0001a3, 0x000d1a, 0x000d1a, 0x0068d1,
+    0x000006, 0x000035, 0x000035, 0x0001a9, 0x000035, 0x0001aa, 0x0001aa, 0x000d51,
+    0x000035, 0x0001ab, 0x0001ab, 0x000d59, 0x0001ab, 0x000d5a, 0x000d5a, 0x006ad1,
+    0x000035, 0x0001ac, 0x0001ac, 0x000d61, 0x0001ac, 0x000d62, 0x000d62, 0x006b11,
+    0x0001ac, 0x000d63, 0x000d63, 0x006b19, 0x000d63, 0x006b1a, 0x006b1a, 0x0358d1,
+    0x000000, 0x000007, 0x000007, 0x000039, 0x000007, 0x00003a, 0x00003a, 0x0001d1,
+    0x000007, 0x00003b, 0x00003b, 0x0001d9, 0x00003b, 0x0001da, 0x0001da, 0x000ed1,
+    0x000007, 0x00003c, 0x00003c, 0x0001e1, 0x00003c, 0x0001e2, 0x0001e2, 0x000f11,
+    0x00003c, 0x0001e3, 0x0001e3, 0x000f19, 0x0001e3, 0x000f1a, 0x000f1a, 0x0078d1,
+    0x000007, 0x00003d, 0x00003d, 0x0001e9, 0x00003d, 0x0001ea, 0x0001ea, 0x000f51,
+    0x00003d, 0x0001eb, 0x0001eb, 0x000f59, 0x0001eb, 0x000f5a, 0x000f5a, 0x007ad1,
+    0x00003d, 0x0001ec, 0x0001ec, 0x000f61, 0x0001ec, 0x000f62, 0x000f62, 0x007b11,
+    0x0001ec, 0x000f63, 0x000f63, 0x007b19, 0x000f63, 0x007b1a, 0x007b1a, 0x03d8d1,
+    0x000007, 0x00003e, 0x00003e, 0x0001f1, 0x00003e, 0x0001f2, 0x0001f2, 0x000f91,
+    0x00003e, 0x0001f3, 0x0001f3, 0x000f99, 0x0001f3, 0x000f9a, 0x000f9a, 0x007cd1,
+    0x00003e, 0x0001f4, 0x0001f4, 0x000fa1, 0x0001f4, 0x000fa2, 0x000fa2, 0x007d11,
+    0x0001f4, 0x000fa3, 0x000fa3, 0x007d19, 0x000fa3, 0x007d1a, 0x007d1a, 0x03e8d1,
+    0x00003e, 0x0001f5, 0x0001f5, 0x000fa9, 0x0001f5, 0x000faa, 0x000faa, 0x007d51,
+    0x0001f5, 0x000fab, 0x000fab, 0x007d59, 0x000fab, 0x007d5a, 0x007d5a, 0x03ead1,
+    0x0001f5, 0x000fac, 0x000fac, 0x007d61, 0x000fac, 0x007d62, 0x007d62, 0x03eb11,
+    0x000fac, 0x007d63, 0x007d63, 0x03eb19, 0x007d63, 0x03eb1a, 0x03eb1a, 0x1f58d1,
+};
+
 /* Leaves out of line: the node loop keeps its registers. One per mode,
  * so that occlusion carries none of closest hit's bookkeeping; occlusion
  * comes here only in scenes with cutouts (otherwise the node loop tests a
@@ -1515,6 +1559,10 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
     float tmax_w = widen(any ? ray->tmax : hit->t);
     __m256 tmax8 = _mm256_set1_ps(tmax_w);
     stack_entry stack[RTK_WIDE_STACK];
+    /* Occlusion's stack: references only, and room for a whole store of
+     * eight past the deepest push. */
+    uint32_t refs[RTK_WIDE_STACK + RTK_WIDE];
+    const __m256i lane_shift = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
     int top = 0;
     uint32_t cur = 0;
     for (;;) {
@@ -1535,23 +1583,25 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
             uint32_t mask = (uint32_t)_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
             if (mask == 0)
                 goto pop;
-            if ((mask & (mask - 1)) == 0) {
+            if (any) {
+                /* See pack_lanes. No prefetch of the next pop: occlusion's
+                 * rays are short and end early, and it cost 1-2.6% of
+                 * their time on the meshes (none on the showroom). */
+                const __m256i lanes = _mm256_and_si256(
+                    _mm256_srlv_epi32(_mm256_set1_epi32((int)pack_lanes[mask]), lane_shift), _mm256_set1_epi32(7));
+                const __m256i kids = _mm256_load_si256((const __m256i *)(const void *)n->child);
+                _mm256_storeu_si256((__m256i *)(void *)&refs[top], _mm256_permutevar8x32_epi32(kids, lanes));
+                top += __builtin_popcount(mask) - 1;
+                cur = n->child[__builtin_ctz(mask)];
+            } else if ((mask & (mask - 1)) == 0) {
                 cur = n->child[__builtin_ctz(mask)];
             } else {
-                if (any) {
-                    cur = push_unsorted(n, mask, stack, &top);
-                } else {
-                    float dist[RTK_WIDE];
-                    _mm256_storeu_ps(dist, t0);
-                    cur = push_sorted(n, mask, dist, stack, &top);
-                }
-                /* The next pop, while the nearer child is traversed.
-                 * Not for occlusion: its rays are short and end early,
-                 * and the prefetch cost it 1-2.6% of its time on the
-                 * meshes (none on the showroom), measured in one
-                 * process, rounds alternating. */
+                float dist[RTK_WIDE];
+                _mm256_storeu_ps(dist, t0);
+                cur = push_sorted(n, mask, dist, stack, &top);
+                /* The next pop, while the nearer child is traversed. */
                 uint32_t next = stack[top - 1].ref;
-                if (!any && !(next & RTK_WIDE_LEAF)) {
+                if (!(next & RTK_WIDE_LEAF)) {
                     const char *pf = (const char *)&nodes[next];
                     _mm_prefetch(pf, _MM_HINT_T0);
                     _mm_prefetch(pf + 64, _MM_HINT_T0);
@@ -1584,11 +1634,17 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
             tmax8 = _mm256_set1_ps(tmax_w);
         }
     pop:
+        if (any) {
+            if (top == 0)
+                return 0;
+            cur = refs[--top];
+            continue;
+        }
         do {
             if (top == 0)
-                return any ? 0 : hit->prim != RTK_INVALID_ID;
+                return hit->prim != RTK_INVALID_ID;
             --top;
-        } while (!any && stack[top].t > tmax_w);
+        } while (stack[top].t > tmax_w);
         cur = stack[top].ref;
     }
 }
