@@ -129,7 +129,7 @@ static uint32_t make_blocks(collapser *c, const uint32_t *slots, const float *v,
             t->prim[lane] = lane < lanes ? c->s->prim_ids[slots[base + lane]] : RTK_INVALID_ID;
 #if RTK_HAVE_X86
         /* Four triangles of 9 floats into 9 rows of 4: two 4x4 transposes
-         * (corners 0-1 and 1-2) and the last row by hand. */
+         * (floats 0-3 and 4-7 of each triangle), then float 8 by hand. */
         _Static_assert(RTK_WIDE_TRIS == 4, "blocks of four");
         __m128 a0 = _mm_loadu_ps(src), a1 = _mm_loadu_ps(src + 9), a2 = _mm_loadu_ps(src + 18),
                a3 = _mm_loadu_ps(src + 27);
