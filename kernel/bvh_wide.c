@@ -1465,7 +1465,7 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
  * l << 3 j). One permutation packs those children, one store pushes
  * them (all eight lanes; the stack has room), and the lowest hit child
  * is traversed next: the order of the loop this replaces, whose branches
- * on the number of hits the predictor missed (AO 6-7 percent faster on
+ * on the number of hits the predictor missed (AO 5-7 percent faster on
  * the meshes, measured with tools/ab-trace). */
 static const uint32_t pack_lanes[256] = {
     0x000000, 0x000000, 0x000000, 0x000001, 0x000000, 0x000002, 0x000002, 0x000011,
