@@ -3,7 +3,6 @@
 
 #include <errno.h>
 #include <limits.h>
-#include <pthread.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -187,43 +186,3 @@ int rtk_edit_distance(const char *a, const char *b)
     return row[lb];
 }
 
-typedef struct range_job {
-    rtk_range_fn fn;
-    void *ctx;
-    uint32_t begin, end;
-} range_job;
-
-static void *range_main(void *arg)
-{
-    range_job *j = arg;
-    j->fn(j->ctx, j->begin, j->end);
-    return NULL;
-}
-
-void rtk_parallel_ranges(uint32_t n, uint32_t threads, uint32_t min_chunk, rtk_range_fn fn, void *ctx)
-{
-    enum { max_ranges = 64 };
-    uint32_t parts = threads ? threads : 1;
-    if (parts > max_ranges)
-        parts = max_ranges;
-    if (min_chunk && n / min_chunk < parts)
-        parts = n / min_chunk ? n / min_chunk : 1;
-    if (parts <= 1) {
-        if (n)
-            fn(ctx, 0, n);
-        return;
-    }
-    range_job jobs[max_ranges];
-    pthread_t ids[max_ranges];
-    int started[max_ranges];
-    for (uint32_t i = 0; i < parts; i++) {
-        jobs[i] = (range_job){fn, ctx, (uint32_t)((uint64_t)n * i / parts), (uint32_t)((uint64_t)n * (i + 1) / parts)};
-        started[i] = i > 0 && pthread_create(&ids[i], NULL, range_main, &jobs[i]) == 0;
-    }
-    for (uint32_t i = 0; i < parts; i++)
-        if (!started[i])
-            fn(ctx, jobs[i].begin, jobs[i].end);
-    for (uint32_t i = 1; i < parts; i++)
-        if (started[i])
-            pthread_join(ids[i], NULL);
-}

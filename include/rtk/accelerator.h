@@ -43,7 +43,8 @@ typedef struct rtk_accelerator_fns {
     uint32_t size; /* sizeof(rtk_accelerator_fns) */
     /* Makes an instance from validated params. [main thread] */
     rtk_status (*create)(const rtk_params *params, void **state);
-    /* Builds the tree into args. [main thread; may start its own threads] */
+    /* Builds the tree into args on up to args->thread_count threads
+     * (rtk_team_run). [main thread] */
     rtk_status (*build)(void *state, rtk_build_args *args);
     /* Frees the instance. [main thread] */
     void (*destroy)(void *state);

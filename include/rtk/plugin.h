@@ -14,9 +14,11 @@ RTK_EXTERN_C_BEGIN
  * 3.1: ray differentials and texture footprints (rtk_ray_differential,
  * rtk_ctx_camera_differential, rtk_surface_at_footprint,
  * rtk_differential_reflect, rtk_differential_refract); rtk_plugin.conform
- * (the exact-test profile of an integrator). */
+ * (the exact-test profile of an integrator).
+ * 3.2: teams of threads on the kernel's workers (rtk_team_run,
+ * rtk_team_sync; rtk/parallel.h). */
 #define RTK_ABI_MAJOR 3
-#define RTK_ABI_MINOR 1
+#define RTK_ABI_MINOR 2
 
 /* Name of the one symbol a plugin exports. */
 #define RTK_PLUGIN_ENTRY_NAME "rtk_plugin_entry"

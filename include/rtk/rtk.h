@@ -4,6 +4,7 @@
 
 #include <rtk/common.h>
 #include <rtk/log.h>
+#include <rtk/parallel.h>
 #include <rtk/math.h>
 #include <rtk/ray.h>
 #include <rtk/params.h>

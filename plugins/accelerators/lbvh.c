@@ -26,7 +26,6 @@
 #include <rtk/rtk.h>
 
 #include <math.h>
-#include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -38,8 +37,6 @@
 #define LBVH_PART 16384
 /* Bits of the radix sort's digits. */
 #define LBVH_DIGIT 11
-/* Most threads one build uses. */
-#define LBVH_MAX_THREADS 256
 /* Slots ahead whose bounds a leaf prefetches. */
 #define LBVH_PREFETCH 16
 /* Nodes the top-level planner keeps pending (> the depth bound, 96). */
@@ -61,11 +58,6 @@ typedef struct task {
 typedef struct build {
     const lbvh *opt;
     rtk_build_args *a;
-    uint32_t team;                 /* threads taking part */
-    pthread_barrier_t barrier;     /* between phases, when team > 1 */
-    pthread_mutex_t gate_lock;     /* holds the team until it is complete */
-    pthread_cond_t gate_wake;
-    int gate_open;
     float (*cbounds)[6];           /* per thread: centroid bounds of its part */
     uint64_t *codes, *codes_tmp;   /* Morton codes, sorted with ids */
     uint32_t *ids_tmp;             /* ids of the other sort buffer */
@@ -134,13 +126,6 @@ static inline uint32_t quantise(float v, float lo, float scale, float last)
     return f >= last ? (uint32_t)last : f > 0.0f ? (uint32_t)f : 0;
 }
 
-/* Waits for the whole team. */
-static void team_sync(build *b)
-{
-    if (b->team > 1)
-        pthread_barrier_wait(&b->barrier);
-}
-
 /* Part [begin, end) of n for thread t of team. */
 static void part(uint32_t n, uint32_t t, uint32_t team, uint32_t *begin, uint32_t *end)
 {
@@ -148,11 +133,11 @@ static void part(uint32_t n, uint32_t t, uint32_t team, uint32_t *begin, uint32_
     *end = (uint32_t)((uint64_t)n * (t + 1) / team);
 }
 
-static void morton_codes(build *b, uint32_t t)
+static void morton_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
 {
     const rtk_build_args *a = b->a;
     uint32_t begin, end;
-    part(a->prim_count, t, b->team, &begin, &end);
+    part(a->prim_count, t, size, &begin, &end);
     float *cb = b->cbounds[t];
     cb[0] = cb[1] = cb[2] = INFINITY;
     cb[3] = cb[4] = cb[5] = -INFINITY;
@@ -161,9 +146,9 @@ static void morton_codes(build *b, uint32_t t)
         cb[0] = min_f(cb[0], c->x), cb[1] = min_f(cb[1], c->y), cb[2] = min_f(cb[2], c->z);
         cb[3] = max_f(cb[3], c->x), cb[4] = max_f(cb[4], c->y), cb[5] = max_f(cb[5], c->z);
     }
-    team_sync(b);
+    rtk_team_sync(team);
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (uint32_t u = 0; u < b->team; u++) {
+    for (uint32_t u = 0; u < size; u++) {
         for (int k = 0; k < 3; k++) {
             lo[k] = min_f(lo[k], b->cbounds[u][k]);
             hi[k] = max_f(hi[k], b->cbounds[u][3 + k]);
@@ -189,17 +174,17 @@ static void morton_codes(build *b, uint32_t t)
             codes[i] = spread21(x) << 2 | spread21(y) << 1 | spread21(z);
         ids[i] = i;
     }
-    team_sync(b);
+    rtk_team_sync(team);
 }
 
 /* Stable LSD radix sort of (code, id) by code; every thread scatters its
  * own part, after the others' digit counts. The result ends in codes and
  * prim_order. */
-static void sort_codes(build *b, uint32_t t)
+static void sort_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
 {
     const uint32_t n = b->a->prim_count, digits = 1u << LBVH_DIGIT;
     uint32_t begin, end;
-    part(n, t, b->team, &begin, &end);
+    part(n, t, size, &begin, &end);
     uint64_t *ks = b->codes, *kd = b->codes_tmp;
     uint32_t *is = b->a->prim_order, *id = b->ids_tmp;
     for (uint32_t shift = 0; shift < b->opt->bits; shift += LBVH_DIGIT) {
@@ -207,14 +192,14 @@ static void sort_codes(build *b, uint32_t t)
         memset(hist, 0, sizeof b->hist[0]);
         for (uint32_t i = begin; i < end; i++)
             hist[ks[i] >> shift & (digits - 1)]++;
-        team_sync(b);
+        rtk_team_sync(team);
         /* This thread's first slot for each digit: all smaller digits,
          * then this digit in the threads before. */
         uint32_t offset[1 << LBVH_DIGIT], sum = 0;
         int one_digit = 0;
         for (uint32_t d = 0; d < digits; d++) {
             uint32_t total = 0;
-            for (uint32_t u = 0; u < b->team; u++) {
+            for (uint32_t u = 0; u < size; u++) {
                 if (u == t)
                     offset[d] = sum + total;
                 total += b->hist[u][d];
@@ -233,12 +218,12 @@ static void sort_codes(build *b, uint32_t t)
             uint32_t *ti = is;
             is = id, id = ti;
         }
-        team_sync(b);
+        rtk_team_sync(team);
     }
     if (ks != b->codes) {
         memcpy(b->codes + begin, ks + begin, sizeof *ks * (end - begin));
         memcpy(b->a->prim_order + begin, is + begin, sizeof *is * (end - begin));
-        team_sync(b);
+        rtk_team_sync(team);
     }
 }
 
@@ -363,71 +348,21 @@ static void plan(build *b, uint32_t grain)
     }
 }
 
-/* Thread t's share of the whole build. */
-static void run(build *b, uint32_t t)
+/* Member t's share of the whole build (rtk_team_fn). */
+static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
 {
-    morton_codes(b, t);
-    sort_codes(b, t);
+    build *b = ctx;
+    morton_codes(b, team, t, size);
+    sort_codes(b, team, t, size);
     if (t == 0)
-        plan(b, b->team > 1 ? LBVH_GRAIN : UINT32_MAX);
-    team_sync(b);
+        plan(b, size > 1 ? LBVH_GRAIN : UINT32_MAX);
+    rtk_team_sync(team);
     for (;;) {
         uint32_t k = atomic_fetch_add(&b->next_task, 1);
         if (k >= b->task_count)
             break;
         emit(b, b->tasks[k], NULL);
     }
-}
-
-/* A thread of the team: waits until the team is complete, then runs. */
-typedef struct member {
-    build *b;
-    uint32_t index;
-} member;
-
-static void *member_main(void *arg)
-{
-    const member *m = arg;
-    build *b = m->b;
-    pthread_mutex_lock(&b->gate_lock);
-    while (!b->gate_open)
-        pthread_cond_wait(&b->gate_wake, &b->gate_lock);
-    pthread_mutex_unlock(&b->gate_lock);
-    if (m->index < b->team)
-        run(b, m->index);
-    return NULL;
-}
-
-/* Runs the build on up to threads threads, the caller's included. */
-static void run_team(build *b, uint32_t threads)
-{
-    pthread_t ids[LBVH_MAX_THREADS];
-    member members[LBVH_MAX_THREADS];
-    uint32_t started = 0;
-    pthread_mutex_init(&b->gate_lock, NULL);
-    pthread_cond_init(&b->gate_wake, NULL);
-    b->gate_open = 0;
-    /* Fewer threads than asked (none at all) only make it slower. */
-    while (started + 1 < threads) {
-        members[started] = (member){b, started + 1};
-        if (pthread_create(&ids[started], NULL, member_main, &members[started]) != 0)
-            break;
-        started++;
-    }
-    b->team = started + 1;
-    if (b->team > 1 && pthread_barrier_init(&b->barrier, NULL, b->team) != 0)
-        b->team = 1;
-    pthread_mutex_lock(&b->gate_lock);
-    b->gate_open = 1;
-    pthread_cond_broadcast(&b->gate_wake);
-    pthread_mutex_unlock(&b->gate_lock);
-    run(b, 0);
-    for (uint32_t i = 0; i < started; i++)
-        pthread_join(ids[i], NULL);
-    if (b->team > 1)
-        pthread_barrier_destroy(&b->barrier);
-    pthread_cond_destroy(&b->gate_wake);
-    pthread_mutex_destroy(&b->gate_lock);
 }
 
 /* Closes the gaps in slots [0, span): used[i] is 1 for the slots the tree
@@ -459,8 +394,6 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
     uint32_t threads = a->thread_count;
     if (threads > n / LBVH_PART)
         threads = n / LBVH_PART;
-    if (threads > LBVH_MAX_THREADS)
-        threads = LBVH_MAX_THREADS;
     if (threads < 1)
         threads = 1;
     build b = {.opt = state, .a = a};
@@ -480,7 +413,7 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
         st = rtk_error(RTK_ERR_NOMEM, "lbvh: out of memory");
         goto done;
     }
-    run_team(&b, threads);
+    rtk_team_run(threads, run, &b);
     /* Inner nodes above the subtrees, children before parents. */
     for (uint32_t i = b.top_count; i-- > 0;) {
         const task *t = &b.tops[i];

@@ -660,10 +660,11 @@ static void build_subtree(const build *b, const job *root)
     }
 }
 
-/* Takes jobs from the queue until every job is done. */
-static void *work(void *arg)
+/* Takes jobs from the queue until every job is done (rtk_team_fn). */
+static void work(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
 {
-    const build *b = arg;
+    (void)team, (void)index, (void)size;
+    const build *b = ctx;
     queue *q = b->q;
     for (;;) {
         pthread_mutex_lock(&q->lock);
@@ -671,7 +672,7 @@ static void *work(void *arg)
             pthread_cond_wait(&q->wake, &q->lock);
         if (q->count == 0) {
             pthread_mutex_unlock(&q->lock);
-            return NULL;
+            return;
         }
         job j = q->jobs[--q->count];
         pthread_mutex_unlock(&q->lock);
@@ -705,15 +706,7 @@ static rtk_status run_build(build *b, const job *root, uint32_t threads)
     q.pending = 0;
     b->q = &q;
     queue_push(&q, root);
-    pthread_t *ids = malloc(sizeof *ids * threads);
-    uint32_t started = 0;
-    /* Fewer threads than asked (none at all) only make it slower. */
-    while (ids && started + 1 < threads && pthread_create(&ids[started], NULL, work, b) == 0)
-        started++;
-    work(b);
-    for (uint32_t i = 0; i < started; i++)
-        pthread_join(ids[i], NULL);
-    free(ids);
+    rtk_team_run(threads, work, b);
     pthread_cond_destroy(&q.wake);
     pthread_mutex_destroy(&q.lock);
     free(q.jobs);
@@ -786,9 +779,8 @@ typedef struct fill_part {
     job bounds;
 } fill_part;
 
-static void *fill_refs(void *arg)
+static void fill_refs(fill_part *f)
 {
-    fill_part *f = arg;
     const rtk_bounds *pb = f->b->a->prim_bounds;
     ref *refs = f->b->refs;
     box_empty(&f->bounds.geom), box_empty(&f->bounds.cent);
@@ -797,7 +789,19 @@ static void *fill_refs(void *arg)
                         {pb[i].upper.x, pb[i].upper.y, pb[i].upper.z}, 0};
         ref_grow(&f->bounds, &refs[i]);
     }
-    return NULL;
+}
+
+/* The parts a team member fills (rtk_team_fn): ctx is the parts, ending
+ * with one whose b is NULL. */
+static void fill_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
+{
+    (void)team;
+    fill_part *parts = ctx;
+    uint32_t count = 0;
+    while (parts[count].b)
+        count++;
+    for (uint32_t t = index; t < count; t += size)
+        fill_refs(&parts[t]);
 }
 
 /* Threads filling the refs: at least this many primitives each. The
@@ -817,21 +821,14 @@ static rtk_status build_binned(build *b, job *root)
         parts = n / SAH_FILL_PART;
     if (parts < 1)
         parts = 1;
-    fill_part fp[SAH_FILL_MAX_THREADS];
-    pthread_t ids[SAH_FILL_MAX_THREADS];
-    int started[SAH_FILL_MAX_THREADS];
-    for (uint32_t t = 0; t < parts; t++) {
+    fill_part fp[SAH_FILL_MAX_THREADS + 1];
+    for (uint32_t t = 0; t < parts; t++)
         fp[t] = (fill_part){.b = b, .begin = (uint32_t)((uint64_t)n * t / parts),
                             .end = (uint32_t)((uint64_t)n * (t + 1) / parts)};
-        started[t] = t > 0 && pthread_create(&ids[t], NULL, fill_refs, &fp[t]) == 0;
-    }
-    for (uint32_t t = 0; t < parts; t++)
-        if (!started[t])
-            fill_refs(&fp[t]);
+    fp[parts].b = NULL;
+    rtk_team_run(parts, fill_member, fp);
     box_empty(&root->geom), box_empty(&root->cent);
     for (uint32_t t = 0; t < parts; t++) {
-        if (started[t])
-            pthread_join(ids[t], NULL);
         box_grow(&root->geom, fp[t].bounds.geom.lo, fp[t].bounds.geom.hi);
         box_grow(&root->cent, fp[t].bounds.cent.lo, fp[t].bounds.cent.hi);
     }
