@@ -1,8 +1,8 @@
 /* Teams of threads (include/rtk/parallel.h) and the kernel's parallel
  * ranges on top of them.
  *
- * The pool's workers live as long as the process: started when a team
- * first needs them, then handed members of one team at a time (the
+ * The pool's workers are started when a team first needs them and kept
+ * until the process exits, handed members of one team at a time (the
  * run_lock). A thread that finds the pool busy with another thread's team
  * starts threads of its own for its team, as everything did before the
  * pool. Waiting (a worker for its next member, a member at a barrier, the
@@ -46,17 +46,21 @@ typedef struct sleep_queue {
     atomic_uint sleepers;
 } sleep_queue;
 
-/* A worker of the pool: the ticket moves when it has a member to run. */
+/* A worker of the pool: the ticket moves when it has a member to run,
+ * or when the pool stops. */
 typedef struct worker {
     atomic_uint ticket;
     rtk_team *team;
     uint32_t index;
     sleep_queue idle; /* this worker alone, between members */
+    pthread_t id;
 } worker;
 
 static struct {
     pthread_mutex_t run_lock; /* held by the team on the pool */
     uint32_t started;         /* workers running; under run_lock */
+    int stop_registered;      /* pool_stop is an atexit handler; under run_lock */
+    atomic_int stopping;      /* workers return when woken */
     sleep_queue members;      /* members at a barrier, callers waiting for their team */
     worker workers[POOL_MAX];
 } pool = {.run_lock = PTHREAD_MUTEX_INITIALIZER,
@@ -121,9 +125,35 @@ static void *worker_main(void *arg)
     for (;;) {
         wait_while(&w->idle, &w->ticket, seen);
         seen = atomic_load_explicit(&w->ticket, memory_order_acquire);
+        if (atomic_load(&pool.stopping))
+            return NULL;
         run_member(w->team, w->index);
     }
-    return NULL;
+}
+
+/* At exit: the workers return and are joined, so that nothing of the
+ * pool runs while the process ends (LeakSanitizer's exit scan of live
+ * threads' dynamic TLS crashes in GCC 12's runtime on some layouts).
+ * Not while a team runs (exit called from elsewhere meanwhile): then the
+ * workers are left as they are. */
+static void pool_stop(void)
+{
+    if (pthread_mutex_trylock(&pool.run_lock) != 0)
+        return;
+    atomic_store(&pool.stopping, 1);
+    for (uint32_t i = 0; i < pool.started; i++) {
+        atomic_fetch_add(&pool.workers[i].ticket, 1);
+        wake_sleepers(&pool.workers[i].idle);
+    }
+    for (uint32_t i = 0; i < pool.started; i++) {
+        worker *w = &pool.workers[i];
+        pthread_join(w->id, NULL);
+        pthread_cond_destroy(&w->idle.wake);
+        pthread_mutex_destroy(&w->idle.lock);
+    }
+    pool.started = 0;
+    atomic_store(&pool.stopping, 0);
+    pthread_mutex_unlock(&pool.run_lock);
 }
 
 /* Runs member 0 of t on the calling thread and waits for the others. */
@@ -148,14 +178,14 @@ static uint32_t run_on_pool(rtk_team *t, uint32_t helpers)
             pthread_mutex_destroy(&w->idle.lock);
             break;
         }
-        pthread_t id;
-        if (pthread_create(&id, NULL, worker_main, w) != 0) {
+        if (pthread_create(&w->id, NULL, worker_main, w) != 0) {
             pthread_cond_destroy(&w->idle.wake);
             pthread_mutex_destroy(&w->idle.lock);
             break;
         }
-        pthread_detach(id);
         pool.started++;
+        if (!pool.stop_registered)
+            pool.stop_registered = atexit(pool_stop) == 0;
     }
     if (helpers > pool.started)
         helpers = pool.started;
