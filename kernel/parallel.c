@@ -131,11 +131,10 @@ static void *worker_main(void *arg)
     }
 }
 
-/* At exit: the workers return and are joined, so that nothing of the
- * pool runs while the process ends (LeakSanitizer's exit scan of live
- * threads' dynamic TLS crashes in GCC 12's runtime on some layouts).
- * Not while a team runs (exit called from elsewhere meanwhile): then the
- * workers are left as they are. */
+/* At exit: the workers return and are joined, so that no thread of the
+ * pool is left while the process ends (leak checkers and valgrind find
+ * only the threads the program had before). Not while a team runs (exit
+ * called from elsewhere meanwhile): then the workers are left as they are. */
 static void pool_stop(void)
 {
     if (pthread_mutex_trylock(&pool.run_lock) != 0)

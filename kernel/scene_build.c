@@ -64,6 +64,9 @@ void rtk_scene_free(rtk_scene *scene)
 {
     if (!scene)
         return;
+    /* The accelerator first: one with its own traversal may share the
+     * scene's arrays (rtk_build_args.positions). */
+    rtk_bvh_release(scene);
     free(scene->path);
     free(scene->positions);
     free(scene->indices);
@@ -81,7 +84,6 @@ void rtk_scene_free(rtk_scene *scene)
     rtk_instances_free(scene);
     free(scene->nodes);
     free(scene->prim_ids);
-    rtk_bvh_release(scene);
     rtk_lights_free(scene->lights);
     free(scene->punctual);
     free(scene);
@@ -113,7 +115,8 @@ rtk_status rtk_scene_add_vertex(rtk_scene *scene, double x, double y, double z, 
         uint32_t cap = grown_capacity(scene->vertex_cap, 1024);
         if (!cap)
             return rtk_error(RTK_ERR_NOMEM, "%s: more than %u vertices", scene->path, MAX_COUNT);
-        if (!resize(&scene->positions, (size_t)cap * 3, sizeof(float)))
+        /* One float more: see shrink_arrays. */
+        if (!resize(&scene->positions, (size_t)cap * 3 + 1, sizeof(float)))
             return RTK_ERR_NOMEM;
         scene->vertex_cap = cap;
     }
@@ -383,7 +386,9 @@ static void shrink(void *array, size_t bytes)
 static void shrink_arrays(rtk_scene *scene)
 {
     size_t v = scene->vertex_count, t = scene->triangle_count;
-    shrink(&scene->positions, v * 3 * sizeof(float));
+    /* Positions keep one float past the last vertex, so that a 16-byte
+     * load of it stays in bounds (rtk_build_args.positions). */
+    shrink(&scene->positions, (v * 3 + 1) * sizeof(float));
     shrink(&scene->indices, t * 3 * sizeof(uint32_t));
     shrink(&scene->normals, t * 9 * sizeof(float));
     shrink(&scene->uvs, t * 6 * sizeof(float));

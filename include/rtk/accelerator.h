@@ -35,8 +35,28 @@ typedef struct rtk_build_args {
     const rtk_vec3 *vertices;      /* 3 per primitive: its triangle's corners; NULL
                                       when the primitives are instances (the top
                                       level of an instanced scene), whose boxes
-                                      are all there is */
+                                      are all there is, and for builders that
+                                      declare RTK_BUILD_NO_VERTICES */
+    /* ABI 3.2. The triangles as the scene holds them (NULL when the
+     * primitives are instances): primitive i has the vertices indices[3 i]
+     * .. indices[3 i + 2], vertex j the floats positions[3 j] ..
+     * positions[3 j + 2], and one float more follows the last vertex (a
+     * 16-byte load of it stays in bounds). They live as long as the scene. */
+    const uint32_t *indices;
+    const float *positions;
+    uint32_t vertex_count;
 } rtk_build_args;
+
+/* Flags of rtk_accelerator_fns.build_flags. */
+enum {
+    /* build reads no args->vertices: the kernel passes NULL and does not
+     * gather the corners (half of what it writes for the builder). */
+    RTK_BUILD_NO_VERTICES = 1u,
+    /* build reads neither args->prim_bounds nor args->centroids: the
+     * kernel passes NULL for both and does not compute them (a builder
+     * that reads the triangles from indices and positions). */
+    RTK_BUILD_NO_BOUNDS = 2u
+};
 
 /* Function table of an accelerator. */
 typedef struct rtk_accelerator_fns {
@@ -55,6 +75,9 @@ typedef struct rtk_accelerator_fns {
      * [any thread, concurrently] */
     int (*closest)(const void *state, const rtk_ray *ray, rtk_hit *hit);
     int (*any)(const void *state, const rtk_ray *ray);
+    /* RTK_BUILD_* flags (ABI 3.2; older plugins, whose table ends
+     * before this, get the vertices). */
+    uint32_t build_flags;
 } rtk_accelerator_fns;
 
 RTK_EXTERN_C_END

@@ -16,7 +16,9 @@ RTK_EXTERN_C_BEGIN
  * rtk_differential_reflect, rtk_differential_refract); rtk_plugin.conform
  * (the exact-test profile of an integrator).
  * 3.2: teams of threads on the kernel's workers (rtk_team_run,
- * rtk_team_sync; rtk/parallel.h). */
+ * rtk_team_sync; rtk/parallel.h); rtk_accelerator_fns.build_flags
+ * (RTK_BUILD_NO_VERTICES, RTK_BUILD_NO_BOUNDS); rtk_build_args.indices,
+ * positions and vertex_count. */
 #define RTK_ABI_MAJOR 3
 #define RTK_ABI_MINOR 2
 

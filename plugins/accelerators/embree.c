@@ -1,5 +1,7 @@
 /* embree: Intel Embree 3 as the yardstick for rtk's builders. It builds
- * Embree's own BVH from the triangles' corners and answers every trace
+ * Embree's own BVH over the scene's indexed triangles, shared with Embree
+ * as an application shares its mesh (the kernel prepares no bounds or
+ * corners for it), and answers every trace
  * itself, one ray at a time (rtcIntersect1 / rtcOccluded1), through the
  * accelerator's own-traversal functions; it emits no kernel nodes. Built
  * only when libembree-dev is installed.
@@ -133,8 +135,8 @@ static rtk_status ensure_device(embree *e, uint32_t threads)
 static rtk_status embree_build(void *state, rtk_build_args *a)
 {
     embree *e = state;
-    if (a->size < offsetof(rtk_build_args, vertices) + sizeof a->vertices || !a->vertices)
-        return rtk_error(RTK_ERR_UNSUPPORTED, "embree: the kernel passes no triangle corners");
+    if (a->size < offsetof(rtk_build_args, vertex_count) + sizeof a->vertex_count || !a->indices || !a->positions)
+        return rtk_error(RTK_ERR_UNSUPPORTED, "embree: the kernel passes no triangles (instances are not supported)");
     rtk_status st = ensure_device(e, e->threads ? e->threads : (a->thread_count ? a->thread_count : 1));
     if (st != RTK_OK)
         return st;
@@ -149,17 +151,20 @@ static rtk_status embree_build(void *state, rtk_build_args *a)
     if (!geom)
         return device_status(e->device, "rtcNewGeometry");
     rtcSetGeometryBuildQuality(geom, e->quality);
-    size_t n = a->prim_count;
-    float *vb = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 3 * n);
-    unsigned *ib = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), n);
-    if (!vb || !ib) {
-        st = device_status(e->device, "rtcSetNewGeometryBuffer");
+    /* The scene's own arrays, as an application shares its mesh with
+     * Embree: nothing copied, and the build starts from the triangles as
+     * rtk's builders do (they from the kernel's bounds, which it times
+     * with them). The positions carry the float of padding Embree reads
+     * past the last vertex, and live as long as the scene, as this state
+     * does. */
+    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, a->positions, 0,
+                               3 * sizeof(float), a->vertex_count);
+    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, a->indices, 0,
+                               3 * sizeof(uint32_t), a->prim_count);
+    st = device_status(e->device, "rtcSetSharedGeometryBuffer");
+    if (st != RTK_OK) {
         rtcReleaseGeometry(geom);
-        return st != RTK_OK ? st : rtk_error(RTK_ERR_NOMEM, "embree: no geometry buffers");
-    }
-    for (size_t i = 0; i < 3 * n; i++) {
-        vb[3 * i] = a->vertices[i].x, vb[3 * i + 1] = a->vertices[i].y, vb[3 * i + 2] = a->vertices[i].z;
-        ib[i] = (unsigned)i;
+        return st;
     }
     rtcCommitGeometry(geom);
     rtcAttachGeometry(e->scene, geom);
@@ -244,6 +249,7 @@ static const rtk_accelerator_fns embree_fns = {
     .destroy = embree_destroy,
     .closest = embree_closest,
     .any = embree_any,
+    .build_flags = RTK_BUILD_NO_VERTICES | RTK_BUILD_NO_BOUNDS,
 };
 
 static const rtk_plugin embree_plugin = {

@@ -459,6 +459,7 @@ static const rtk_accelerator_fns lbvh_fns = {
     .create = lbvh_create,
     .build = lbvh_build,
     .destroy = lbvh_destroy,
+    .build_flags = RTK_BUILD_NO_VERTICES,
 };
 
 static const rtk_plugin lbvh_plugin = {

@@ -167,6 +167,7 @@ static const rtk_accelerator_fns median_fns = {
     .create = median_create,
     .build = median_build,
     .destroy = median_destroy,
+    .build_flags = RTK_BUILD_NO_VERTICES,
 };
 
 static const rtk_plugin median_plugin = {

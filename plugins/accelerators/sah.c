@@ -911,6 +911,7 @@ static const rtk_accelerator_fns sah_fns = {
     .create = sah_create,
     .build = sah_build,
     .destroy = sah_destroy,
+    .build_flags = RTK_BUILD_NO_VERTICES,
 };
 
 static const rtk_plugin sah_plugin = {

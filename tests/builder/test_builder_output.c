@@ -8,11 +8,16 @@
  * unreachable, a shared child, a cycle, a child index out of range, a
  * primitive twice, a slot shared by leaves far apart, NaN bounds, an inner box missing its child, a chain
  * deeper than the kernel allows. The good tree must answer every ray as a
- * one-leaf tree does (same triangle, same t). */
+ * one-leaf tree does (same triangle, same t). A builder that declares
+ * RTK_BUILD_NO_VERTICES is given no corners, one that also declares
+ * RTK_BUILD_NO_BOUNDS no bounds either (every builder gets the scene's
+ * indexed mesh); one that declares neither, or whose table predates
+ * build_flags, is given every triangle's corners. */
 #include "conform_hard.h"
 #include "internal.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -231,6 +236,81 @@ static const rtk_plugin damaging = {RTK_PLUGIN_HEADER,
                                     .summary = "",
                                     .functions = &damaging_fns};
 
+/* What the last probe build was given: whether it had the corners and
+ * whether each primitive's three corners were its triangle's. */
+static struct {
+    const rtk_scene *scene;
+    int had_vertices, corners_right, had_bounds, mesh_right;
+} probe;
+
+/* One leaf over every primitive, its box from indices and positions. */
+static rtk_status one_leaf_from_mesh(rtk_build_args *a)
+{
+    rtk_bvh_node *n = &a->nodes[0];
+    for (int k = 0; k < 3; k++)
+        n->lower[k] = INFINITY, n->upper[k] = -INFINITY;
+    for (uint32_t i = 0; i < a->prim_count; i++) {
+        for (int c = 0; c < 3; c++) {
+            const float *p = a->positions + 3 * (size_t)a->indices[3 * (size_t)i + (size_t)c];
+            for (int k = 0; k < 3; k++)
+                n->lower[k] = fminf(n->lower[k], p[k]), n->upper[k] = fmaxf(n->upper[k], p[k]);
+        }
+        a->prim_order[i] = i;
+    }
+    n->offset = 0;
+    n->count = a->prim_count;
+    a->node_count = 1;
+    return RTK_OK;
+}
+
+/* The damaging builder's good tree, noting what args->vertices held. */
+static rtk_status probe_build(void *state, rtk_build_args *a)
+{
+    probe.had_vertices = a->vertices != NULL;
+    probe.had_bounds = a->prim_bounds != NULL || a->centroids != NULL;
+    probe.mesh_right = a->indices == probe.scene->indices && a->positions == probe.scene->positions &&
+                       a->vertex_count == probe.scene->vertex_count;
+    probe.corners_right = a->vertices != NULL;
+    for (uint32_t i = 0; a->vertices && i < a->prim_count; i++) {
+        float v[9];
+        rtk_triangle_corners(probe.scene, i, v);
+        for (int k = 0; k < 3; k++) {
+            const rtk_vec3 *c = &a->vertices[3 * (size_t)i + (size_t)k];
+            probe.corners_right &= c->x == v[3 * k] && c->y == v[3 * k + 1] && c->z == v[3 * k + 2];
+        }
+    }
+    return probe.had_bounds ? damaging_build(state, a) : one_leaf_from_mesh(a);
+}
+
+/* Four tables: one that declares RTK_BUILD_NO_VERTICES, one that does
+ * not, one of ABI 3.1's size (it ends before build_flags), and one that
+ * declares RTK_BUILD_NO_VERTICES and RTK_BUILD_NO_BOUNDS. */
+static const rtk_accelerator_fns probe_no_vertices_fns = {.size = sizeof(rtk_accelerator_fns),
+                                                          .create = stateless_create,
+                                                          .build = probe_build,
+                                                          .destroy = stateless_destroy,
+                                                          .build_flags = RTK_BUILD_NO_VERTICES};
+static const rtk_accelerator_fns probe_vertices_fns = {.size = sizeof(rtk_accelerator_fns),
+                                                       .create = stateless_create,
+                                                       .build = probe_build,
+                                                       .destroy = stateless_destroy};
+static const rtk_accelerator_fns probe_old_fns = {.size = offsetof(rtk_accelerator_fns, build_flags),
+                                                  .create = stateless_create,
+                                                  .build = probe_build,
+                                                  .destroy = stateless_destroy,
+                                                  .build_flags = RTK_BUILD_NO_VERTICES};
+static const rtk_accelerator_fns probe_mesh_fns = {.size = sizeof(rtk_accelerator_fns),
+                                                   .create = stateless_create,
+                                                   .build = probe_build,
+                                                   .destroy = stateless_destroy,
+                                                   .build_flags = RTK_BUILD_NO_VERTICES | RTK_BUILD_NO_BOUNDS};
+
+#define PROBE(fns) {RTK_PLUGIN_HEADER, .kind = RTK_KIND_ACCELERATOR, .name = "probe", .version = "1", .summary = "", \
+                    .functions = &(fns)}
+static const rtk_plugin probes[4] = {PROBE(probe_no_vertices_fns), PROBE(probe_vertices_fns), PROBE(probe_old_fns),
+                                     PROBE(probe_mesh_fns)};
+#undef PROBE
+
 static float frand(rtk_pcg32 *rng, float lo, float hi)
 {
     return lo + (hi - lo) * rtk_pcg32_float(rng);
@@ -295,6 +375,35 @@ int main(void)
     for (uint32_t i = 0; i < rays; i++)
         hit_count += (uint32_t)want_found[i];
     check(hit_count > rays / 4, "reference rays hit the soup (%u of %u)", hit_count, rays);
+
+    /* The corners reach the builders that do not decline them, old ones
+     * included; the tree is checked and traced either way. */
+    static const char *const probe_names[4] = {"RTK_BUILD_NO_VERTICES", "no build_flags",
+                                               "a table of ABI 3.1's size",
+                                               "RTK_BUILD_NO_VERTICES | RTK_BUILD_NO_BOUNDS"};
+    for (int p = 0; p < 4; p++) {
+        probe.scene = s;
+        st = rtk_bvh_build(s, &probes[p], NULL, 2);
+        trace(s, rays, got, got_found);
+        int same = 1;
+        for (uint32_t i = 0; i < rays; i++)
+            same &= got_found[i] == want_found[i] &&
+                    (!want_found[i] || (got[i].prim == want[i].prim && got[i].t == want[i].t));
+        if (p == 0)
+            check(st == RTK_OK && !probe.had_vertices && probe.had_bounds && probe.mesh_right && same,
+                  "a builder declaring %s gets no corners (vertices NULL), the bounds and the scene's indexed "
+                  "mesh, and its tree answers as the reference",
+                  probe_names[p]);
+        else if (p == 3)
+            check(st == RTK_OK && !probe.had_vertices && !probe.had_bounds && probe.mesh_right && same,
+                  "a builder declaring %s gets neither corners nor bounds nor centroids, only the scene's "
+                  "indexed mesh, and its tree (boxes from that mesh) answers as the reference",
+                  probe_names[p]);
+        else
+            check(st == RTK_OK && probe.had_vertices && probe.corners_right && same,
+                  "a builder with %s gets every triangle's corners, and its tree answers as the reference",
+                  probe_names[p]);
+    }
 
     static char one_thread[DAMAGE_COUNT][512];
     for (uint32_t threads = 1; threads <= 2; threads++) {
