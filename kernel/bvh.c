@@ -786,6 +786,13 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     a.indices = s->indices;
     a.positions = s->positions;
     a.vertex_count = s->vertex_count;
+    if (inputs && !vertices) {
+        /* The corners' part of the block, unused: the builder's scratch,
+         * faulted in once for it and the wide tree after. */
+        const size_t at = ((sizeof(rtk_bounds) + sizeof(rtk_vec3)) * (size_t)n + 63) / 64 * 64;
+        if (at < input_bytes)
+            a.scratch = inputs + at, a.scratch_bytes = input_bytes - at;
+    }
     st = fns->create(params, &state);
     if (st != RTK_OK) {
         char msg[2048];

@@ -171,6 +171,7 @@ static uint32_t run_on_pool(rtk_team *t, uint32_t helpers)
 {
     while (pool.started < helpers) {
         worker *w = &pool.workers[pool.started];
+        atomic_store(&w->ticket, 0); /* a slot may be reused after pool_stop */
         if (pthread_mutex_init(&w->idle.lock, NULL) != 0)
             break;
         if (pthread_cond_init(&w->idle.wake, NULL) != 0) {

@@ -45,6 +45,13 @@ typedef struct rtk_build_args {
     const uint32_t *indices;
     const float *positions;
     uint32_t vertex_count;
+    /* ABI 3.2. Memory the builder may use as it likes during build (on a
+     * 64-byte boundary; NULL and 0 when there is none): the kernel's, in
+     * pages it writes anyway afterwards, so that a builder's scratch
+     * arrays cost no first touch of their own. For builders that declare
+     * RTK_BUILD_NO_VERTICES it is 36 bytes a primitive, less 64. */
+    void *scratch;
+    size_t scratch_bytes;
 } rtk_build_args;
 
 /* Flags of rtk_accelerator_fns.build_flags. */

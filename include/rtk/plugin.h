@@ -18,7 +18,7 @@ RTK_EXTERN_C_BEGIN
  * 3.2: teams of threads on the kernel's workers (rtk_team_run,
  * rtk_team_sync; rtk/parallel.h); rtk_accelerator_fns.build_flags
  * (RTK_BUILD_NO_VERTICES, RTK_BUILD_NO_BOUNDS); rtk_build_args.indices,
- * positions and vertex_count. */
+ * positions, vertex_count, scratch and scratch_bytes. */
 #define RTK_ABI_MAJOR 3
 #define RTK_ABI_MINOR 2
 

@@ -26,6 +26,7 @@
 #include <rtk/rtk.h>
 
 #include <math.h>
+#include <stddef.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -401,9 +402,20 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
     size_t plan_cap = ((size_t)n / LBVH_GRAIN + 1) * (LBVH_PENDING + 2);
     b.cbounds = malloc(sizeof *b.cbounds * threads);
     b.hist = malloc(sizeof *b.hist * threads);
-    b.codes = malloc(sizeof *b.codes * n);
-    b.codes_tmp = malloc(sizeof *b.codes_tmp * n);
-    b.ids_tmp = malloc(sizeof *b.ids_tmp * n);
+    /* The sort's arrays (20 bytes a primitive) in the kernel's scratch
+     * when it has room, else of their own. */
+    const size_t sort_bytes = (2 * sizeof *b.codes + sizeof *b.ids_tmp) * (size_t)n;
+    const int in_scratch = a->size >= offsetof(rtk_build_args, scratch_bytes) + sizeof a->scratch_bytes &&
+                           a->scratch && a->scratch_bytes >= sort_bytes;
+    if (in_scratch) {
+        b.codes = a->scratch;
+        b.codes_tmp = b.codes + n;
+        b.ids_tmp = (uint32_t *)(void *)(b.codes_tmp + n);
+    } else {
+        b.codes = malloc(sizeof *b.codes * n);
+        b.codes_tmp = malloc(sizeof *b.codes_tmp * n);
+        b.ids_tmp = malloc(sizeof *b.ids_tmp * n);
+    }
     b.tasks = malloc(sizeof *b.tasks * plan_cap);
     b.tops = malloc(sizeof *b.tops * plan_cap);
     b.used = calloc(a->max_nodes, sizeof *b.used);
@@ -427,9 +439,11 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
 done:
     free(b.cbounds);
     free(b.hist);
-    free(b.codes);
-    free(b.codes_tmp);
-    free(b.ids_tmp);
+    if (!in_scratch) {
+        free(b.codes);
+        free(b.codes_tmp);
+        free(b.ids_tmp);
+    }
     free(b.tasks);
     free(b.tops);
     free(b.used);

@@ -29,6 +29,7 @@
 #include <rtk/rtk.h>
 
 #include <math.h>
+#include <stddef.h>
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
@@ -813,7 +814,11 @@ static rtk_status build_binned(build *b, job *root)
 {
     rtk_build_args *a = b->a;
     const uint32_t n = a->prim_count;
-    b->refs = malloc(sizeof *b->refs * n);
+    /* The refs (32 bytes a primitive) in the kernel's scratch when it has
+     * room, else of their own. */
+    const int in_scratch = a->size >= offsetof(rtk_build_args, scratch_bytes) + sizeof a->scratch_bytes &&
+                           a->scratch && a->scratch_bytes >= sizeof *b->refs * (size_t)n;
+    b->refs = in_scratch ? a->scratch : malloc(sizeof *b->refs * n);
     if (!b->refs)
         return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
     uint32_t parts = a->thread_count < SAH_FILL_MAX_THREADS ? a->thread_count : SAH_FILL_MAX_THREADS;
@@ -833,7 +838,8 @@ static rtk_status build_binned(build *b, job *root)
         box_grow(&root->cent, fp[t].bounds.cent.lo, fp[t].bounds.cent.hi);
     }
     rtk_status st = run_build(b, root, a->thread_count);
-    free(b->refs);
+    if (!in_scratch)
+        free(b->refs);
     return st;
 }
 

@@ -18,6 +18,7 @@
 
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -241,6 +242,7 @@ static const rtk_plugin damaging = {RTK_PLUGIN_HEADER,
 static struct {
     const rtk_scene *scene;
     int had_vertices, corners_right, had_bounds, mesh_right;
+    int had_scratch, scratch_right; /* scratch given; aligned, large enough and writable */
 } probe;
 
 /* One leaf over every primitive, its box from indices and positions. */
@@ -270,6 +272,11 @@ static rtk_status probe_build(void *state, rtk_build_args *a)
     probe.had_bounds = a->prim_bounds != NULL || a->centroids != NULL;
     probe.mesh_right = a->indices == probe.scene->indices && a->positions == probe.scene->positions &&
                        a->vertex_count == probe.scene->vertex_count;
+    probe.had_scratch = a->scratch != NULL;
+    probe.scratch_right = a->scratch && (uintptr_t)a->scratch % 64 == 0 &&
+                          a->scratch_bytes + 64 >= (size_t)36 * a->prim_count;
+    if (a->scratch) /* all of it the builder's: sanitizers and valgrind see any overrun */
+        memset(a->scratch, 0xa5, a->scratch_bytes);
     probe.corners_right = a->vertices != NULL;
     for (uint32_t i = 0; a->vertices && i < a->prim_count; i++) {
         float v[9];
@@ -390,9 +397,11 @@ int main(void)
             same &= got_found[i] == want_found[i] &&
                     (!want_found[i] || (got[i].prim == want[i].prim && got[i].t == want[i].t));
         if (p == 0)
-            check(st == RTK_OK && !probe.had_vertices && probe.had_bounds && probe.mesh_right && same,
-                  "a builder declaring %s gets no corners (vertices NULL), the bounds and the scene's indexed "
-                  "mesh, and its tree answers as the reference",
+            check(st == RTK_OK && !probe.had_vertices && probe.had_bounds && probe.mesh_right && probe.scratch_right &&
+                      same,
+                  "a builder declaring %s gets no corners (vertices NULL), the bounds, the scene's indexed "
+                  "mesh and the corners' 36 bytes a primitive as scratch (64-byte aligned), and its tree answers "
+                  "as the reference",
                   probe_names[p]);
         else if (p == 3)
             check(st == RTK_OK && !probe.had_vertices && !probe.had_bounds && probe.mesh_right && same,
@@ -400,8 +409,9 @@ int main(void)
                   "indexed mesh, and its tree (boxes from that mesh) answers as the reference",
                   probe_names[p]);
         else
-            check(st == RTK_OK && probe.had_vertices && probe.corners_right && same,
-                  "a builder with %s gets every triangle's corners, and its tree answers as the reference",
+            check(st == RTK_OK && probe.had_vertices && probe.corners_right && !probe.had_scratch && same,
+                  "a builder with %s gets every triangle's corners (and no scratch), and its tree answers as the "
+                  "reference",
                   probe_names[p]);
     }
 
