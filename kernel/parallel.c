@@ -106,13 +106,19 @@ static void wake_sleepers(sleep_queue *q)
     pthread_mutex_unlock(&q->lock);
 }
 
-/* Runs member index of t and reports its return. */
-static void run_member(rtk_team *t, uint32_t index)
+/* Calls member index of t's function, marked as in a team meanwhile. */
+static void call_member(rtk_team *t, uint32_t index)
 {
     int was = in_team;
     in_team = 1;
     t->fn(t->ctx, t, index, t->size);
     in_team = was;
+}
+
+/* Runs member index (> 0) of t and reports its return. */
+static void run_member(rtk_team *t, uint32_t index)
+{
+    call_member(t, index);
     /* t may be gone once running reaches 0: touch only the pool after. */
     if (atomic_fetch_sub(&t->running, 1) == 1)
         wake_sleepers(&pool.members);
@@ -158,10 +164,7 @@ static void pool_stop(void)
 /* Runs member 0 of t on the calling thread and waits for the others. */
 static void lead(rtk_team *t)
 {
-    int was = in_team;
-    in_team = 1;
-    t->fn(t->ctx, t, 0, t->size);
-    in_team = was;
+    call_member(t, 0);
     for (uint32_t left; (left = atomic_load(&t->running)) != 0;)
         wait_while(&pool.members, &t->running, left);
 }

@@ -54,6 +54,15 @@ typedef struct rtk_build_args {
     size_t scratch_bytes;
 } rtk_build_args;
 
+/* args->scratch when it holds bytes (and the kernel that made args knows
+ * of scratch), else NULL: the builder then allocates its own. */
+static inline void *rtk_build_scratch(const rtk_build_args *args, size_t bytes)
+{
+    if (args->size < offsetof(rtk_build_args, scratch_bytes) + sizeof args->scratch_bytes)
+        return NULL;
+    return args->scratch_bytes >= bytes ? args->scratch : NULL;
+}
+
 /* Flags of rtk_accelerator_fns.build_flags. */
 enum {
     /* build reads no args->vertices: the kernel passes NULL and does not

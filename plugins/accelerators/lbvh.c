@@ -26,7 +26,6 @@
 #include <rtk/rtk.h>
 
 #include <math.h>
-#include <stddef.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -404,11 +403,10 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
     b.hist = malloc(sizeof *b.hist * threads);
     /* The sort's arrays (20 bytes a primitive) in the kernel's scratch
      * when it has room, else of their own. */
-    const size_t sort_bytes = (2 * sizeof *b.codes + sizeof *b.ids_tmp) * (size_t)n;
-    const int in_scratch = a->size >= offsetof(rtk_build_args, scratch_bytes) + sizeof a->scratch_bytes &&
-                           a->scratch && a->scratch_bytes >= sort_bytes;
+    void *scratch = rtk_build_scratch(a, (2 * sizeof *b.codes + sizeof *b.ids_tmp) * (size_t)n);
+    const int in_scratch = scratch != NULL;
     if (in_scratch) {
-        b.codes = a->scratch;
+        b.codes = scratch;
         b.codes_tmp = b.codes + n;
         b.ids_tmp = (uint32_t *)(void *)(b.codes_tmp + n);
     } else {

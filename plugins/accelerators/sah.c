@@ -29,7 +29,6 @@
 #include <rtk/rtk.h>
 
 #include <math.h>
-#include <stddef.h>
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
@@ -792,17 +791,19 @@ static void fill_refs(fill_part *f)
     }
 }
 
-/* The parts a team member fills (rtk_team_fn): ctx is the parts, ending
- * with one whose b is NULL. */
+/* The parts of the refs, for a team to fill. */
+typedef struct fill_job {
+    fill_part *parts;
+    uint32_t count;
+} fill_job;
+
+/* Member index fills parts index, index + size, ... (rtk_team_fn). */
 static void fill_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
 {
     (void)team;
-    fill_part *parts = ctx;
-    uint32_t count = 0;
-    while (parts[count].b)
-        count++;
-    for (uint32_t t = index; t < count; t += size)
-        fill_refs(&parts[t]);
+    const fill_job *j = ctx;
+    for (uint32_t t = index; t < j->count; t += size)
+        fill_refs(&j->parts[t]);
 }
 
 /* Threads filling the refs: at least this many primitives each. The
@@ -816,9 +817,9 @@ static rtk_status build_binned(build *b, job *root)
     const uint32_t n = a->prim_count;
     /* The refs (32 bytes a primitive) in the kernel's scratch when it has
      * room, else of their own. */
-    const int in_scratch = a->size >= offsetof(rtk_build_args, scratch_bytes) + sizeof a->scratch_bytes &&
-                           a->scratch && a->scratch_bytes >= sizeof *b->refs * (size_t)n;
-    b->refs = in_scratch ? a->scratch : malloc(sizeof *b->refs * n);
+    void *scratch = rtk_build_scratch(a, sizeof *b->refs * (size_t)n);
+    const int in_scratch = scratch != NULL;
+    b->refs = in_scratch ? scratch : malloc(sizeof *b->refs * n);
     if (!b->refs)
         return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
     uint32_t parts = a->thread_count < SAH_FILL_MAX_THREADS ? a->thread_count : SAH_FILL_MAX_THREADS;
@@ -826,12 +827,12 @@ static rtk_status build_binned(build *b, job *root)
         parts = n / SAH_FILL_PART;
     if (parts < 1)
         parts = 1;
-    fill_part fp[SAH_FILL_MAX_THREADS + 1];
+    fill_part fp[SAH_FILL_MAX_THREADS];
     for (uint32_t t = 0; t < parts; t++)
         fp[t] = (fill_part){.b = b, .begin = (uint32_t)((uint64_t)n * t / parts),
                             .end = (uint32_t)((uint64_t)n * (t + 1) / parts)};
-    fp[parts].b = NULL;
-    rtk_team_run(parts, fill_member, fp);
+    fill_job fill = {fp, parts};
+    rtk_team_run(parts, fill_member, &fill);
     box_empty(&root->geom), box_empty(&root->cent);
     for (uint32_t t = 0; t < parts; t++) {
         box_grow(&root->geom, fp[t].bounds.geom.lo, fp[t].bounds.geom.hi);
