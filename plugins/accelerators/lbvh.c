@@ -21,7 +21,9 @@
  * into those, and a final pass closes the gaps while keeping the order.
  * A subtree of at most 4096 primitives is built by one thread and fills
  * its region densely from the start, so the gaps are whole pages left
- * untouched rather than holes in every page.
+ * untouched rather than holes in every page. Closed, the slots hold the
+ * children pairs in depth-first order, left first: a build on one thread
+ * fills them in that order from the root and has no gaps to close.
  */
 #include <rtk/rtk.h>
 
@@ -65,7 +67,8 @@ typedef struct build {
     task *tasks;                   /* subtrees for the threads */
     uint32_t task_count;
     atomic_uint next_task;
-    uint32_t *used;                /* 1 for each slot of the tree */
+    uint32_t *used;                /* 1 for each slot of the tree; NULL: one dense task */
+    uint32_t dense_end;            /* one dense task: the slots it filled, [0, dense_end) */
     task *tops;                    /* inner nodes above the subtrees, parents first */
     uint32_t top_count;
 } build;
@@ -290,7 +293,8 @@ static float emit(const build *b, task t, uint32_t *bump)
         memcpy(n->upper, hi, sizeof hi);
         n->offset = t.begin;
         n->count = count;
-        b->used[t.slot] = 1;
+        if (b->used)
+            b->used[t.slot] = 1;
         return o->collapse ? o->t_tri * (float)count * half_area(n) : 0.0f;
     }
     uint32_t local = t.region;
@@ -303,7 +307,8 @@ static float emit(const build *b, task t, uint32_t *bump)
     float cost = emit(b, (task){first, t.begin, mid, t.region + 2}, bump);
     cost += emit(b, (task){first + 1, mid, t.end, t.region + 2 * (mid - t.begin)}, bump);
     node_union(n, &a->nodes[first], &a->nodes[first + 1]);
-    b->used[t.slot] = 1;
+    if (b->used)
+        b->used[t.slot] = 1;
     if (!o->collapse) {
         n->offset = first;
         n->count = 0;
@@ -314,7 +319,8 @@ static float emit(const build *b, task t, uint32_t *bump)
     if (count <= o->max_leaf && leaf <= cost) {
         /* count <= 64 < LBVH_GRAIN: the descendants are the slots
          * [first, *bump), free again for what follows. */
-        memset(b->used + first, 0, sizeof *b->used * (*bump - first));
+        if (b->used)
+            memset(b->used + first, 0, sizeof *b->used * (*bump - first));
         *bump = first;
         n->offset = t.begin;
         n->count = count;
@@ -354,8 +360,17 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
     build *b = ctx;
     morton_codes(b, team, t, size);
     sort_codes(b, team, t, size);
+    if (!b->used) {
+        /* One thread: the whole tree densely from the root, in the order
+         * compaction would leave it (children pairs in depth-first
+         * order, left first), so there is nothing to close. */
+        uint32_t bump = 1;
+        emit(b, (task){0, 0, b->a->prim_count, 1}, &bump);
+        b->dense_end = bump;
+        return;
+    }
     if (t == 0)
-        plan(b, size > 1 ? LBVH_GRAIN : UINT32_MAX);
+        plan(b, LBVH_GRAIN);
     rtk_team_sync(team);
     for (;;) {
         uint32_t k = atomic_fetch_add(&b->next_task, 1);
@@ -414,16 +429,24 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
         b.codes_tmp = malloc(sizeof *b.codes_tmp * n);
         b.ids_tmp = malloc(sizeof *b.ids_tmp * n);
     }
-    b.tasks = malloc(sizeof *b.tasks * plan_cap);
-    b.tops = malloc(sizeof *b.tops * plan_cap);
-    b.used = calloc(a->max_nodes, sizeof *b.used);
+    const int dense = threads == 1;
+    if (!dense) {
+        b.tasks = malloc(sizeof *b.tasks * plan_cap);
+        b.tops = malloc(sizeof *b.tops * plan_cap);
+        b.used = calloc(a->max_nodes, sizeof *b.used);
+    }
     atomic_init(&b.next_task, 0);
     rtk_status st = RTK_OK;
-    if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp || !b.tasks || !b.tops || !b.used) {
+    if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp ||
+        (!dense && (!b.tasks || !b.tops || !b.used))) {
         st = rtk_error(RTK_ERR_NOMEM, "lbvh: out of memory");
         goto done;
     }
     rtk_team_run(threads, run, &b);
+    if (dense) {
+        a->node_count = b.dense_end;
+        goto done;
+    }
     /* Inner nodes above the subtrees, children before parents. */
     for (uint32_t i = b.top_count; i-- > 0;) {
         const task *t = &b.tops[i];
