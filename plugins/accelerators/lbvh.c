@@ -272,8 +272,12 @@ static void node_union(rtk_bvh_node *n, const rtk_bvh_node *l, const rtk_bvh_nod
  * first two slots of the region). Both rules depend on the tree alone;
  * the gaps left are whole pages never touched rather than holes in every
  * page. */
-static float emit(const build *b, task t, uint32_t *bump)
+static float emit(const build *b, uint32_t slot, uint32_t begin, uint32_t end, uint32_t region, uint32_t *bump)
 {
+    /* The task's fields as separate arguments: a struct passed by value
+     * went through a 16-byte stack store read back as two 8-byte loads
+     * (one of them not forwarded), a stall at every node. */
+    const task t = {slot, begin, end, region};
     const lbvh *o = b->opt;
     rtk_build_args *a = b->a;
     rtk_bvh_node *n = &a->nodes[t.slot];
@@ -304,8 +308,8 @@ static float emit(const build *b, task t, uint32_t *bump)
     if (bump)
         *bump += 2;
     uint32_t mid = split_at(b->codes, t.begin, t.end);
-    float cost = emit(b, (task){first, t.begin, mid, t.region + 2}, bump);
-    cost += emit(b, (task){first + 1, mid, t.end, t.region + 2 * (mid - t.begin)}, bump);
+    float cost = emit(b, first, t.begin, mid, t.region + 2, bump);
+    cost += emit(b, first + 1, mid, t.end, t.region + 2 * (mid - t.begin), bump);
     node_union(n, &a->nodes[first], &a->nodes[first + 1]);
     if (b->used)
         b->used[t.slot] = 1;
@@ -365,7 +369,7 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
          * compaction would leave it (children pairs in depth-first
          * order, left first), so there is nothing to close. */
         uint32_t bump = 1;
-        emit(b, (task){0, 0, b->a->prim_count, 1}, &bump);
+        emit(b, 0, 0, b->a->prim_count, 1, &bump);
         b->dense_end = bump;
         return;
     }
@@ -376,7 +380,8 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
         uint32_t k = atomic_fetch_add(&b->next_task, 1);
         if (k >= b->task_count)
             break;
-        emit(b, b->tasks[k], NULL);
+        const task *t = &b->tasks[k];
+        emit(b, t->slot, t->begin, t->end, t->region, NULL);
     }
 }
 
