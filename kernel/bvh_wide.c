@@ -115,35 +115,31 @@ static uint32_t make_blocks(collapser *c, const uint32_t *slots, const float *v,
     for (uint32_t b = 0; b < blocks; b++) {
         rtk_wide_tris *t = &c->tris[c->tri_count++];
         const uint32_t base = b * RTK_WIDE_TRIS, lanes = n - base < RTK_WIDE_TRIS ? n - base : RTK_WIDE_TRIS;
-        /* A partial block's lanes from a copy padded with NaN corners:
-         * every comparison of the test fails on them, a miss. */
-        float pad[9 * RTK_WIDE_TRIS];
         const float *src = v + 9 * (size_t)base;
-        if (lanes < RTK_WIDE_TRIS) {
-            for (int j = 0; j < 9 * RTK_WIDE_TRIS; j++)
-                pad[j] = NAN;
-            memcpy(pad, src, sizeof(float) * 9 * lanes);
-            src = pad;
-        }
         for (uint32_t lane = 0; lane < RTK_WIDE_TRIS; lane++)
             t->prim[lane] = lane < lanes ? c->s->prim_ids[slots[base + lane]] : RTK_INVALID_ID;
 #if RTK_HAVE_X86
         /* Four triangles of 9 floats into 9 rows of 4: two 4x4 transposes
-         * (floats 0-3 and 4-7 of each triangle), then float 8 by hand. */
+         * (floats 0-3 and 4-7 of each triangle), then float 8 by hand.
+         * The lanes of a partial block get NaN corners: every comparison
+         * of the test fails on them, a miss. (Read in place: a padded
+         * copy cost a rep movs per partial block.) */
         _Static_assert(RTK_WIDE_TRIS == 4, "blocks of four");
-        __m128 a0 = _mm_loadu_ps(src), a1 = _mm_loadu_ps(src + 9), a2 = _mm_loadu_ps(src + 18),
-               a3 = _mm_loadu_ps(src + 27);
+        const __m128 none = _mm_set1_ps(NAN);
+        __m128 a0 = _mm_loadu_ps(src), a1 = lanes > 1 ? _mm_loadu_ps(src + 9) : none,
+               a2 = lanes > 2 ? _mm_loadu_ps(src + 18) : none, a3 = lanes > 3 ? _mm_loadu_ps(src + 27) : none;
         _MM_TRANSPOSE4_PS(a0, a1, a2, a3);
         _mm_storeu_ps(t->v[0], a0), _mm_storeu_ps(t->v[1], a1), _mm_storeu_ps(t->v[2], a2), _mm_storeu_ps(t->v[3], a3);
-        __m128 b0 = _mm_loadu_ps(src + 4), b1 = _mm_loadu_ps(src + 13), b2 = _mm_loadu_ps(src + 22),
-               b3 = _mm_loadu_ps(src + 31);
+        __m128 b0 = _mm_loadu_ps(src + 4), b1 = lanes > 1 ? _mm_loadu_ps(src + 13) : none,
+               b2 = lanes > 2 ? _mm_loadu_ps(src + 22) : none, b3 = lanes > 3 ? _mm_loadu_ps(src + 31) : none;
         _MM_TRANSPOSE4_PS(b0, b1, b2, b3);
         _mm_storeu_ps(t->v[4], b0), _mm_storeu_ps(t->v[5], b1), _mm_storeu_ps(t->v[6], b2), _mm_storeu_ps(t->v[7], b3);
-        _mm_storeu_ps(t->v[8], _mm_setr_ps(src[8], src[17], src[26], src[35]));
+        _mm_storeu_ps(t->v[8], _mm_setr_ps(src[8], lanes > 1 ? src[17] : NAN, lanes > 2 ? src[26] : NAN,
+                                           lanes > 3 ? src[35] : NAN));
 #else
-        for (uint32_t lane = 0; lane < RTK_WIDE_TRIS; lane++)
+        for (uint32_t lane = 0; lane < RTK_WIDE_TRIS; lane++) /* NaN lanes: see above */
             for (int j = 0; j < 9; j++)
-                t->v[j][lane] = src[9 * lane + j];
+                t->v[j][lane] = lane < lanes ? src[9 * lane + j] : NAN;
 #endif
     }
     return RTK_WIDE_LEAF | first << RTK_WIDE_LEAF_SHIFT | (blocks - 1);
