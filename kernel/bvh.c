@@ -385,11 +385,10 @@ _Static_assert(offsetof(rtk_bvh_node, offset) == 12 && offsetof(rtk_bvh_node, up
 typedef struct tree_walk {
     const rtk_build_args *a;
     int leaf_bounds, quiet;
-    uint8_t *seen_node, *seen_slot;
-    uint64_t *prim_bits;
+    rtk_tree_check check;
+    rtk_tree_tally tally;
     uint32_t stop_depth;             /* inner nodes this deep are left in roots (0: none) */
     uint32_t *roots, root_count;     /* (node, depth) pairs left for the threads */
-    uint32_t max_depth, covered, reached;
 } tree_walk;
 
 #define VALIDATION_ROOTS_DEPTH 8 /* up to 128 subtrees for the threads */
@@ -410,6 +409,96 @@ static int mark_bit(uint64_t *bits, uint32_t i)
     return was;
 }
 
+int rtk_tree_check_init(rtk_tree_check *c, const rtk_bvh_node *nodes, uint32_t node_count, const uint32_t *prim_order,
+                        uint32_t prim_count, uint32_t sets)
+{
+    memset(c, 0, sizeof *c);
+    c->nodes = nodes, c->node_count = node_count;
+    c->prim_order = prim_order, c->prim_count = prim_count;
+    c->words = ((size_t)prim_count + 63) / 64;
+    c->sets = sets;
+    c->seen_node = rtk_calloc(node_count ? node_count : 1, 1);
+    c->seen_slot = rtk_calloc(prim_count ? prim_count : 1, 1);
+    c->prim_bits = rtk_calloc(c->words * sets + 1, sizeof *c->prim_bits);
+    if (c->seen_node && c->seen_slot && c->prim_bits)
+        return 1;
+    rtk_tree_check_free(c);
+    return 0;
+}
+
+void rtk_tree_check_free(rtk_tree_check *c)
+{
+    free(c->seen_node);
+    free(c->seen_slot);
+    free(c->prim_bits);
+    c->seen_node = c->seen_slot = NULL;
+    c->prim_bits = NULL;
+}
+
+void rtk_tree_tally_init(const rtk_tree_check *c, uint32_t set, rtk_tree_tally *t)
+{
+    memset(t, 0, sizeof *t);
+    t->prim_bits = c->prim_bits + (size_t)set * c->words;
+}
+
+/* The checks of one node, in order; the first that fails is returned,
+ * with the slot or child concerned in *what. */
+enum {
+    FAULT_NONE,
+    FAULT_TWICE,    /* reached before */
+    FAULT_DEPTH,    /* deeper than RTK_BVH_MAX_DEPTH */
+    FAULT_NAN,      /* NaN bounds */
+    FAULT_RANGE,    /* leaf slots past the primitives */
+    FAULT_SLOT,     /* slot *what (or its primitive) met twice or out of range */
+    FAULT_CHILDREN, /* children outside 1 .. node_count - 1 */
+    FAULT_ENCLOSE,  /* child *what outside the node's box */
+};
+
+static int check_node(const rtk_tree_check *c, rtk_tree_tally *t, uint32_t id, uint32_t depth, uint32_t *what)
+{
+    const rtk_bvh_node *n = &c->nodes[id];
+    if (mark(&c->seen_node[id]))
+        return FAULT_TWICE;
+    t->reached++;
+    if (depth > t->max_depth)
+        t->max_depth = depth;
+    if (depth > RTK_BVH_MAX_DEPTH)
+        return FAULT_DEPTH;
+    if (node_has_nan(n))
+        return FAULT_NAN;
+    if (n->count > 0) {
+        if (n->offset > c->prim_count || n->count > c->prim_count - n->offset)
+            return FAULT_RANGE;
+        for (uint32_t i = n->offset; i < n->offset + n->count; i++) {
+            uint32_t prim = c->prim_order[i];
+            if (mark(&c->seen_slot[i]) || prim >= c->prim_count || mark_bit(t->prim_bits, prim)) {
+                *what = i;
+                return FAULT_SLOT;
+            }
+        }
+        t->covered += n->count;
+        return FAULT_NONE;
+    }
+    if (n->offset == 0 || n->offset >= c->node_count - 1)
+        return FAULT_CHILDREN;
+    for (uint32_t k = n->offset; k <= n->offset + 1; k++) {
+        if (!node_encloses(n, &c->nodes[k])) {
+            *what = k;
+            return FAULT_ENCLOSE;
+        }
+    }
+    return FAULT_NONE;
+}
+
+int rtk_tree_check_node(const rtk_tree_check *c, rtk_tree_tally *t, uint32_t id, uint32_t depth)
+{
+    uint32_t what;
+    if (check_node(c, t, id, depth, &what) == FAULT_NONE)
+        return 1;
+    t->failed = 1;
+    return 0;
+}
+
 #define WALK_FAIL(...) return w->quiet ? RTK_ERR_PLUGIN : rtk_error(RTK_ERR_PLUGIN, __VA_ARGS__)
 
 /* stack: 2 * (RTK_BVH_MAX_DEPTH + 2) entries. */
@@ -425,41 +514,39 @@ static rtk_status walk_tree(tree_walk *w, uint32_t root, uint32_t root_depth, ui
             w->roots[w->root_count++] = id, w->roots[w->root_count++] = depth;
             continue;
         }
-        if (mark(&w->seen_node[id]))
+        uint32_t what = 0;
+        switch (check_node(&w->check, &w->tally, id, depth, &what)) {
+        case FAULT_NONE:
+            break;
+        case FAULT_TWICE:
             WALK_FAIL("builder output: node %u is reached twice (the tree has a cycle or shared node)", id);
-        w->reached++;
-        if (depth > w->max_depth)
-            w->max_depth = depth;
-        if (depth > RTK_BVH_MAX_DEPTH)
+        case FAULT_DEPTH:
             WALK_FAIL("builder output: tree deeper than %d levels", RTK_BVH_MAX_DEPTH);
-        if (node_has_nan(n))
+        case FAULT_NAN:
             WALK_FAIL("builder output: node %u has NaN bounds", id);
+        case FAULT_RANGE:
+            WALK_FAIL("builder output: leaf %u covers slots %u..%u beyond %u primitives", id, n->offset,
+                      n->offset + n->count - 1, a->prim_count);
+        case FAULT_SLOT:
+            WALK_FAIL("builder output: slot %u (primitive %u) is referenced twice or out of range", what,
+                      a->prim_order[what]);
+        case FAULT_CHILDREN:
+            WALK_FAIL("builder output: inner node %u points to children %u, %u outside 1 .. %u", id, n->offset,
+                      n->offset + 1, a->node_count - 1);
+        default:
+            WALK_FAIL("builder output: node %u does not enclose its child %u", id, what);
+        }
         if (n->count > 0) {
-            if (n->offset > a->prim_count || n->count > a->prim_count - n->offset)
-                WALK_FAIL("builder output: leaf %u covers slots %u..%u beyond %u primitives", id, n->offset,
-                          n->offset + n->count - 1, a->prim_count);
-            for (uint32_t i = n->offset; i < n->offset + n->count; i++) {
-                uint32_t prim = a->prim_order[i];
-                if (mark(&w->seen_slot[i]) || prim >= a->prim_count || mark_bit(w->prim_bits, prim))
-                    WALK_FAIL("builder output: slot %u (primitive %u) is referenced twice or out of range", i,
-                              prim);
-                w->covered++;
-                if (!w->leaf_bounds)
-                    continue;
+            for (uint32_t i = n->offset; w->leaf_bounds && i < n->offset + n->count; i++) {
+                const uint32_t prim = a->prim_order[i];
                 const rtk_bounds *b = &a->prim_bounds[prim];
                 const float plo[3] = {b->lower.x, b->lower.y, b->lower.z}, phi[3] = {b->upper.x, b->upper.y, b->upper.z};
                 if (!box_contains(n->lower, n->upper, plo, phi))
                     WALK_FAIL("builder output: leaf %u does not enclose primitive %u", id, prim);
             }
         } else {
-            if (n->offset == 0 || n->offset >= a->node_count - 1)
-                WALK_FAIL("builder output: inner node %u points to children %u, %u outside 1 .. %u", id, n->offset,
-                          n->offset + 1, a->node_count - 1);
-            for (uint32_t c = n->offset; c <= n->offset + 1; c++) {
-                if (!node_encloses(n, &a->nodes[c]))
-                    WALK_FAIL("builder output: node %u does not enclose its child %u", id, c);
-                stack[top++] = c, stack[top++] = depth + 1;
-            }
+            stack[top++] = n->offset, stack[top++] = depth + 1;
+            stack[top++] = n->offset + 1, stack[top++] = depth + 1;
         }
     }
     return RTK_OK;
@@ -470,22 +557,29 @@ static rtk_status walk_tree(tree_walk *w, uint32_t root, uint32_t root_depth, ui
 /* The subtrees left by the top walk, taken one at a time by each thread. */
 typedef struct walk_job {
     const tree_walk *top;
-    uint64_t *bits;                     /* one bit set a thread, after the top walk's */
-    size_t words;                       /* of each bit set */
-    uint32_t next;                      /* next root pair, atomic */
+    uint32_t next;                        /* next root pair, atomic */
     uint32_t max_depth, covered, reached; /* sums and maximum, atomic */
-    int failed;                         /* atomic */
+    int failed;                           /* atomic */
 } walk_job;
+
+void rtk_tree_tally_add(const rtk_tree_tally *t, uint32_t *covered, uint32_t *reached, uint32_t *max_depth)
+{
+    __atomic_fetch_add(covered, t->covered, __ATOMIC_RELAXED);
+    __atomic_fetch_add(reached, t->reached, __ATOMIC_RELAXED);
+    uint32_t seen = __atomic_load_n(max_depth, __ATOMIC_RELAXED);
+    while (t->max_depth > seen &&
+           !__atomic_compare_exchange_n(max_depth, &seen, t->max_depth, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED))
+        ;
+}
 
 static void walk_worker(void *ctx, uint32_t begin, uint32_t end)
 {
-    (void)begin, (void)end;
+    (void)end;
     walk_job *j = ctx;
     uint32_t stack[2 * (RTK_BVH_MAX_DEPTH + 2)];
     tree_walk w = *j->top;
     w.stop_depth = 0, w.roots = NULL, w.root_count = 0, w.quiet = 1;
-    w.prim_bits = j->bits + (size_t)(begin + 1) * j->words;
-    w.max_depth = w.covered = w.reached = 0;
+    rtk_tree_tally_init(&w.check, begin + 1, &w.tally);
     for (;;) {
         uint32_t k = __atomic_fetch_add(&j->next, 2, __ATOMIC_RELAXED);
         if (k >= j->top->root_count || __atomic_load_n(&j->failed, __ATOMIC_RELAXED))
@@ -495,12 +589,7 @@ static void walk_worker(void *ctx, uint32_t begin, uint32_t end)
             break;
         }
     }
-    __atomic_fetch_add(&j->covered, w.covered, __ATOMIC_RELAXED);
-    __atomic_fetch_add(&j->reached, w.reached, __ATOMIC_RELAXED);
-    uint32_t seen = __atomic_load_n(&j->max_depth, __ATOMIC_RELAXED);
-    while (w.max_depth > seen &&
-           !__atomic_compare_exchange_n(&j->max_depth, &seen, w.max_depth, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED))
-        ;
+    rtk_tree_tally_add(&w.tally, &j->covered, &j->reached, &j->max_depth);
 }
 
 static int all_set(const uint8_t *seen, uint32_t n)
@@ -528,8 +617,11 @@ static int bits_partition(const uint64_t *bits, uint32_t count, size_t words, ui
     return !overlap && !missing;
 }
 
-/* Threads of the parallel walk at most (rtk_parallel_ranges' ranges). */
-#define VALIDATION_MAX_THREADS 64u
+int rtk_tree_check_whole(const rtk_tree_check *c, uint32_t reached, uint32_t covered)
+{
+    return reached == c->node_count && covered == c->prim_count && all_set(c->seen_node, c->node_count) &&
+           all_set(c->seen_slot, c->prim_count) && bits_partition(c->prim_bits, c->sets, c->words, c->prim_count);
+}
 
 /* Below this many nodes the walk stays on one thread. */
 #define VALIDATION_PARALLEL_NODES 16384u
@@ -543,18 +635,17 @@ rtk_status rtk_bvh_validate(const rtk_build_args *a, int leaf_bounds, uint32_t *
     memset(&w, 0, sizeof w);
     w.a = a, w.leaf_bounds = leaf_bounds;
     int parallel = a->thread_count > 1 && a->node_count >= VALIDATION_PARALLEL_NODES;
-    const uint32_t threads = a->thread_count < VALIDATION_MAX_THREADS ? a->thread_count : VALIDATION_MAX_THREADS;
-    const size_t words = ((size_t)a->prim_count + 63) / 64;
-    w.seen_node = rtk_calloc(a->node_count, 1);
-    w.seen_slot = rtk_calloc(a->prim_count, 1);
-    w.prim_bits = rtk_calloc(words * (parallel ? threads + 1 : 1), sizeof *w.prim_bits);
+    const uint32_t threads = a->thread_count < RTK_TREE_CHECK_MAX_SETS - 1 ? a->thread_count
+                                                                           : RTK_TREE_CHECK_MAX_SETS - 1;
     uint32_t *stack = rtk_alloc(sizeof(uint32_t) * 2 * (RTK_BVH_MAX_DEPTH + 2));
     uint32_t roots[2 << VALIDATION_ROOTS_DEPTH];
     rtk_status st = RTK_OK;
-    if (!w.seen_node || !w.seen_slot || !w.prim_bits || !stack) {
+    if (!stack || !rtk_tree_check_init(&w.check, a->nodes, a->node_count, a->prim_order, a->prim_count,
+                                       parallel ? threads + 1 : 1)) {
         st = RTK_ERR_NOMEM;
         goto done;
     }
+    rtk_tree_tally_init(&w.check, 0, &w.tally);
     if (parallel) {
         /* The top levels here, quietly; the subtrees below on threads.
          * In a sound tree the walks meet no byte twice, and every node,
@@ -565,46 +656,58 @@ rtk_status rtk_bvh_validate(const rtk_build_args *a, int leaf_bounds, uint32_t *
         w.quiet = 1, w.stop_depth = VALIDATION_ROOTS_DEPTH, w.roots = roots;
         int ok = walk_tree(&w, 0, 1, stack) == RTK_OK;
         if (ok) {
-            walk_job job = {&w, w.prim_bits, words, 0, w.max_depth, w.covered, w.reached, 0};
+            walk_job job = {&w, 0, w.tally.max_depth, w.tally.covered, w.tally.reached, 0};
             rtk_parallel_ranges(threads, threads, 1, walk_worker, &job);
-            ok = !job.failed && job.reached == a->node_count && job.covered == a->prim_count &&
-                 all_set(w.seen_node, a->node_count) && all_set(w.seen_slot, a->prim_count) &&
-                 bits_partition(w.prim_bits, threads + 1, words, a->prim_count);
-            w.max_depth = job.max_depth;
+            ok = !job.failed && rtk_tree_check_whole(&w.check, job.reached, job.covered);
+            w.tally.max_depth = job.max_depth;
         }
         if (ok) {
-            *depth_out = w.max_depth;
+            *depth_out = w.tally.max_depth;
             goto done;
         }
-        memset(w.seen_node, 0, a->node_count);
-        memset(w.seen_slot, 0, a->prim_count);
-        memset(w.prim_bits, 0, words * sizeof *w.prim_bits);
-        w.max_depth = w.covered = w.reached = 0;
+        memset(w.check.seen_node, 0, a->node_count);
+        memset(w.check.seen_slot, 0, a->prim_count);
+        memset(w.check.prim_bits, 0, w.check.words * sizeof *w.check.prim_bits);
+        rtk_tree_tally_init(&w.check, 0, &w.tally);
     }
     w.quiet = 0, w.stop_depth = 0, w.roots = NULL, w.root_count = 0;
     st = walk_tree(&w, 0, 1, stack);
     if (st != RTK_OK)
         goto done;
-    if (w.covered != a->prim_count) {
-        st = rtk_error(RTK_ERR_PLUGIN, "builder output: leaves hold %u of %u primitives", w.covered, a->prim_count);
+    if (w.tally.covered != a->prim_count) {
+        st = rtk_error(RTK_ERR_PLUGIN, "builder output: leaves hold %u of %u primitives", w.tally.covered,
+                       a->prim_count);
         goto done;
     }
-    if (w.reached != a->node_count) {
+    if (w.tally.reached != a->node_count) {
         st = rtk_error(RTK_ERR_PLUGIN, "builder output: %u of the %u nodes reported are not reachable from the root "
-                       "(node_count must count the nodes of the tree only)", a->node_count - w.reached, a->node_count);
+                       "(node_count must count the nodes of the tree only)", a->node_count - w.tally.reached,
+                       a->node_count);
         goto done;
     }
     if (parallel) { /* the threads saw a fault one thread does not: never */
         st = rtk_error(RTK_ERR_PLUGIN, "builder output: the tree failed validation on threads only");
         goto done;
     }
-    *depth_out = w.max_depth;
+    *depth_out = w.tally.max_depth;
 done:
-    free(w.seen_node);
-    free(w.seen_slot);
-    free(w.prim_bits);
+    rtk_tree_check_free(&w.check);
     free(stack);
     return st;
+}
+
+rtk_status rtk_bvh_validate_scene(const rtk_scene *s, uint32_t threads, uint32_t *depth)
+{
+    rtk_build_args a;
+    memset(&a, 0, sizeof a);
+    a.size = sizeof a;
+    a.nodes = s->nodes;
+    a.node_count = s->node_count;
+    a.max_nodes = s->triangle_count ? 2 * s->triangle_count - 1 : 0;
+    a.prim_order = s->prim_ids;
+    a.prim_count = s->triangle_count;
+    a.thread_count = threads ? threads : 1;
+    return rtk_bvh_validate(&a, 0, depth);
 }
 
 void rtk_bvh_release(rtk_scene *s)
@@ -725,16 +828,21 @@ rtk_status rtk_bvh_check_leaves(const rtk_scene *s, uint32_t threads)
     return c.bad_node == UINT32_MAX ? RTK_OK : rtk_bvh_leaf_error(s, c.bad_node);
 }
 
-rtk_status rtk_bvh_finish(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes)
+rtk_status rtk_bvh_finish(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes, int validated)
 {
+    rtk_status st;
     if (s->own_traversal) {
         free(spare);
+        if (!validated && (st = rtk_bvh_validate_scene(s, threads, &s->bvh_depth)) != RTK_OK)
+            return st;
         return rtk_bvh_check_leaves(s, threads);
     }
-    rtk_status st = rtk_wide_build(s, threads, spare, spare_bytes);
+    st = rtk_wide_build(s, threads, spare, spare_bytes, !validated);
     if (st == RTK_OK || st == RTK_ERR_PLUGIN)
         return st;
     rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
+    if (!validated && (st = rtk_bvh_validate_scene(s, threads, &s->bvh_depth)) != RTK_OK)
+        return st;
     return rtk_bvh_check_leaves(s, threads);
 }
 
@@ -836,15 +944,15 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
         }
     }
     double t2 = rtk_now();
-    /* The structure first; the leaves' boxes against the corners as the
-     * wide tree gathers them. */
-    st = rtk_bvh_validate(&a, 0, &s->bvh_depth);
-    double t3 = rtk_now();
-    if (st == RTK_OK) {
+    /* The structure is validated as the wide tree plans its collapse, the
+     * leaves' boxes against the corners as it gathers them. */
+    if (a.node_count == 0 || a.node_count > a.max_nodes) {
+        st = rtk_error(RTK_ERR_PLUGIN, "builder returned %u nodes (expected 1 .. %u)", a.node_count, a.max_nodes);
+    } else {
         s->nodes = a.nodes;
         s->node_count = a.node_count;
         s->prim_ids = a.prim_order;
-        st = rtk_bvh_finish(s, a.thread_count, inputs, input_bytes);
+        st = rtk_bvh_finish(s, a.thread_count, inputs, input_bytes, 0);
         inputs = NULL; /* taken */
         if (st != RTK_OK) {
             s->nodes = NULL, s->prim_ids = NULL;
@@ -859,10 +967,9 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     if (st != RTK_OK)
         goto fail;
     rtk_log(RTK_LOG_DEBUG,
-            "BVH build (%s, %u threads): %u triangles, %u nodes (inputs %.2f ms, builder %.2f ms, validation %.2f ms, "
-            "wide tree and leaf check %.2f ms)",
-            plugin->name, a.thread_count, n, s->node_count, 1e3 * (t1 - t0), 1e3 * (t2 - t1), 1e3 * (t3 - t2),
-            1e3 * (rtk_now() - t3));
+            "BVH build (%s, %u threads): %u triangles, %u nodes (inputs %.2f ms, builder %.2f ms, "
+            "wide tree with validation and leaf check %.2f ms)",
+            plugin->name, a.thread_count, n, s->node_count, 1e3 * (t1 - t0), 1e3 * (t2 - t1), 1e3 * (rtk_now() - t2));
     return RTK_OK;
 fail:
     rtk_bvh_release(s);

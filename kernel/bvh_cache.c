@@ -389,7 +389,7 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
     if (valid) {
         s->nodes = nodes, s->node_count = h.node_count, s->bvh_depth = depth;
         s->prim_ids = prims;
-        valid = rtk_bvh_finish(s, threads ? threads : 1, NULL, 0) == RTK_OK;
+        valid = rtk_bvh_finish(s, threads ? threads : 1, NULL, 0, 1) == RTK_OK;
         if (!valid) {
             s->nodes = NULL, s->prim_ids = NULL;
             s->node_count = 0, s->bvh_depth = 0;

@@ -11,6 +11,7 @@
  * Nothing here may contract a * b + c into an FMA, which is why the AVX2
  * target does not include FMA. */
 #include "bvh_wide.h"
+#include "slab.h"
 
 #include <float.h>
 #include <math.h>
@@ -60,6 +61,9 @@ typedef struct collapser {
      * again. */
     uint32_t *kid_seq;
     size_t kid_len, kid_cap, kid_pos;
+    /* Not NULL: the binary tree's structure is unchecked, and the plan
+     * checks each node before it reads the node's children. */
+    const rtk_tree_check *check;
 } collapser;
 
 static uint32_t new_node(collapser *c)
@@ -313,16 +317,21 @@ static void plan_costs(collapser *c, uint32_t id, const double *left, const doub
 }
 
 /* Scratch of one plan walk: node stack (id, depth, done) and the costs
- * of finished subtrees whose parent is pending (one per level at most). */
+ * of finished subtrees whose parent is pending (one per level at most);
+ * its marks and counts when it checks the tree (bit set number set). */
 typedef struct plan_scratch {
     uint32_t *stack;
     double *costs;
     size_t levels;
+    rtk_tree_tally tally;
 } plan_scratch;
 
-static int plan_scratch_init(plan_scratch *w, const rtk_scene *s)
+static int plan_scratch_init(plan_scratch *w, const collapser *c, uint32_t set)
 {
-    w->levels = (size_t)s->bvh_depth + 2;
+    /* An unchecked tree is as deep as the checks let it be. */
+    w->levels = (c->check ? RTK_BVH_MAX_DEPTH : (size_t)c->s->bvh_depth) + 2;
+    if (c->check)
+        rtk_tree_tally_init(c->check, set, &w->tally);
     /* each level replaces one triple by three */
     w->stack = rtk_alloc(sizeof *w->stack * 6 * w->levels);
     w->costs = rtk_alloc(sizeof *w->costs * RTK_WIDE * w->levels);
@@ -340,8 +349,11 @@ static void plan_scratch_free(plan_scratch *w)
  * subtrees out in that order, so the walk reads memory forwards). Inner
  * nodes at depth frontier are not entered: their triangle counts are
  * known and their costs are taken from known[*next], in this order.
- * The root's costs go to out. 0 if the tree is deeper than bvh_depth
- * said (never: it was validated). */
+ * The root's costs go to out. With c->check, each node is checked before
+ * its children are read (depth counted from 1 at the binary root; inner
+ * nodes at frontier are checked by their own walks). 0 when a check
+ * fails, or if the tree is deeper than bvh_depth said (never: it was
+ * validated). */
 static int plan_walk(collapser *c, plan_scratch *w, uint32_t root, uint32_t root_depth, uint32_t frontier,
                      const double *known, uint32_t *next, double *out)
 {
@@ -354,6 +366,9 @@ static int plan_walk(collapser *c, plan_scratch *w, uint32_t root, uint32_t root
         uint32_t done = stack[--top], depth = stack[--top], id = stack[--top];
         const rtk_bvh_node *n = &nodes[id];
         if (ctop + 1 >= w->levels)
+            return 0;
+        if (c->check && !done && (n->count > 0 || depth != frontier) &&
+            !rtk_tree_check_node(c->check, &w->tally, id, depth + 1))
             return 0;
         if (n->count > 0) {
             c->tri_total[id] = n->count;
@@ -386,18 +401,22 @@ static int plan_walk(collapser *c, plan_scratch *w, uint32_t root, uint32_t root
 #define PLAN_FRONTIER 8
 #define PLAN_PARALLEL_NODES 16384u
 
-/* The inner nodes at depth PLAN_FRONTIER under id, in walk order. */
-static void collect_frontier(const rtk_scene *s, uint32_t id, uint32_t depth, uint32_t *ids, uint32_t *count)
+/* The inner nodes at depth PLAN_FRONTIER under id, in walk order. An
+ * unchecked tree's children are only read in range (the walks check the
+ * rest); 0 when one is not. */
+static int collect_frontier(const rtk_scene *s, uint32_t id, uint32_t depth, uint32_t *ids, uint32_t *count)
 {
     const rtk_bvh_node *n = &s->nodes[id];
     if (n->count > 0)
-        return;
+        return 1;
     if (depth == PLAN_FRONTIER) {
         ids[(*count)++] = id;
-        return;
+        return 1;
     }
-    collect_frontier(s, n->offset, depth + 1, ids, count);
-    collect_frontier(s, n->offset + 1, depth + 1, ids, count);
+    if (n->offset == 0 || n->offset >= s->node_count - 1)
+        return 0;
+    return collect_frontier(s, n->offset, depth + 1, ids, count) &&
+           collect_frontier(s, n->offset + 1, depth + 1, ids, count);
 }
 
 typedef struct plan_job {
@@ -407,14 +426,15 @@ typedef struct plan_job {
     uint32_t count;
     atomic_uint next;
     atomic_int failed;
+    uint32_t covered, reached, max_depth; /* of the checks' walks, atomic */
 } plan_job;
 
 static void plan_worker(void *ctx, uint32_t begin, uint32_t end)
 {
-    (void)begin, (void)end;
+    (void)end;
     plan_job *job = ctx;
     plan_scratch w;
-    int ok = plan_scratch_init(&w, job->c->s);
+    int ok = plan_scratch_init(&w, job->c, begin + 1);
     for (;;) {
         uint32_t k = atomic_fetch_add(&job->next, 1u);
         if (k >= job->count)
@@ -425,28 +445,31 @@ static void plan_worker(void *ctx, uint32_t begin, uint32_t end)
     }
     if (!ok)
         atomic_store(&job->failed, 1);
+    if (ok && job->c->check)
+        rtk_tree_tally_add(&w.tally, &job->covered, &job->reached, &job->max_depth);
     plan_scratch_free(&w);
 }
 
 /* tri_total and plan of every binary node, on up to threads threads;
- * the same on any number of them. */
-static int plan_tree(collapser *c, uint32_t threads)
+ * the same on any number of them. With c->check, the walks check the
+ * tree (walk k on its thread's bit set k + 1, the top walk on 0) and
+ * *depth gets its depth; 0 when it fails. */
+static int plan_tree(collapser *c, uint32_t threads, uint32_t *depth)
 {
     const rtk_scene *s = c->s;
     plan_scratch w;
     double root[RTK_WIDE];
-    int ok = plan_scratch_init(&w, s);
+    int ok = plan_scratch_init(&w, c, 0);
     uint32_t *ids = NULL, count = 0, next = 0;
     double *costs = NULL;
+    plan_job job = {.c = c};
     if (ok && threads > 1 && s->node_count >= PLAN_PARALLEL_NODES) {
         ids = rtk_alloc(sizeof *ids << PLAN_FRONTIER);
-        ok = ids != NULL;
-        if (ok)
-            collect_frontier(s, 0, 0, ids, &count);
+        ok = ids != NULL && collect_frontier(s, 0, 0, ids, &count);
         costs = count ? rtk_alloc(sizeof *costs * RTK_WIDE * count) : NULL;
         ok = ok && (count == 0 || costs);
         if (ok && count) {
-            plan_job job = {.c = c, .ids = ids, .costs = costs, .count = count};
+            job.ids = ids, job.costs = costs, job.count = count;
             atomic_init(&job.next, 0u);
             atomic_init(&job.failed, 0);
             rtk_parallel_ranges(threads, threads, 1, plan_worker, &job);
@@ -455,6 +478,11 @@ static int plan_tree(collapser *c, uint32_t threads)
     }
     if (ok)
         ok = plan_walk(c, &w, 0, 0, count ? PLAN_FRONTIER : UINT32_MAX, costs, &next, root);
+    if (ok && c->check) {
+        rtk_tree_tally_add(&w.tally, &job.covered, &job.reached, &job.max_depth);
+        ok = rtk_tree_check_whole(c->check, job.reached, job.covered);
+        *depth = job.max_depth;
+    }
     free(ids);
     free(costs);
     plan_scratch_free(&w);
@@ -785,7 +813,7 @@ static int place_arrays(collapser *c, void *spare, size_t spare_bytes, void *mem
     return c->nodes && c->tris;
 }
 
-rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes)
+rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes, int validate)
 {
     rtk_wide_free(s);
     if (s->node_count == 0 || !s->prim_ids) {
@@ -802,9 +830,36 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
     uint32_t *order = NULL;
     void *mem[2] = {NULL, NULL};
     uint32_t bad_leaf = UINT32_MAX;
-    if (!c.tri_total || !c.plan || !plan_tree(&c, threads)) {
+    /* Validation rides on the plan's walks (one pass over the nodes
+     * instead of two): the same checks, quietly; a tree that fails them
+     * is walked again by rtk_bvh_validate for the message. */
+    rtk_tree_check check;
+    const uint32_t sets = threads < RTK_TREE_CHECK_MAX_SETS - 1 ? threads + 1 : RTK_TREE_CHECK_MAX_SETS;
+    int check_ready = 0;
+    if (validate) {
+        check_ready = rtk_tree_check_init(&check, s->nodes, s->node_count, s->prim_ids, s->triangle_count, sets);
+        c.check = check_ready ? &check : NULL;
+    }
+    uint32_t depth = 0;
+    if (!c.tri_total || !c.plan || (validate && !check_ready) ||
+        !plan_tree(&c, threads < sets ? threads : sets - 1, &depth)) {
         c.failed = 1;
+        if (check_ready) {
+            rtk_tree_check_free(&check);
+            free(c.tri_total);
+            free(c.plan);
+            free(spare);
+            rtk_status st = rtk_bvh_validate_scene(s, threads, &depth);
+            if (st != RTK_OK) /* the tree's fault, or out of memory */
+                return st;
+            return rtk_error(RTK_ERR_NOMEM, "wide BVH: out of memory planning the collapse");
+        }
     } else {
+        if (check_ready) {
+            rtk_tree_check_free(&check);
+            c.check = NULL;
+            s->bvh_depth = depth;
+        }
         /* Counting pass: planned nodes and items, in the serial order. */
         pl.grain = s->triangle_count / RTK_WIDE_GRAIN;
         plan_node(&c, &pl, 0, 0);

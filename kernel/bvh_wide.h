@@ -80,17 +80,20 @@ typedef struct rtk_wide_bvh {
     void *mem[2];           /* the blocks holding nodes and tris, to free */
 } rtk_wide_bvh;
 
-/* Collapses s's binary tree (its structure validated) into s->wide and
- * picks the traversal path: the best the CPU supports, or RTK_SIMD. Large
- * trees are collapsed on up to threads threads; the result does not
- * depend on their number. spare (NULL, or spare_bytes of rtk_alloc_large
- * memory whose contents are dead) is taken over: the wide arrays go there
- * when they fit, else it is freed. On the way every binary leaf's box is
- * checked against its triangles' corners: RTK_ERR_PLUGIN (error set as
- * rtk_bvh_check_leaves sets it) when one fails, RTK_ERR_NOMEM on other
- * failures (the leaves are then unchecked; the scene keeps the binary
- * traversal). */
-rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes);
+/* Collapses s's binary tree into s->wide and picks the traversal path:
+ * the best the CPU supports, or RTK_SIMD. Large trees are collapsed on up
+ * to threads threads; the result does not depend on their number. spare
+ * (NULL, or spare_bytes of rtk_alloc_large memory whose contents are
+ * dead) is taken over: the wide arrays go there when they fit, else it is
+ * freed. The tree's structure must have been validated, or validate set:
+ * then the plan's walks validate it as they go and set s->bvh_depth, and
+ * a tree that fails gets RTK_ERR_PLUGIN with rtk_bvh_validate's message.
+ * On the way every binary leaf's box is checked against its triangles'
+ * corners: RTK_ERR_PLUGIN (error set as rtk_bvh_check_leaves sets it)
+ * when one fails, RTK_ERR_NOMEM on other failures (the leaves, and with
+ * validate maybe the structure, are then unchecked; the scene keeps the
+ * binary traversal). */
+rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes, int validate);
 /* Frees s->wide and sets it to NULL. */
 void rtk_wide_free(rtk_scene *s);
 

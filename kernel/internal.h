@@ -474,6 +474,47 @@ void rtk_bvh_release(rtk_scene *scene);
  * root, inner bounds enclosing their children, and with leaf_bounds set,
  * leaf bounds enclosing their primitives' prim_bounds. Sets the depth. */
 rtk_status rtk_bvh_validate(const rtk_build_args *args, int leaf_bounds, uint32_t *depth);
+/* rtk_bvh_validate of s's tree (nodes, node_count, prim_ids) on threads,
+ * as rtk_bvh_build checks a builder's: the message of a fault. */
+rtk_status rtk_bvh_validate_scene(const rtk_scene *s, uint32_t threads, uint32_t *depth);
+/* The same checks done node by node by a walk of another pass (the wide
+ * collapse's plan), quietly: the marks shared by the walks (nodes and
+ * slots, relaxed atomics), a bit set of primitives per walk. A walk
+ * that meets a fault stops; the caller then runs rtk_bvh_validate_scene
+ * for the message. */
+#define RTK_TREE_CHECK_MAX_SETS 65u /* walks with a bit set of their own: a top walk and 64 threads */
+typedef struct rtk_tree_check {
+    const rtk_bvh_node *nodes;
+    const uint32_t *prim_order;
+    uint32_t node_count, prim_count;
+    uint8_t *seen_node, *seen_slot;
+    uint64_t *prim_bits; /* sets bit sets of words each */
+    size_t words;
+    uint32_t sets;
+} rtk_tree_check;
+/* One walk's marks of primitives and counts. */
+typedef struct rtk_tree_tally {
+    uint64_t *prim_bits;
+    uint32_t reached, covered, max_depth;
+    int failed;
+} rtk_tree_tally;
+/* Marks for a tree of node_count >= 1 nodes and walks with sets bit sets
+ * (at most RTK_TREE_CHECK_MAX_SETS). 0 when out of memory. */
+int rtk_tree_check_init(rtk_tree_check *check, const rtk_bvh_node *nodes, uint32_t node_count,
+                        const uint32_t *prim_order, uint32_t prim_count, uint32_t sets);
+void rtk_tree_check_free(rtk_tree_check *check);
+/* A walk's tally, with bit set number set. [one walk a set] */
+void rtk_tree_tally_init(const rtk_tree_check *check, uint32_t set, rtk_tree_tally *tally);
+/* Marks node id, at depth (the root at 1), and checks it: bounds without
+ * NaN, a leaf's slots and primitives in range and met once, an inner
+ * node's children in range and inside its box, so that its children may
+ * be read next. 1 when sound; 0 sets tally->failed. */
+int rtk_tree_check_node(const rtk_tree_check *check, rtk_tree_tally *tally, uint32_t id, uint32_t depth);
+/* Adds a tally's counts to sums and a maximum shared by walks (atomic). */
+void rtk_tree_tally_add(const rtk_tree_tally *tally, uint32_t *covered, uint32_t *reached, uint32_t *max_depth);
+/* After the walks, whether their counts and marks cover the tree exactly:
+ * every node and slot once, the primitives' bit sets a partition. */
+int rtk_tree_check_whole(const rtk_tree_check *check, uint32_t reached, uint32_t covered);
 /* The leaf check left out above, for triangles: every leaf of s's tree
  * (its structure validated) against its triangles' corners. Leaves are
  * split over threads; the lowest failing leaf is reported. */
@@ -481,12 +522,14 @@ rtk_status rtk_bvh_check_leaves(const rtk_scene *s, uint32_t threads);
 /* RTK_ERR_PLUGIN with the message of a failed check of leaf (the first
  * triangle it does not enclose). */
 rtk_status rtk_bvh_leaf_error(const rtk_scene *s, uint32_t leaf);
-/* Ends a build or cache load of s's tree (its structure validated): the
- * wide tree, which checks the leaves as it gathers their corners (spare as
- * rtk_wide_build takes it), or the leaf check alone for a plugin's own
- * traversal or when the collapse fails (warned: binary traversal).
- * RTK_ERR_PLUGIN when a leaf fails (s->wide left NULL). */
-rtk_status rtk_bvh_finish(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes);
+/* Ends a build or cache load of s's tree: the wide tree, which checks the
+ * leaves as it gathers their corners (spare as rtk_wide_build takes it)
+ * and, unless validated says the structure was, validates it as it plans
+ * the collapse (setting s->bvh_depth); or validation and the leaf check
+ * alone for a plugin's own traversal or when the collapse fails (warned:
+ * binary traversal). RTK_ERR_PLUGIN when the tree fails (s->wide left
+ * NULL). */
+rtk_status rtk_bvh_finish(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes, int validated);
 /* Traversal of the whole scene, instances included. Return 1 on hit. */
 int rtk_bvh_closest(const rtk_scene *scene, const rtk_ray *ray, rtk_hit *hit);
 int rtk_bvh_any(const rtk_scene *scene, const rtk_ray *ray);
