@@ -61,7 +61,7 @@ typedef struct build {
     const lbvh *opt;
     rtk_build_args *a;
     float (*cbounds)[6];           /* per thread: centroid bounds of its part */
-    uint64_t *codes, *codes_tmp;   /* Morton codes, sorted with ids */
+    void *codes, *codes_tmp;       /* Morton codes, sorted with ids: uint32_t (30 bits) or uint64_t */
     uint32_t *ids_tmp;             /* ids of the other sort buffer */
     uint32_t (*hist)[1 << LBVH_DIGIT]; /* per thread: digit counts */
     task *tasks;                   /* subtrees for the threads */
@@ -122,6 +122,22 @@ static uint64_t spread21(uint64_t x)
     return x;
 }
 
+/* Code i of codes, 64-bit codes when wide, else 32-bit: 30-bit codes
+ * sort and search in half the memory. Always inlined into functions
+ * that take wide as a constant, so each has one plain loop per width. */
+static inline __attribute__((always_inline)) uint64_t code_at(const void *codes, int wide, uint32_t i)
+{
+    return wide ? ((const uint64_t *)codes)[i] : ((const uint32_t *)codes)[i];
+}
+
+static inline __attribute__((always_inline)) void code_set(void *codes, int wide, uint32_t i, uint64_t code)
+{
+    if (wide)
+        ((uint64_t *)codes)[i] = code;
+    else
+        ((uint32_t *)codes)[i] = (uint32_t)code;
+}
+
 /* Cell of v in [0, cells - 1]; NaN (0 * inf on a tiny extent) gives 0. */
 static inline uint32_t quantise(float v, float lo, float scale, float last)
 {
@@ -164,17 +180,18 @@ static void morton_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
         float extent = hi[k] - lo[k];
         scale[k] = extent > 0.0f ? cells / extent : 0.0f;
     }
-    uint64_t *codes = b->codes;
+    void *codes = b->codes;
+    const int wide = per_axis != 10;
     uint32_t *ids = a->prim_order;
     for (uint32_t i = begin; i < end; i++) {
         const rtk_vec3 *c = &a->centroids[i];
         uint32_t x = quantise(c->x, lo[0], scale[0], last);
         uint32_t y = quantise(c->y, lo[1], scale[1], last);
         uint32_t z = quantise(c->z, lo[2], scale[2], last);
-        if (per_axis == 10)
-            codes[i] = spread10(x) << 2 | spread10(y) << 1 | spread10(z);
+        if (!wide)
+            code_set(codes, 0, i, spread10(x) << 2 | spread10(y) << 1 | spread10(z));
         else
-            codes[i] = spread21(x) << 2 | spread21(y) << 1 | spread21(z);
+            code_set(codes, 1, i, spread21(x) << 2 | spread21(y) << 1 | spread21(z));
         ids[i] = i;
     }
     rtk_team_sync(team);
@@ -183,18 +200,20 @@ static void morton_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
 /* Stable LSD radix sort of (code, id) by code; every thread scatters its
  * own part, after the others' digit counts. The result ends in codes and
  * prim_order. */
-static void sort_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
+static inline __attribute__((always_inline)) void sort_codes_width(build *b, rtk_team *team, uint32_t t, uint32_t size,
+                                                                   int wide)
 {
     const uint32_t n = b->a->prim_count, digits = 1u << LBVH_DIGIT;
+    const size_t key_bytes = wide ? sizeof(uint64_t) : sizeof(uint32_t);
     uint32_t begin, end;
     part(n, t, size, &begin, &end);
-    uint64_t *ks = b->codes, *kd = b->codes_tmp;
+    void *ks = b->codes, *kd = b->codes_tmp;
     uint32_t *is = b->a->prim_order, *id = b->ids_tmp;
     for (uint32_t shift = 0; shift < b->opt->bits; shift += LBVH_DIGIT) {
         uint32_t *hist = b->hist[t];
         memset(hist, 0, sizeof b->hist[0]);
         for (uint32_t i = begin; i < end; i++)
-            hist[ks[i] >> shift & (digits - 1)]++;
+            hist[code_at(ks, wide, i) >> shift & (digits - 1)]++;
         rtk_team_sync(team);
         /* This thread's first slot for each digit: all smaller digits,
          * then this digit in the threads before. */
@@ -212,11 +231,12 @@ static void sort_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
         }
         if (!one_digit) {
             for (uint32_t i = begin; i < end; i++) {
-                uint32_t at = offset[ks[i] >> shift & (digits - 1)]++;
-                kd[at] = ks[i];
+                const uint64_t key = code_at(ks, wide, i);
+                uint32_t at = offset[key >> shift & (digits - 1)]++;
+                code_set(kd, wide, at, key);
                 id[at] = is[i];
             }
-            uint64_t *tk = ks;
+            void *tk = ks;
             ks = kd, kd = tk;
             uint32_t *ti = is;
             is = id, id = ti;
@@ -224,16 +244,25 @@ static void sort_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
         rtk_team_sync(team);
     }
     if (ks != b->codes) {
-        memcpy(b->codes + begin, ks + begin, sizeof *ks * (end - begin));
+        memcpy((char *)b->codes + key_bytes * begin, (const char *)ks + key_bytes * begin, key_bytes * (end - begin));
         memcpy(b->a->prim_order + begin, is + begin, sizeof *is * (end - begin));
         rtk_team_sync(team);
     }
 }
 
-/* First slot of the right half of sorted codes [begin, end), count >= 2. */
-static uint32_t split_at(const uint64_t *codes, uint32_t begin, uint32_t end)
+static void sort_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
 {
-    uint64_t diff = codes[begin] ^ codes[end - 1];
+    if (b->opt->bits == 63)
+        sort_codes_width(b, team, t, size, 1);
+    else
+        sort_codes_width(b, team, t, size, 0);
+}
+
+/* First slot of the right half of sorted codes [begin, end), count >= 2. */
+static inline __attribute__((always_inline)) uint32_t split_at_width(const void *codes, int wide, uint32_t begin,
+                                                                     uint32_t end)
+{
+    uint64_t diff = code_at(codes, wide, begin) ^ code_at(codes, wide, end - 1);
     if (diff == 0)
         return begin + (end - begin) / 2;
     /* All codes share the bits above the highest differing one: those with
@@ -242,12 +271,17 @@ static uint32_t split_at(const uint64_t *codes, uint32_t begin, uint32_t end)
     uint32_t lo = begin + 1, hi = end - 1;
     while (lo < hi) {
         uint32_t mid = lo + (hi - lo) / 2;
-        if (codes[mid] & bit)
+        if (code_at(codes, wide, mid) & bit)
             hi = mid;
         else
             lo = mid + 1;
     }
     return lo;
+}
+
+static uint32_t split_at(const build *b, uint32_t begin, uint32_t end)
+{
+    return b->opt->bits == 63 ? split_at_width(b->codes, 1, begin, end) : split_at_width(b->codes, 0, begin, end);
 }
 
 static float half_area(const rtk_bvh_node *n)
@@ -307,7 +341,7 @@ static float emit(const build *b, uint32_t slot, uint32_t begin, uint32_t end, u
     const uint32_t first = bump ? *bump : t.region;
     if (bump)
         *bump += 2;
-    uint32_t mid = split_at(b->codes, t.begin, t.end);
+    uint32_t mid = split_at(b, t.begin, t.end);
     float cost = emit(b, first, t.begin, mid, t.region + 2, bump);
     cost += emit(b, first + 1, mid, t.end, t.region + 2 * (mid - t.begin), bump);
     node_union(n, &a->nodes[first], &a->nodes[first + 1]);
@@ -351,7 +385,7 @@ static void plan(build *b, uint32_t grain)
             b->tasks[b->task_count++] = t;
             continue;
         }
-        uint32_t mid = split_at(b->codes, t.begin, t.end);
+        uint32_t mid = split_at(b, t.begin, t.end);
         b->tops[b->top_count++] = t;
         pending[top++] = (task){t.region + 1, mid, t.end, t.region + 2 * (mid - t.begin)};
         pending[top++] = (task){t.region, t.begin, mid, t.region + 2};
@@ -421,17 +455,18 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
     size_t plan_cap = ((size_t)n / LBVH_GRAIN + 1) * (LBVH_PENDING + 2);
     b.cbounds = malloc(sizeof *b.cbounds * threads);
     b.hist = malloc(sizeof *b.hist * threads);
-    /* The sort's arrays (20 bytes a primitive) in the kernel's scratch
+    /* The sort's arrays (12 or 20 bytes a primitive) in the kernel's scratch
      * when it has room, else of their own. */
-    void *scratch = rtk_build_scratch(a, (2 * sizeof *b.codes + sizeof *b.ids_tmp) * (size_t)n);
+    const size_t key_bytes = b.opt->bits == 63 ? sizeof(uint64_t) : sizeof(uint32_t);
+    void *scratch = rtk_build_scratch(a, (2 * key_bytes + sizeof *b.ids_tmp) * (size_t)n);
     const int in_scratch = scratch != NULL;
     if (in_scratch) {
         b.codes = scratch;
-        b.codes_tmp = b.codes + n;
-        b.ids_tmp = (uint32_t *)(void *)(b.codes_tmp + n);
+        b.codes_tmp = (char *)scratch + key_bytes * n;
+        b.ids_tmp = (uint32_t *)(void *)((char *)scratch + 2 * key_bytes * n);
     } else {
-        b.codes = malloc(sizeof *b.codes * n);
-        b.codes_tmp = malloc(sizeof *b.codes_tmp * n);
+        b.codes = malloc(key_bytes * n);
+        b.codes_tmp = malloc(key_bytes * n);
         b.ids_tmp = malloc(sizeof *b.ids_tmp * n);
     }
     const int dense = threads == 1;
