@@ -16,14 +16,16 @@
  * Example: accelerator = { plugin = "lbvh"; morton = "63"; collapse = true; };
  *
  * Depth is at most the code bits plus 33 levels of halving. The tree does
- * not depend on thread_count: a node over m primitives owns the 2m - 2
- * slots of its region, its children first; subtrees are built in parallel
- * into those, and a final pass closes the gaps while keeping the order.
- * A subtree of at most 4096 primitives is built by one thread and fills
- * its region densely from the start, so the gaps are whole pages left
- * untouched rather than holes in every page. Closed, the slots hold the
- * children pairs in depth-first order, left first: a build on one thread
- * fills them in that order from the root and has no gaps to close.
+ * not depend on thread_count. Its slots hold the children pairs in
+ * depth-first order, left first, which is the order a build on one
+ * thread fills them from the root. On several threads the top of the
+ * tree is split into subtrees of at most 4096 primitives: a node over m
+ * primitives owns the 2m - 2 slots of its region, its children first,
+ * and each subtree fills the start of its region densely in that order;
+ * then each subtree's inner nodes are renumbered for the slots its region
+ * leaves unused before it (on the threads), and its block and the pairs
+ * above it move down by as much (memmove, in slot order), which leaves
+ * the same slots as one thread.
  */
 #include <rtk/rtk.h>
 
@@ -51,9 +53,12 @@ typedef struct lbvh {
 } lbvh;
 
 /* A subtree to build: its slot, sorted primitives [begin, end) and the
- * first of the 2 (end - begin) - 2 slots its descendants own. */
+ * first of the 2 (end - begin) - 2 slots its descendants own; once built,
+ * the end of the slots they fill, [region, filled), and the slots they
+ * move down when the gaps close. */
 typedef struct task {
     uint32_t slot, begin, end, region;
+    uint32_t filled, shift;
 } task;
 
 /* One build, shared by its threads. */
@@ -64,12 +69,10 @@ typedef struct build {
     void *codes, *codes_tmp;       /* Morton codes, sorted with ids: uint32_t (30 bits) or uint64_t */
     uint32_t *ids_tmp;             /* ids of the other sort buffer */
     uint32_t (*hist)[1 << LBVH_DIGIT]; /* per thread: digit counts */
-    task *tasks;                   /* subtrees for the threads */
+    task *tasks;                   /* subtrees for the threads, in slot order */
     uint32_t task_count;
-    atomic_uint next_task;
-    uint32_t *used;                /* 1 for each slot of the tree; NULL: one dense task */
-    uint32_t dense_end;            /* one dense task: the slots it filled, [0, dense_end) */
-    task *tops;                    /* inner nodes above the subtrees, parents first */
+    atomic_uint next_task, next_fix;
+    task *tops;                    /* inner nodes above the subtrees, parents first (slot order) */
     uint32_t top_count;
 } build;
 
@@ -298,20 +301,18 @@ static void node_union(rtk_bvh_node *n, const rtk_bvh_node *l, const rtk_bvh_nod
     }
 }
 
-/* Builds the subtree of t with its bounds; returns its SAH cost in
- * units of area when collapsing (else 0). A subtree of at most
- * LBVH_GRAIN primitives (built by one thread) fills its region densely
- * from the start, in the order its nodes are made: *bump is the next free
- * slot there (bump NULL above such subtrees, where children take the
- * first two slots of the region). Both rules depend on the tree alone;
- * the gaps left are whole pages never touched rather than holes in every
- * page. */
-static float emit(const build *b, uint32_t slot, uint32_t begin, uint32_t end, uint32_t region, uint32_t *bump)
+/* Builds the subtree at slot over sorted primitives [begin, end) with
+ * its bounds, its descendants in the slots from *bump on, in the order
+ * they are made (children pairs depth first, left first); returns its SAH
+ * cost in units of area when collapsing (else 0). The fields are
+ * separate arguments: a task passed by value went through a 16-byte
+ * stack store read back as two 8-byte loads (one of them not forwarded),
+ * a stall at every node. */
+static float emit(const build *b, uint32_t slot, uint32_t begin, uint32_t end, uint32_t *bump)
 {
-    /* The task's fields as separate arguments: a struct passed by value
-     * went through a 16-byte stack store read back as two 8-byte loads
-     * (one of them not forwarded), a stall at every node. */
-    const task t = {slot, begin, end, region};
+    const struct {
+        uint32_t slot, begin, end;
+    } t = {slot, begin, end};
     const lbvh *o = b->opt;
     rtk_build_args *a = b->a;
     rtk_bvh_node *n = &a->nodes[t.slot];
@@ -331,22 +332,14 @@ static float emit(const build *b, uint32_t slot, uint32_t begin, uint32_t end, u
         memcpy(n->upper, hi, sizeof hi);
         n->offset = t.begin;
         n->count = count;
-        if (b->used)
-            b->used[t.slot] = 1;
         return o->collapse ? o->t_tri * (float)count * half_area(n) : 0.0f;
     }
-    uint32_t local = t.region;
-    if (!bump && count <= LBVH_GRAIN)
-        bump = &local;
-    const uint32_t first = bump ? *bump : t.region;
-    if (bump)
-        *bump += 2;
+    const uint32_t first = *bump;
+    *bump += 2;
     uint32_t mid = split_at(b, t.begin, t.end);
-    float cost = emit(b, first, t.begin, mid, t.region + 2, bump);
-    cost += emit(b, first + 1, mid, t.end, t.region + 2 * (mid - t.begin), bump);
+    float cost = emit(b, first, t.begin, mid, bump);
+    cost += emit(b, first + 1, mid, t.end, bump);
     node_union(n, &a->nodes[first], &a->nodes[first + 1]);
-    if (b->used)
-        b->used[t.slot] = 1;
     if (!o->collapse) {
         n->offset = first;
         n->count = 0;
@@ -355,10 +348,8 @@ static float emit(const build *b, uint32_t slot, uint32_t begin, uint32_t end, u
     float area = half_area(n), leaf = o->t_tri * (float)count * area;
     cost += o->t_node * area;
     if (count <= o->max_leaf && leaf <= cost) {
-        /* count <= 64 < LBVH_GRAIN: the descendants are the slots
-         * [first, *bump), free again for what follows. */
-        if (b->used)
-            memset(b->used + first, 0, sizeof *b->used * (*bump - first));
+        /* The descendants are the slots [first, *bump), free again for
+         * what follows. */
         *bump = first;
         n->offset = t.begin;
         n->count = count;
@@ -378,7 +369,7 @@ static void plan(build *b, uint32_t grain)
     uint32_t top = 0;
     b->task_count = 0;
     b->top_count = 0;
-    pending[top++] = (task){0, 0, b->a->prim_count, 1};
+    pending[top++] = (task){.slot = 0, .begin = 0, .end = b->a->prim_count, .region = 1};
     while (top > 0) {
         task t = pending[--top];
         if (t.end - t.begin <= grain || top + 2 > LBVH_PENDING) {
@@ -387,8 +378,8 @@ static void plan(build *b, uint32_t grain)
         }
         uint32_t mid = split_at(b, t.begin, t.end);
         b->tops[b->top_count++] = t;
-        pending[top++] = (task){t.region + 1, mid, t.end, t.region + 2 * (mid - t.begin)};
-        pending[top++] = (task){t.region, t.begin, mid, t.region + 2};
+        pending[top++] = (task){.slot = t.region + 1, .begin = mid, .end = t.end, .region = t.region + 2 * (mid - t.begin)};
+        pending[top++] = (task){.slot = t.region, .begin = t.begin, .end = mid, .region = t.region + 2};
     }
 }
 
@@ -398,47 +389,90 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
     build *b = ctx;
     morton_codes(b, team, t, size);
     sort_codes(b, team, t, size);
-    if (!b->used) {
-        /* One thread: the whole tree densely from the root, in the order
-         * compaction would leave it (children pairs in depth-first
-         * order, left first), so there is nothing to close. */
-        uint32_t bump = 1;
-        emit(b, 0, 0, b->a->prim_count, 1, &bump);
-        b->dense_end = bump;
-        return;
-    }
     if (t == 0)
-        plan(b, LBVH_GRAIN);
+        plan(b, size > 1 ? LBVH_GRAIN : UINT32_MAX);
     rtk_team_sync(team);
     for (;;) {
         uint32_t k = atomic_fetch_add(&b->next_task, 1);
         if (k >= b->task_count)
             break;
-        const task *t = &b->tasks[k];
-        emit(b, t->slot, t->begin, t->end, t->region, NULL);
+        task *x = &b->tasks[k];
+        uint32_t bump = x->region;
+        emit(b, x->slot, x->begin, x->end, &bump);
+        x->filled = bump;
+    }
+    rtk_team_sync(team);
+    if (t == 0) {
+        /* The slots each subtree's region leaves unused, summed before it. */
+        uint32_t shift = 0;
+        for (uint32_t k = 0; k < b->task_count; k++) {
+            task *x = &b->tasks[k];
+            x->shift = shift;
+            shift += x->region + 2 * (x->end - x->begin) - 2 - x->filled;
+        }
+    }
+    rtk_team_sync(team);
+    /* Each subtree's inner nodes (the root's children included) point
+     * where their children will be. */
+    rtk_bvh_node *nodes = b->a->nodes;
+    for (;;) {
+        uint32_t k = atomic_fetch_add(&b->next_fix, 1);
+        if (k >= b->task_count)
+            break;
+        const task *x = &b->tasks[k];
+        if (x->shift == 0)
+            continue;
+        if (nodes[x->slot].count == 0)
+            nodes[x->slot].offset -= x->shift;
+        for (uint32_t i = x->region; i < x->filled; i++)
+            if (nodes[i].count == 0)
+                nodes[i].offset -= x->shift;
     }
 }
 
-/* Closes the gaps in slots [0, span): used[i] is 1 for the slots the tree
- * uses and 0 for the others (overwritten). Nodes move down keeping their
- * order, so siblings stay adjacent, and their children are renumbered.
- * Only the slots in use are written, in used and in nodes: pages of
- * either that the build never touched stay untouched. Sets node_count. */
-static void compact_nodes(rtk_build_args *a, uint32_t *used, uint32_t span)
+/* Closes the gaps the subtrees left (run renumbered their nodes): the
+ * nodes above them get their bounds and children, then the children
+ * pairs above the subtrees and the subtrees' blocks move down in slot
+ * order, each by the unused slots before it. Sets node_count. */
+static void close_gaps(build *b)
 {
-    uint32_t total = 0;
-    for (uint32_t i = 0; i < span; i++)
-        if (used[i])
-            used[i] = ++total; /* the slot's new index + 1 */
-    for (uint32_t i = 0; i < span; i++) {
-        if (!used[i])
-            continue;
-        rtk_bvh_node n = a->nodes[i];
-        if (n.count == 0)
-            n.offset = used[n.offset] - 1;
-        a->nodes[used[i] - 1] = n;
+    rtk_bvh_node *nodes = b->a->nodes;
+    /* Below a pair, the subtrees whose regions come before it. */
+    uint32_t k = 0, total = b->task_count ? b->tasks[b->task_count - 1].shift : 0;
+    if (b->task_count) {
+        const task *last = &b->tasks[b->task_count - 1];
+        total += last->region + 2 * (last->end - last->begin) - 2 - last->filled;
     }
-    a->node_count = total;
+    for (uint32_t i = b->top_count; i-- > 0;) { /* children before parents, all in place */
+        const task *t = &b->tops[i];
+        node_union(&nodes[t->slot], &nodes[t->region], &nodes[t->region + 1]);
+        nodes[t->slot].count = 0;
+    }
+    for (uint32_t i = 0; i < b->top_count; i++) {
+        task *t = &b->tops[i];
+        while (k < b->task_count && b->tasks[k].region < t->region)
+            k++;
+        t->shift = k < b->task_count ? b->tasks[k].shift : total;
+        nodes[t->slot].offset = t->region - t->shift;
+    }
+    uint32_t count = 1;
+    k = 0;
+    for (uint32_t i = 0; i <= b->top_count; i++) {
+        const uint32_t below = i < b->top_count ? b->tops[i].region : UINT32_MAX;
+        for (; k < b->task_count && b->tasks[k].region < below; k++) {
+            const task *x = &b->tasks[k];
+            if (x->shift)
+                memmove(nodes + x->region - x->shift, nodes + x->region, sizeof *nodes * (x->filled - x->region));
+            count += x->filled - x->region;
+        }
+        if (i == b->top_count)
+            break;
+        const task *t = &b->tops[i];
+        if (t->shift)
+            memmove(nodes + t->region - t->shift, nodes + t->region, sizeof *nodes * 2);
+        count += 2;
+    }
+    b->a->node_count = count;
 }
 
 static rtk_status lbvh_build(void *state, rtk_build_args *a)
@@ -469,34 +503,17 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
         b.codes_tmp = malloc(key_bytes * n);
         b.ids_tmp = malloc(sizeof *b.ids_tmp * n);
     }
-    const int dense = threads == 1;
-    if (!dense) {
-        b.tasks = malloc(sizeof *b.tasks * plan_cap);
-        b.tops = malloc(sizeof *b.tops * plan_cap);
-        b.used = calloc(a->max_nodes, sizeof *b.used);
-    }
+    b.tasks = malloc(sizeof *b.tasks * plan_cap);
+    b.tops = malloc(sizeof *b.tops * plan_cap);
     atomic_init(&b.next_task, 0);
+    atomic_init(&b.next_fix, 0);
     rtk_status st = RTK_OK;
-    if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp ||
-        (!dense && (!b.tasks || !b.tops || !b.used))) {
+    if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp || !b.tasks || !b.tops) {
         st = rtk_error(RTK_ERR_NOMEM, "lbvh: out of memory");
         goto done;
     }
     rtk_team_run(threads, run, &b);
-    if (dense) {
-        a->node_count = b.dense_end;
-        goto done;
-    }
-    /* Inner nodes above the subtrees, children before parents. */
-    for (uint32_t i = b.top_count; i-- > 0;) {
-        const task *t = &b.tops[i];
-        rtk_bvh_node *node = &a->nodes[t->slot];
-        node_union(node, &a->nodes[t->region], &a->nodes[t->region + 1]);
-        node->offset = t->region;
-        node->count = 0;
-        b.used[t->slot] = 1;
-    }
-    compact_nodes(a, b.used, a->max_nodes);
+    close_gaps(&b);
 done:
     free(b.cbounds);
     free(b.hist);
@@ -507,7 +524,6 @@ done:
     }
     free(b.tasks);
     free(b.tops);
-    free(b.used);
     return st;
 }
 
