@@ -882,8 +882,12 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     rtk_vec3 *vertices =
         inputs && want_vertices ? (rtk_vec3 *)(void *)(inputs + (sizeof(rtk_bounds) + sizeof(rtk_vec3)) * (size_t)n)
                                 : NULL;
-    a.nodes = rtk_calloc(a.max_nodes, sizeof *a.nodes);
-    a.prim_order = rtk_calloc(n, sizeof *a.prim_order);
+    /* Not cleared: a builder writes the nodes it reports and every slot of
+     * prim_order, and validation reads nothing else (clearing bunny's 4.8
+     * MB took 2-3% of an lbvh build, and as much of Embree's, which uses
+     * neither). */
+    a.nodes = rtk_alloc(sizeof *a.nodes * (size_t)a.max_nodes);
+    a.prim_order = rtk_alloc(sizeof *a.prim_order * (size_t)n);
     rtk_status st = RTK_OK;
     void *state = NULL;
     if ((!inputs && (want_bounds || want_vertices)) || !a.nodes || !a.prim_order) {

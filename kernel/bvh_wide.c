@@ -841,6 +841,8 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
         c.check = check_ready ? &check : NULL;
     }
     uint32_t depth = 0;
+    double times[4];
+    times[0] = rtk_now();
     if (!c.tri_total || !c.plan || (validate && !check_ready) ||
         !plan_tree(&c, threads < sets ? threads : sets - 1, &depth)) {
         c.failed = 1;
@@ -861,9 +863,11 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
             s->bvh_depth = depth;
         }
         /* Counting pass: planned nodes and items, in the serial order. */
+        times[1] = rtk_now();
         pl.grain = s->triangle_count / RTK_WIDE_GRAIN;
         plan_node(&c, &pl, 0, 0);
         c.failed |= pl.failed;
+        times[2] = rtk_now();
     }
     if (!c.failed) {
         c.failed = !place_arrays(&c, spare, spare_bytes, mem);
@@ -893,6 +897,10 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
             if (workers > pl.item_count)
                 workers = pl.item_count ? pl.item_count : 1;
             rtk_parallel_ranges(workers, workers, 1, wide_worker, &job);
+            times[3] = rtk_now();
+            rtk_log(RTK_LOG_DEBUG, "wide BVH: plan%s %.2f ms, counting %.2f ms, collapse %.2f ms (%u items, %u threads)",
+                    validate ? " and validation" : "", 1e3 * (times[1] - times[0]), 1e3 * (times[2] - times[1]),
+                    1e3 * (times[3] - times[2]), pl.item_count, workers);
             c.depth = pl.depth;
             for (uint32_t i = 0; i < pl.item_count; i++) {
                 c.failed |= pl.items[i].failed;
