@@ -24,7 +24,9 @@
  * into those, and a final pass closes the gaps while keeping the order.
  * A subtree under 4096 primitives is built by one thread and fills its
  * region densely from the start, so the gaps are whole pages left
- * untouched rather than holes in every page.
+ * untouched rather than holes in every page. Closed, the slots hold the
+ * children pairs in depth-first order, left first: a build on one thread
+ * fills them in that order from the root and has no gaps to close.
  */
 #include <rtk/rtk.h>
 
@@ -142,7 +144,8 @@ typedef struct build {
     uint32_t *tmp;    /* sweep: partition scratch */
     float *area;      /* sweep: areas of suffix bounds */
     uint8_t *left;    /* sweep: side of each primitive */
-    uint32_t *used;   /* 1 for each slot written */
+    uint32_t *used;   /* 1 for each slot written; NULL: one thread, dense from the root */
+    uint32_t dense_end; /* one thread: the slots the tree fills, [0, dense_end) */
     queue *q;         /* NULL when building on one thread */
 } build;
 
@@ -593,13 +596,14 @@ static void queue_push(queue *q, const job *j)
     pthread_mutex_unlock(&q->lock);
 }
 
-/* Builds the subtree of root, handing large subtrees to the queue. */
-static void build_subtree(const build *b, const job *root)
+/* Builds the subtree of root, handing large subtrees to the queue.
+ * Returns the next slot after a dense root's subtree. */
+static uint32_t build_subtree(const build *b, const job *root)
 {
     const sah *o = b->opt;
     rtk_build_args *a = b->a;
     job stack[SAH_STACK];
-    uint32_t top = 0, bump = 0;
+    uint32_t top = 0, bump = root->dense ? root->region : 0;
     stack[top++] = *root;
     while (top > 0) {
         job j = stack[--top];
@@ -611,7 +615,8 @@ static void build_subtree(const build *b, const job *root)
             s = o->sweep ? find_sweep(b, &j) : count <= SAH_SMALL ? find_small(b, &j) : find_binned(b, &j);
         if (count == 1 || (count <= o->max_leaf && (s.axis < 0 || o->t_tri * (float)count <= s.cost))) {
             write_node(&a->nodes[j.slot], &j.geom, j.begin, count);
-            b->used[j.slot] = 1;
+            if (b->used)
+                b->used[j.slot] = 1;
             if (!o->sweep)
                 for (uint32_t i = j.begin; i < j.end; i++)
                     a->prim_order[i] = b->refs[i].id;
@@ -651,13 +656,15 @@ static void build_subtree(const build *b, const job *root)
         l.end = r.begin = mid;
         r.region = j.region + 2 * (mid - j.begin);
         write_node(&a->nodes[j.slot], &j.geom, first, 0);
-        b->used[j.slot] = 1;
+        if (b->used)
+            b->used[j.slot] = 1;
         if (b->q && r.end - r.begin >= SAH_SPAWN_MIN)
             queue_push(b->q, &r);
         else
             stack[top++] = r;
         stack[top++] = l;
     }
+    return bump;
 }
 
 /* Takes jobs from the queue until every job is done (rtk_team_fn). */
@@ -684,15 +691,18 @@ static void work(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
     }
 }
 
-/* Builds from root on up to threads threads (the caller's included). */
-static rtk_status run_build(build *b, const job *root, uint32_t threads)
+/* Threads worth building with: more than queued subtrees would only wait. */
+static uint32_t build_threads(const rtk_build_args *a)
 {
-    uint32_t n = b->a->prim_count;
-    /* More threads than queued subtrees would only wait. */
-    if (threads > n / SAH_SPAWN_MIN)
-        threads = n / SAH_SPAWN_MIN;
+    return a->thread_count < a->prim_count / SAH_SPAWN_MIN ? a->thread_count : a->prim_count / SAH_SPAWN_MIN;
+}
+
+/* Builds from root on the build's threads (the caller's included). */
+static rtk_status run_build(build *b, const job *root)
+{
+    const uint32_t threads = build_threads(b->a), n = b->a->prim_count;
     if (threads <= 1) {
-        build_subtree(b, root);
+        b->dense_end = build_subtree(b, root);
         return RTK_OK;
     }
     queue q;
@@ -838,7 +848,7 @@ static rtk_status build_binned(build *b, job *root)
         box_grow(&root->geom, fp[t].bounds.geom.lo, fp[t].bounds.geom.hi);
         box_grow(&root->cent, fp[t].bounds.cent.lo, fp[t].bounds.cent.hi);
     }
-    rtk_status st = run_build(b, root, a->thread_count);
+    rtk_status st = run_build(b, root);
     if (!in_scratch)
         free(b->refs);
     return st;
@@ -869,7 +879,7 @@ static rtk_status build_sweep(build *b, job *root)
         }
         radix_sort(keys, b->ord[k], tmp_keys, b->tmp, n);
     }
-    st = run_build(b, root, a->thread_count);
+    st = run_build(b, root);
 done:
     free(b->ord[1]);
     free(b->ord[2]);
@@ -885,11 +895,20 @@ static rtk_status sah_build(void *state, rtk_build_args *a)
 {
     build b = {.opt = state, .a = a};
     job root = {.slot = 0, .begin = 0, .end = a->prim_count, .region = 1, .depth = 1};
-    b.used = calloc(a->max_nodes, sizeof *b.used);
-    if (!b.used)
-        return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+    /* One thread builds the whole tree densely from the root, in the
+     * order compaction leaves the slots (children pairs depth first, left
+     * first): no slot marks, no gaps to close. */
+    const int dense = build_threads(a) <= 1;
+    root.dense = dense;
+    if (!dense) {
+        b.used = calloc(a->max_nodes, sizeof *b.used);
+        if (!b.used)
+            return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+    }
     rtk_status st = b.opt->sweep ? build_sweep(&b, &root) : build_binned(&b, &root);
-    if (st == RTK_OK)
+    if (st == RTK_OK && dense)
+        a->node_count = b.dense_end;
+    else if (st == RTK_OK)
         compact_nodes(a, b.used, a->max_nodes);
     free(b.used);
     return st;
