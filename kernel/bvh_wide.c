@@ -641,11 +641,16 @@ void rtk_wide_free(rtk_scene *s)
 /* Levels planned at most. */
 #define RTK_WIDE_PLAN_DEPTH 8
 
+/* Workers of the counting pass and the collapse at most. */
+#define RTK_WIDE_WORKERS 64u
+
 typedef struct wide_item {
     uint32_t kid;                    /* binary node */
     uint32_t depth;                  /* wide depth of its reference */
+    uint32_t planned_before;         /* planned nodes made before it */
     uint32_t node_start, node_count; /* its range of wide nodes */
-    size_t kid_start;                /* its first entry in collapser.kid_seq */
+    uint32_t kid_buf;                /* the counting worker whose kid_seq holds its entries */
+    size_t kid_start, kid_len;       /* its entries there */
     uint32_t tri_start, tri_count;   /* its range of blocks */
     uint32_t ref, depth_out;         /* results */
     uint32_t bad_leaf;               /* lowest failing binary leaf, or UINT32_MAX */
@@ -665,19 +670,29 @@ typedef struct wide_plan {
     uint32_t item_count, item_cap;
     wide_fixup *fixups;
     uint32_t fixup_count, fixup_cap;
+    uint32_t *items_before; /* per planned node: the items made before it */
+    uint32_t planned_count, planned_cap;
     uint32_t grain; /* triangles above which a subtree is planned */
     uint32_t depth; /* deepest planned node */
     int failed;
 } wide_plan;
 
-/* Plans the wide node for binary node bin at depth: reserves its index
- * (c->node_cap), then each child in order is planned in turn or becomes
- * an item whose ranges come from the counting pass. */
+/* Plans the wide node for binary node bin at depth, planned node number
+ * pl->planned_count (its index comes once the items are counted), then
+ * each child in order is planned in turn or becomes an item. Planned
+ * nodes and items are numbered in the order a serial collapse makes
+ * them: a planned node's index is the planned nodes and the items' nodes
+ * made before it. */
 static void plan_node(collapser *c, wide_plan *pl, uint32_t bin, uint32_t depth)
 {
     uint32_t kids[RTK_WIDE];
     int n = choose_kids(c, bin, kids);
-    uint32_t node = c->node_cap++;
+    if (!rtk_grow_array((void **)&pl->items_before, &pl->planned_cap, pl->planned_count, sizeof *pl->items_before)) {
+        pl->failed = 1;
+        return;
+    }
+    const uint32_t node = pl->planned_count++;
+    pl->items_before[node] = pl->item_count;
     if (depth > pl->depth)
         pl->depth = depth;
     for (int i = 0; i < n && !c->failed && !pl->failed; i++) {
@@ -688,7 +703,7 @@ static void plan_node(collapser *c, wide_plan *pl, uint32_t bin, uint32_t depth)
         wide_fixup *f = &pl->fixups[pl->fixup_count++];
         *f = (wide_fixup){.node = node, .bin = kids[i], .item = UINT32_MAX, .slot = i};
         if (!is_wide_leaf(c, kids[i]) && c->tri_total[kids[i]] > pl->grain && depth + 1 < RTK_WIDE_PLAN_DEPTH) {
-            f->ref = c->node_cap;
+            f->ref = pl->planned_count;
             plan_node(c, pl, kids[i], depth + 1);
             continue;
         }
@@ -697,16 +712,77 @@ static void plan_node(collapser *c, wide_plan *pl, uint32_t bin, uint32_t depth)
             return;
         }
         f->item = pl->item_count;
-        wide_item *it = &pl->items[pl->item_count++];
-        *it = (wide_item){.kid = kids[i], .depth = depth + 1, .node_start = c->node_cap, .tri_start = c->tri_cap,
-                          .kid_start = c->kid_len};
-        if (is_wide_leaf(c, kids[i]))
-            count_leaf(c, c->tri_total[kids[i]], depth + 1);
-        else
-            count_collapse(c, kids[i], depth + 1);
-        it->node_count = c->node_cap - it->node_start;
-        it->tri_count = c->tri_cap - it->tri_start;
+        pl->items[pl->item_count++] =
+            (wide_item){.kid = kids[i], .depth = depth + 1, .planned_before = pl->planned_count};
     }
+}
+
+/* The counting pass over the items, on threads: each worker counts
+ * whole items into a kid_seq of its own. */
+typedef struct count_job {
+    const collapser *proto;
+    wide_item *items;
+    const uint32_t *order; /* items, largest first */
+    uint32_t item_count;
+    atomic_uint next;
+    uint32_t *bufs[RTK_WIDE_WORKERS]; /* per worker: its kid_seq */
+} count_job;
+
+static void count_worker(void *ctx, uint32_t begin, uint32_t end)
+{
+    (void)end;
+    count_job *job = ctx;
+    collapser c = *job->proto;
+    c.kid_seq = NULL, c.kid_len = c.kid_cap = 0;
+    for (;;) {
+        uint32_t k = atomic_fetch_add(&job->next, 1u);
+        if (k >= job->item_count)
+            break;
+        wide_item *it = &job->items[job->order[k]];
+        c.node_cap = c.tri_cap = 0;
+        c.failed = 0;
+        it->kid_buf = begin;
+        it->kid_start = c.kid_len;
+        if (is_wide_leaf(&c, it->kid))
+            count_leaf(&c, c.tri_total[it->kid], it->depth);
+        else
+            count_collapse(&c, it->kid, it->depth);
+        it->kid_len = c.kid_len - it->kid_start;
+        it->node_count = c.node_cap, it->tri_count = c.tri_cap;
+        it->failed = c.failed;
+    }
+    job->bufs[begin] = c.kid_seq;
+}
+
+/* After the counting pass: each item's ranges of nodes and blocks, each
+ * planned node's index (in the fixups), in the serial order; the totals
+ * in c->node_cap, c->tri_cap. 0 when out of memory or an item failed. */
+static int number_nodes(collapser *c, wide_plan *pl)
+{
+    uint32_t *nodes_before = rtk_alloc(sizeof *nodes_before * ((size_t)pl->item_count + 1));
+    if (!nodes_before)
+        return 0;
+    uint32_t nodes = 0, tris = 0;
+    int failed = 0;
+    for (uint32_t k = 0; k < pl->item_count; k++) {
+        wide_item *it = &pl->items[k];
+        failed |= it->failed;
+        nodes_before[k] = nodes;
+        it->node_start = it->planned_before + nodes;
+        it->tri_start = tris;
+        nodes += it->node_count, tris += it->tri_count;
+    }
+    nodes_before[pl->item_count] = nodes;
+    for (uint32_t f = 0; f < pl->fixup_count; f++) {
+        wide_fixup *x = &pl->fixups[f];
+        x->node += nodes_before[pl->items_before[x->node]];
+        if (x->item == UINT32_MAX)
+            x->ref += nodes_before[pl->items_before[x->ref]];
+    }
+    c->node_cap = pl->planned_count + nodes;
+    c->tri_cap = tris;
+    free(nodes_before);
+    return !failed;
 }
 
 typedef struct wide_job {
@@ -715,6 +791,7 @@ typedef struct wide_job {
     const uint32_t *order; /* items, largest first */
     uint32_t item_count;
     atomic_uint next;
+    uint32_t *const *bufs; /* the counting workers' kid_seq */
 } wide_job;
 
 static void collapse_item(collapser *c, wide_item *it)
@@ -725,6 +802,7 @@ static void collapse_item(collapser *c, wide_item *it)
     c->failed = 0;
     c->bad_leaf = UINT32_MAX;
     c->kid_pos = it->kid_start;
+    c->kid_len = it->kid_start + it->kid_len;
     if (is_wide_leaf(c, it->kid)) {
         uint32_t count = 0;
         gather_slots(c, it->kid, &count);
@@ -753,6 +831,7 @@ static void wide_worker(void *ctx, uint32_t begin, uint32_t end)
         if (k >= job->item_count)
             break;
         wide_item *it = &job->items[job->order[k]];
+        c.kid_seq = job->bufs[it->kid_buf];
         uint32_t need = c.tri_total[it->kid];
         if (need > slot_cap) {
             free(c.slots);
@@ -771,13 +850,14 @@ static void wide_worker(void *ctx, uint32_t begin, uint32_t end)
     free(c.corners);
 }
 
-/* The items in order[0, n), largest first (ties by index): the longest
- * ones start first. Insertion sort: a few hundred items at most. */
-static void order_items(const wide_item *items, uint32_t n, uint32_t *order)
+/* The items in order[0, n), largest first (triangles below; ties by
+ * index): the longest ones start first. Insertion sort: a few hundred
+ * items at most. */
+static void order_items(const collapser *c, const wide_item *items, uint32_t n, uint32_t *order)
 {
     for (uint32_t i = 0; i < n; i++) {
-        uint32_t size = items[i].node_count + items[i].tri_count, j = i;
-        while (j > 0 && items[order[j - 1]].node_count + items[order[j - 1]].tri_count < size) {
+        uint32_t size = c->tri_total[items[i].kid], j = i;
+        while (j > 0 && c->tri_total[items[order[j - 1]].kid] < size) {
             order[j] = order[j - 1];
             j--;
         }
@@ -841,6 +921,7 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
         c.check = check_ready ? &check : NULL;
     }
     uint32_t depth = 0;
+    uint32_t *bufs[RTK_WIDE_WORKERS] = {NULL}, workers = 1;
     double times[4];
     times[0] = rtk_now();
     if (!c.tri_total || !c.plan || (validate && !check_ready) ||
@@ -862,19 +943,35 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
             c.check = NULL;
             s->bvh_depth = depth;
         }
-        /* Counting pass: planned nodes and items, in the serial order. */
+        /* The top of the collapse, serially; then the counting pass over
+         * the items below it, on threads; then every range and index, in
+         * the serial order. */
         times[1] = rtk_now();
         pl.grain = s->triangle_count / RTK_WIDE_GRAIN;
         plan_node(&c, &pl, 0, 0);
         c.failed |= pl.failed;
+        workers = s->triangle_count >= 16384 && threads > 1 ? threads : 1;
+        if (workers > RTK_WIDE_WORKERS)
+            workers = RTK_WIDE_WORKERS;
+        if (workers > pl.item_count)
+            workers = pl.item_count ? pl.item_count : 1;
+        if (!c.failed) {
+            order = rtk_alloc(sizeof *order * (size_t)(pl.item_count ? pl.item_count : 1));
+            c.failed = !order;
+        }
+        if (!c.failed) {
+            order_items(&c, pl.items, pl.item_count, order);
+            count_job job = {.proto = &c, .items = pl.items, .order = order, .item_count = pl.item_count};
+            atomic_init(&job.next, 0u);
+            rtk_parallel_ranges(workers, workers, 1, count_worker, &job);
+            memcpy(bufs, job.bufs, sizeof bufs);
+            c.failed = !number_nodes(&c, &pl);
+        }
         times[2] = rtk_now();
     }
     if (!c.failed) {
         c.failed = !place_arrays(&c, spare, spare_bytes, mem);
         spare = NULL;
-        order = rtk_alloc(sizeof *order * (size_t)(pl.item_count ? pl.item_count : 1));
-        if (!order)
-            c.failed = 1;
     }
     free(spare);
     if (!c.failed) {
@@ -890,12 +987,9 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
         if (pl.fixup_count == 0) { /* never: the root has a child */
             c.failed = 1;
         } else {
-            order_items(pl.items, pl.item_count, order);
-            wide_job job = {.proto = &c, .items = pl.items, .order = order, .item_count = pl.item_count};
+            wide_job job = {.proto = &c, .items = pl.items, .order = order, .item_count = pl.item_count,
+                            .bufs = bufs};
             atomic_init(&job.next, 0u);
-            uint32_t workers = s->triangle_count >= 16384 && threads > 1 ? threads : 1;
-            if (workers > pl.item_count)
-                workers = pl.item_count ? pl.item_count : 1;
             rtk_parallel_ranges(workers, workers, 1, wide_worker, &job);
             times[3] = rtk_now();
             rtk_log(RTK_LOG_DEBUG, "wide BVH: plan%s %.2f ms, counting %.2f ms, collapse %.2f ms (%u items, %u threads)",
@@ -920,9 +1014,11 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
     }
     free(c.tri_total);
     free(c.plan);
-    free(c.kid_seq);
+    for (uint32_t w = 0; w < RTK_WIDE_WORKERS; w++)
+        free(bufs[w]);
     free(pl.items);
     free(pl.fixups);
+    free(pl.items_before);
     free(order);
     rtk_wide_bvh *w = NULL;
     if (!c.failed && bad_leaf != UINT32_MAX) {
