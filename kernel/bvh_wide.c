@@ -717,21 +717,22 @@ static void plan_node(collapser *c, wide_plan *pl, uint32_t bin, uint32_t depth)
     }
 }
 
-/* The counting pass over the items, on threads: each worker counts
- * whole items into a kid_seq of its own. */
-typedef struct count_job {
+/* The items' passes on threads, each worker taking whole items: the
+ * counting pass, each worker into a kid_seq of its own, then the
+ * collapse. */
+typedef struct item_job {
     const collapser *proto;
     wide_item *items;
     const uint32_t *order; /* items, largest first */
     uint32_t item_count;
     atomic_uint next;
-    uint32_t *bufs[RTK_WIDE_WORKERS]; /* per worker: its kid_seq */
-} count_job;
+    uint32_t *bufs[RTK_WIDE_WORKERS]; /* per counting worker: its kid_seq [job frees] */
+} item_job;
 
 static void count_worker(void *ctx, uint32_t begin, uint32_t end)
 {
     (void)end;
-    count_job *job = ctx;
+    item_job *job = ctx;
     collapser c = *job->proto;
     c.kid_seq = NULL, c.kid_len = c.kid_cap = 0;
     for (;;) {
@@ -785,15 +786,6 @@ static int number_nodes(collapser *c, wide_plan *pl)
     return !failed;
 }
 
-typedef struct wide_job {
-    const collapser *proto;
-    wide_item *items;
-    const uint32_t *order; /* items, largest first */
-    uint32_t item_count;
-    atomic_uint next;
-    uint32_t *const *bufs; /* the counting workers' kid_seq */
-} wide_job;
-
 static void collapse_item(collapser *c, wide_item *it)
 {
     c->node_count = it->node_start, c->node_cap = it->node_start + it->node_count;
@@ -821,7 +813,7 @@ static void collapse_item(collapser *c, wide_item *it)
 static void wide_worker(void *ctx, uint32_t begin, uint32_t end)
 {
     (void)begin, (void)end;
-    wide_job *job = ctx;
+    item_job *job = ctx;
     collapser c = *job->proto;
     c.slots = NULL;
     c.corners = NULL;
@@ -921,7 +913,10 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
         c.check = check_ready ? &check : NULL;
     }
     uint32_t depth = 0;
-    uint32_t *bufs[RTK_WIDE_WORKERS] = {NULL}, workers = 1;
+    uint32_t workers = 1;
+    item_job job;
+    memset(&job, 0, sizeof job);
+    atomic_init(&job.next, 0u);
     double times[4];
     times[0] = rtk_now();
     if (!c.tri_total || !c.plan || (validate && !check_ready) ||
@@ -961,10 +956,8 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
         }
         if (!c.failed) {
             order_items(&c, pl.items, pl.item_count, order);
-            count_job job = {.proto = &c, .items = pl.items, .order = order, .item_count = pl.item_count};
-            atomic_init(&job.next, 0u);
+            job.proto = &c, job.items = pl.items, job.order = order, job.item_count = pl.item_count;
             rtk_parallel_ranges(workers, workers, 1, count_worker, &job);
-            memcpy(bufs, job.bufs, sizeof bufs);
             c.failed = !number_nodes(&c, &pl);
         }
         times[2] = rtk_now();
@@ -987,9 +980,7 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
         if (pl.fixup_count == 0) { /* never: the root has a child */
             c.failed = 1;
         } else {
-            wide_job job = {.proto = &c, .items = pl.items, .order = order, .item_count = pl.item_count,
-                            .bufs = bufs};
-            atomic_init(&job.next, 0u);
+            atomic_store(&job.next, 0u);
             rtk_parallel_ranges(workers, workers, 1, wide_worker, &job);
             times[3] = rtk_now();
             rtk_log(RTK_LOG_DEBUG, "wide BVH: plan%s %.2f ms, counting %.2f ms, collapse %.2f ms (%u items, %u threads)",
@@ -1015,7 +1006,7 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
     free(c.tri_total);
     free(c.plan);
     for (uint32_t w = 0; w < RTK_WIDE_WORKERS; w++)
-        free(bufs[w]);
+        free(job.bufs[w]);
     free(pl.items);
     free(pl.fixups);
     free(pl.items_before);
