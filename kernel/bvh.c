@@ -540,7 +540,8 @@ static rtk_status walk_tree(tree_walk *w, uint32_t root, uint32_t root_depth, ui
             for (uint32_t i = n->offset; w->leaf_bounds && i < n->offset + n->count; i++) {
                 const uint32_t prim = a->prim_order[i];
                 const rtk_bounds *b = &a->prim_bounds[prim];
-                const float plo[3] = {b->lower.x, b->lower.y, b->lower.z}, phi[3] = {b->upper.x, b->upper.y, b->upper.z};
+                const float plo[3] = {b->lower.x, b->lower.y, b->lower.z};
+                const float phi[3] = {b->upper.x, b->upper.y, b->upper.z};
                 if (!box_contains(n->lower, n->upper, plo, phi))
                     WALK_FAIL("builder output: leaf %u does not enclose primitive %u", id, prim);
             }

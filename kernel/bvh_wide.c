@@ -983,7 +983,8 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
             atomic_store(&job.next, 0u);
             rtk_parallel_ranges(workers, workers, 1, wide_worker, &job);
             times[3] = rtk_now();
-            rtk_log(RTK_LOG_DEBUG, "wide BVH: plan%s %.2f ms, counting %.2f ms, collapse %.2f ms (%u items, %u threads)",
+            rtk_log(RTK_LOG_DEBUG,
+                    "wide BVH: plan%s %.2f ms, counting %.2f ms, collapse %.2f ms (%u items, %u threads)",
                     validate ? " and validation" : "", 1e3 * (times[1] - times[0]), 1e3 * (times[2] - times[1]),
                     1e3 * (times[3] - times[2]), pl.item_count, workers);
             c.depth = pl.depth;

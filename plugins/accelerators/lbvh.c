@@ -71,6 +71,7 @@ typedef struct build {
     uint32_t (*hist)[1 << LBVH_DIGIT]; /* per thread: digit counts */
     task *tasks;                   /* subtrees for the threads, in slot order */
     uint32_t task_count;
+    uint32_t gap_total;            /* the slots all subtrees leave unused */
     atomic_uint next_task, next_fix;
     task *tops;                    /* inner nodes above the subtrees, parents first (slot order) */
     uint32_t top_count;
@@ -310,16 +311,13 @@ static void node_union(rtk_bvh_node *n, const rtk_bvh_node *l, const rtk_bvh_nod
  * a stall at every node. */
 static float emit(const build *b, uint32_t slot, uint32_t begin, uint32_t end, uint32_t *bump)
 {
-    const struct {
-        uint32_t slot, begin, end;
-    } t = {slot, begin, end};
     const lbvh *o = b->opt;
     rtk_build_args *a = b->a;
-    rtk_bvh_node *n = &a->nodes[t.slot];
-    const uint32_t count = t.end - t.begin;
+    rtk_bvh_node *n = &a->nodes[slot];
+    const uint32_t count = end - begin;
     if (count <= (o->collapse ? 1 : o->max_leaf)) {
         float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-        for (uint32_t i = t.begin; i < t.end; i++) {
+        for (uint32_t i = begin; i < end; i++) {
             /* Leaves come in slot order and their primitives' bounds
              * are all over memory: ask for those of a later leaf. */
             if (i + LBVH_PREFETCH < a->prim_count)
@@ -330,15 +328,15 @@ static float emit(const build *b, uint32_t slot, uint32_t begin, uint32_t end, u
         }
         memcpy(n->lower, lo, sizeof lo);
         memcpy(n->upper, hi, sizeof hi);
-        n->offset = t.begin;
+        n->offset = begin;
         n->count = count;
         return o->collapse ? o->t_tri * (float)count * half_area(n) : 0.0f;
     }
     const uint32_t first = *bump;
     *bump += 2;
-    uint32_t mid = split_at(b, t.begin, t.end);
-    float cost = emit(b, first, t.begin, mid, bump);
-    cost += emit(b, first + 1, mid, t.end, bump);
+    uint32_t mid = split_at(b, begin, end);
+    float cost = emit(b, first, begin, mid, bump);
+    cost += emit(b, first + 1, mid, end, bump);
     node_union(n, &a->nodes[first], &a->nodes[first + 1]);
     if (!o->collapse) {
         n->offset = first;
@@ -351,7 +349,7 @@ static float emit(const build *b, uint32_t slot, uint32_t begin, uint32_t end, u
         /* The descendants are the slots [first, *bump), free again for
          * what follows. */
         *bump = first;
-        n->offset = t.begin;
+        n->offset = begin;
         n->count = count;
         return leaf;
     }
@@ -378,7 +376,8 @@ static void plan(build *b, uint32_t grain)
         }
         uint32_t mid = split_at(b, t.begin, t.end);
         b->tops[b->top_count++] = t;
-        pending[top++] = (task){.slot = t.region + 1, .begin = mid, .end = t.end, .region = t.region + 2 * (mid - t.begin)};
+        pending[top++] =
+            (task){.slot = t.region + 1, .begin = mid, .end = t.end, .region = t.region + 2 * (mid - t.begin)};
         pending[top++] = (task){.slot = t.region, .begin = t.begin, .end = mid, .region = t.region + 2};
     }
 }
@@ -410,6 +409,7 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
             x->shift = shift;
             shift += x->region + 2 * (x->end - x->begin) - 2 - x->filled;
         }
+        b->gap_total = shift;
     }
     rtk_team_sync(team);
     /* Each subtree's inner nodes (the root's children included) point
@@ -437,22 +437,18 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
 static void close_gaps(build *b)
 {
     rtk_bvh_node *nodes = b->a->nodes;
-    /* Below a pair, the subtrees whose regions come before it. */
-    uint32_t k = 0, total = b->task_count ? b->tasks[b->task_count - 1].shift : 0;
-    if (b->task_count) {
-        const task *last = &b->tasks[b->task_count - 1];
-        total += last->region + 2 * (last->end - last->begin) - 2 - last->filled;
-    }
+    uint32_t k = 0;
     for (uint32_t i = b->top_count; i-- > 0;) { /* children before parents, all in place */
         const task *t = &b->tops[i];
         node_union(&nodes[t->slot], &nodes[t->region], &nodes[t->region + 1]);
         nodes[t->slot].count = 0;
     }
     for (uint32_t i = 0; i < b->top_count; i++) {
+        /* A pair moves by the unused slots of the subtrees before it. */
         task *t = &b->tops[i];
         while (k < b->task_count && b->tasks[k].region < t->region)
             k++;
-        t->shift = k < b->task_count ? b->tasks[k].shift : total;
+        t->shift = k < b->task_count ? b->tasks[k].shift : b->gap_total;
         nodes[t->slot].offset = t->region - t->shift;
     }
     uint32_t count = 1;
