@@ -887,7 +887,7 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
      * prim_order, and validation reads nothing else (clearing bunny's 4.8
      * MB took 2-3% of an lbvh build, and as much of Embree's, which uses
      * neither). */
-    a.nodes = rtk_alloc_large(sizeof *a.nodes * (size_t)a.max_nodes);
+    a.nodes = rtk_alloc(sizeof *a.nodes * (size_t)a.max_nodes);
     a.prim_order = rtk_alloc(sizeof *a.prim_order * (size_t)n);
     rtk_status st = RTK_OK;
     void *state = NULL;

@@ -895,8 +895,8 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
     collapser c;
     memset(&c, 0, sizeof c);
     c.s = s;
-    c.tri_total = rtk_alloc_large(sizeof *c.tri_total * (size_t)s->node_count);
-    c.plan = rtk_alloc_large(sizeof *c.plan * (size_t)s->node_count);
+    c.tri_total = rtk_alloc(sizeof *c.tri_total * (size_t)s->node_count);
+    c.plan = rtk_alloc(sizeof *c.plan * (size_t)s->node_count);
     wide_plan pl;
     memset(&pl, 0, sizeof pl);
     uint32_t *order = NULL;
