@@ -28,9 +28,11 @@ typedef struct rtk_build_args {
     const rtk_bounds *prim_bounds; /* bounds of each primitive */
     const rtk_vec3 *centroids;     /* centre of each primitive's bounds */
     uint32_t max_nodes;            /* capacity of nodes: 2 * prim_count - 1 */
-    rtk_bvh_node *nodes;           /* out: the tree, root at 0 */
+    rtk_bvh_node *nodes;           /* out: the tree, root at 0 (given uncleared:
+                                      write every node counted) */
     uint32_t node_count;           /* out: nodes used, each reachable from the root */
-    uint32_t *prim_order;          /* out: permutation of 0 .. prim_count - 1 */
+    uint32_t *prim_order;          /* out: permutation of 0 .. prim_count - 1 (given
+                                      uncleared) */
     uint32_t thread_count;         /* threads the builder may use */
     const rtk_vec3 *vertices;      /* 3 per primitive: its triangle's corners; NULL
                                       when the primitives are instances (the top
