@@ -493,10 +493,7 @@ static int check_node(const rtk_tree_check *c, rtk_tree_tally *t, uint32_t id, u
 int rtk_tree_check_node(const rtk_tree_check *c, rtk_tree_tally *t, uint32_t id, uint32_t depth)
 {
     uint32_t what;
-    if (check_node(c, t, id, depth, &what) == FAULT_NONE)
-        return 1;
-    t->failed = 1;
-    return 0;
+    return check_node(c, t, id, depth, &what) == FAULT_NONE;
 }
 
 #define WALK_FAIL(...) return w->quiet ? RTK_ERR_PLUGIN : rtk_error(RTK_ERR_PLUGIN, __VA_ARGS__)
@@ -627,11 +624,19 @@ int rtk_tree_check_whole(const rtk_tree_check *c, uint32_t reached, uint32_t cov
 /* Below this many nodes the walk stays on one thread. */
 #define VALIDATION_PARALLEL_NODES 16384u
 
-rtk_status rtk_bvh_validate(const rtk_build_args *a, int leaf_bounds, uint32_t *depth_out)
+/* RTK_ERR_PLUGIN (error set) unless a builder's node_count is 1 .. max_nodes. */
+static rtk_status check_node_count(const rtk_build_args *a)
 {
     if (a->node_count == 0 || a->node_count > a->max_nodes)
         return rtk_error(RTK_ERR_PLUGIN, "builder returned %u nodes (expected 1 .. %u)", a->node_count,
                          a->max_nodes);
+    return RTK_OK;
+}
+
+rtk_status rtk_bvh_validate(const rtk_build_args *a, int leaf_bounds, uint32_t *depth_out)
+{
+    if (check_node_count(a) != RTK_OK)
+        return RTK_ERR_PLUGIN;
     tree_walk w;
     memset(&w, 0, sizeof w);
     w.a = a, w.leaf_bounds = leaf_bounds;
@@ -834,14 +839,12 @@ rtk_status rtk_bvh_finish(rtk_scene *s, uint32_t threads, void *spare, size_t sp
     rtk_status st;
     if (s->own_traversal) {
         free(spare);
-        if (!validated && (st = rtk_bvh_validate_scene(s, threads, &s->bvh_depth)) != RTK_OK)
+    } else {
+        st = rtk_wide_build(s, threads, spare, spare_bytes, !validated);
+        if (st == RTK_OK || st == RTK_ERR_PLUGIN)
             return st;
-        return rtk_bvh_check_leaves(s, threads);
+        rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
     }
-    st = rtk_wide_build(s, threads, spare, spare_bytes, !validated);
-    if (st == RTK_OK || st == RTK_ERR_PLUGIN)
-        return st;
-    rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
     if (!validated && (st = rtk_bvh_validate_scene(s, threads, &s->bvh_depth)) != RTK_OK)
         return st;
     return rtk_bvh_check_leaves(s, threads);
@@ -951,9 +954,8 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     double t2 = rtk_now();
     /* The structure is validated as the wide tree plans its collapse, the
      * leaves' boxes against the corners as it gathers them. */
-    if (a.node_count == 0 || a.node_count > a.max_nodes) {
-        st = rtk_error(RTK_ERR_PLUGIN, "builder returned %u nodes (expected 1 .. %u)", a.node_count, a.max_nodes);
-    } else {
+    st = check_node_count(&a);
+    if (st == RTK_OK) {
         s->nodes = a.nodes;
         s->node_count = a.node_count;
         s->prim_ids = a.prim_order;

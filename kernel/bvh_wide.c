@@ -489,6 +489,36 @@ static int plan_tree(collapser *c, uint32_t threads, uint32_t *depth)
     return ok && next == count;
 }
 
+/* plan_tree, and with validate the walks check s's tree as they go and
+ * *depth gets its depth: RTK_OK; RTK_ERR_PLUGIN with rtk_bvh_validate's
+ * message for a tree that fails; RTK_ERR_NOMEM (the structure then maybe
+ * unchecked). Validation rides on the plan's walks, one pass over the
+ * nodes instead of two: the same checks, quietly, and a tree that fails
+ * them is walked again by rtk_bvh_validate for the message. */
+static rtk_status plan_validated(collapser *c, uint32_t threads, int validate, uint32_t *depth)
+{
+    const rtk_scene *s = c->s;
+    if (threads > RTK_TREE_CHECK_MAX_SETS - 1)
+        threads = RTK_TREE_CHECK_MAX_SETS - 1;
+    if (!validate)
+        return plan_tree(c, threads, depth) ? RTK_OK : rtk_error(RTK_ERR_NOMEM, "wide BVH: out of memory planning");
+    rtk_tree_check check;
+    uint32_t seen = 0;
+    int ok = rtk_tree_check_init(&check, s->nodes, s->node_count, s->prim_ids, s->triangle_count, threads + 1);
+    if (ok) {
+        c->check = &check;
+        ok = plan_tree(c, threads, &seen);
+        c->check = NULL;
+        rtk_tree_check_free(&check);
+    }
+    if (ok) {
+        *depth = seen;
+        return RTK_OK;
+    }
+    rtk_status st = rtk_bvh_validate_scene(s, threads, depth);
+    return st != RTK_OK ? st : rtk_error(RTK_ERR_NOMEM, "wide BVH: out of memory planning");
+}
+
 /* Whether binary node id ends a wide path: a leaf of the plan. */
 static int is_wide_leaf(const collapser *c, uint32_t id)
 {
@@ -902,42 +932,23 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
     uint32_t *order = NULL;
     void *mem[2] = {NULL, NULL};
     uint32_t bad_leaf = UINT32_MAX;
-    /* Validation rides on the plan's walks (one pass over the nodes
-     * instead of two): the same checks, quietly; a tree that fails them
-     * is walked again by rtk_bvh_validate for the message. */
-    rtk_tree_check check;
-    const uint32_t sets = threads < RTK_TREE_CHECK_MAX_SETS - 1 ? threads + 1 : RTK_TREE_CHECK_MAX_SETS;
-    int check_ready = 0;
-    if (validate) {
-        check_ready = rtk_tree_check_init(&check, s->nodes, s->node_count, s->prim_ids, s->triangle_count, sets);
-        c.check = check_ready ? &check : NULL;
-    }
-    uint32_t depth = 0;
     uint32_t workers = 1;
     item_job job;
     memset(&job, 0, sizeof job);
     atomic_init(&job.next, 0u);
     double times[4];
     times[0] = rtk_now();
-    if (!c.tri_total || !c.plan || (validate && !check_ready) ||
-        !plan_tree(&c, threads < sets ? threads : sets - 1, &depth)) {
+    const rtk_status planned =
+        c.tri_total && c.plan ? plan_validated(&c, threads, validate, &s->bvh_depth) : RTK_ERR_NOMEM;
+    if (planned == RTK_ERR_PLUGIN) {
+        free(c.tri_total);
+        free(c.plan);
+        free(spare);
+        return planned;
+    }
+    if (planned != RTK_OK) {
         c.failed = 1;
-        if (check_ready) {
-            rtk_tree_check_free(&check);
-            free(c.tri_total);
-            free(c.plan);
-            free(spare);
-            rtk_status st = rtk_bvh_validate_scene(s, threads, &depth);
-            if (st != RTK_OK) /* the tree's fault, or out of memory */
-                return st;
-            return rtk_error(RTK_ERR_NOMEM, "wide BVH: out of memory planning the collapse");
-        }
     } else {
-        if (check_ready) {
-            rtk_tree_check_free(&check);
-            c.check = NULL;
-            s->bvh_depth = depth;
-        }
         /* The top of the collapse, serially; then the counting pass over
          * the items below it, on threads; then every range and index, in
          * the serial order. */

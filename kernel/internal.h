@@ -496,7 +496,6 @@ typedef struct rtk_tree_check {
 typedef struct rtk_tree_tally {
     uint64_t *prim_bits;
     uint32_t reached, covered, max_depth;
-    int failed;
 } rtk_tree_tally;
 /* Marks for a tree of node_count >= 1 nodes and walks with sets bit sets
  * (at most RTK_TREE_CHECK_MAX_SETS). 0 when out of memory. */
@@ -508,7 +507,7 @@ void rtk_tree_tally_init(const rtk_tree_check *check, uint32_t set, rtk_tree_tal
 /* Marks node id, at depth (the root at 1), and checks it: bounds without
  * NaN, a leaf's slots and primitives in range and met once, an inner
  * node's children in range and inside its box, so that its children may
- * be read next. 1 when sound; 0 sets tally->failed. */
+ * be read next. 1 when sound. */
 int rtk_tree_check_node(const rtk_tree_check *check, rtk_tree_tally *tally, uint32_t id, uint32_t depth);
 /* Adds a tally's counts to sums and a maximum shared by walks (atomic). */
 void rtk_tree_tally_add(const rtk_tree_tally *tally, uint32_t *covered, uint32_t *reached, uint32_t *max_depth);
