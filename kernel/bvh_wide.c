@@ -1,6 +1,9 @@
 /* The wide BVH (see bvh_wide.h): collapse of the binary tree, and its
- * traversal in plain C, SSE and AVX2, the SIMD paths compiled here with
- * target attributes and chosen at run time.
+ * traversal in plain C, SSE, AVX2 and AVX-512, the SIMD paths compiled
+ * here with target attributes and chosen at run time. The AVX2 and
+ * AVX-512 paths are one node loop, compiled twice: this file includes
+ * itself (RTK_WIDE_AVX_PASS), and the second reading compiles only the
+ * loop at its end.
  *
  * Every path computes the same numbers: the box test (differences,
  * products by the reciprocal, NaN of 0 * inf dropped, far distances
@@ -9,7 +12,9 @@
  * rtk_intersect_triangle's arithmetic, operation for operation, on four
  * triangles at once, lanes that need double precision handed to it.
  * Nothing here may contract a * b + c into an FMA, which is why the AVX2
- * target does not include FMA. */
+ * target does not include FMA (and the kernel is compiled with
+ * -ffp-contract=off, which also holds for the AVX-512 target). */
+#ifndef RTK_WIDE_AVX_PASS
 #include "bvh_wide.h"
 #include "slab.h"
 
@@ -23,7 +28,6 @@
 #if defined(__x86_64__) || defined(__i386__)
 #define RTK_HAVE_X86 1
 #include <immintrin.h>
-#define RTK_TARGET_AVX2 __attribute__((target("avx2")))
 #else
 #define RTK_HAVE_X86 0
 #endif
@@ -1069,6 +1073,10 @@ int rtk_simd_supported(rtk_simd_path path)
     case RTK_SIMD_AVX2:
         __builtin_cpu_init();
         return __builtin_cpu_supports("avx2") != 0;
+    case RTK_SIMD_AVX512:
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("avx512f") &&
+               __builtin_cpu_supports("avx512vl");
 #endif
     default:
         return 0;
@@ -1077,6 +1085,8 @@ int rtk_simd_supported(rtk_simd_path path)
 
 rtk_simd_path rtk_simd_best(void)
 {
+    if (rtk_simd_supported(RTK_SIMD_AVX512))
+        return RTK_SIMD_AVX512;
     if (rtk_simd_supported(RTK_SIMD_AVX2))
         return RTK_SIMD_AVX2;
     if (rtk_simd_supported(RTK_SIMD_SSE))
@@ -1086,8 +1096,8 @@ rtk_simd_path rtk_simd_best(void)
 
 const char *rtk_simd_name(rtk_simd_path path)
 {
-    static const char *const names[] = {"binary", "scalar", "sse", "avx2"};
-    return (unsigned)path < 4 ? names[path] : "?";
+    static const char *const names[RTK_SIMD_PATHS] = {"binary", "scalar", "sse", "avx2", "avx512"};
+    return (unsigned)path < RTK_SIMD_PATHS ? names[path] : "?";
 }
 
 rtk_simd_path rtk_simd_from_env(void)
@@ -1095,7 +1105,7 @@ rtk_simd_path rtk_simd_from_env(void)
     const char *e = getenv("RTK_SIMD");
     if (!e || !*e)
         return rtk_simd_best();
-    for (int p = RTK_SIMD_BINARY; p <= RTK_SIMD_AVX2; p++) {
+    for (int p = RTK_SIMD_BINARY; p < RTK_SIMD_PATHS; p++) {
         if (strcmp(e, rtk_simd_name((rtk_simd_path)p)) == 0) {
             if (rtk_simd_supported((rtk_simd_path)p))
                 return (rtk_simd_path)p;
@@ -1104,7 +1114,7 @@ rtk_simd_path rtk_simd_from_env(void)
             return rtk_simd_best();
         }
     }
-    rtk_warn_once("RTK_SIMD unknown", "RTK_SIMD=%s is not one of binary, scalar, sse, avx2; using %s", e,
+    rtk_warn_once("RTK_SIMD unknown", "RTK_SIMD=%s is not one of binary, scalar, sse, avx2, avx512; using %s", e,
                   rtk_simd_name(rtk_simd_best()));
     return rtk_simd_best();
 }
@@ -1614,7 +1624,23 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
     }
 }
 
-/* ---- AVX2: the eight children at once ---- */
+static int sse_closest(const rtk_scene *s, const rtk_ray *r, rtk_hit *h)
+{
+    return sse_traverse(s, r, h, 0, NULL);
+}
+static int sse_any(const rtk_scene *s, const rtk_ray *r)
+{
+    return sse_traverse(s, r, NULL, 1, NULL);
+}
+static int sse_closest_work(const rtk_scene *s, const rtk_ray *r, rtk_hit *h, rtk_trace_work *wk)
+{
+    return sse_traverse(s, r, h, 0, wk);
+}
+static int sse_any_work(const rtk_scene *s, const rtk_ray *r, rtk_trace_work *wk)
+{
+    return sse_traverse(s, r, NULL, 1, wk);
+}
+/* ---- AVX2 and AVX-512: the eight children at once ---- */
 
 /* Occlusion pushes a node's hit children without a branch on how many
  * were hit: for each 8-bit hit mask, the lanes of its set bits but the
@@ -1646,11 +1672,105 @@ static const uint32_t pack_lanes[256] = {PACK_32(0u), PACK_32(32u), PACK_32(64u)
 #undef PACK_BELOW
 #undef PACK_BIT
 
+/* The node loop at the end of this file, once per target: RTK_AVX names
+ * a function of the pass, RTK_AVX512 selects the two places where the
+ * passes differ (the hit mask straight from the compare into a mask
+ * register, and occlusion's push by one compress instead of the table
+ * above). AVX-512VL on 256-bit vectors also gives the loop 32 vector
+ * registers: no broadcast of the ray is kept on the stack. */
+#define RTK_WIDE_AVX_PASS
+#define RTK_AVX512 0
+#define RTK_AVX(name) avx2_##name
+#define RTK_TARGET_AVX __attribute__((target("avx2")))
+#include "bvh_wide.c"
+#undef RTK_TARGET_AVX
+#undef RTK_AVX
+#undef RTK_AVX512
+#define RTK_AVX512 1
+#define RTK_AVX(name) avx512_##name
+#define RTK_TARGET_AVX __attribute__((target("avx2,avx512f,avx512vl")))
+#include "bvh_wide.c"
+#undef RTK_TARGET_AVX
+#undef RTK_AVX
+#undef RTK_AVX512
+#undef RTK_WIDE_AVX_PASS
+
+#endif
+
+static int scalar_closest(const rtk_scene *s, const rtk_ray *r, rtk_hit *h, rtk_trace_work *wk)
+{
+    return scalar_traverse(s, r, h, 0, wk);
+}
+static int scalar_any(const rtk_scene *s, const rtk_ray *r, rtk_trace_work *wk)
+{
+    return scalar_traverse(s, r, NULL, 1, wk);
+}
+
+static int scalar_closest_fast(const rtk_scene *s, const rtk_ray *r, rtk_hit *h)
+{
+    return scalar_traverse(s, r, h, 0, NULL);
+}
+static int scalar_any_fast(const rtk_scene *s, const rtk_ray *r)
+{
+    return scalar_traverse(s, r, NULL, 1, NULL);
+}
+
+rtk_wide_closest_fn const rtk_wide_closest_path[RTK_SIMD_PATHS] = {
+    [RTK_SIMD_SCALAR] = scalar_closest_fast,
+#if RTK_HAVE_X86
+    [RTK_SIMD_SSE] = sse_closest,
+    [RTK_SIMD_AVX2] = avx2_closest,
+    [RTK_SIMD_AVX512] = avx512_closest,
+#endif
+};
+rtk_wide_any_fn const rtk_wide_any_path[RTK_SIMD_PATHS] = {
+    [RTK_SIMD_SCALAR] = scalar_any_fast,
+#if RTK_HAVE_X86
+    [RTK_SIMD_SSE] = sse_any,
+    [RTK_SIMD_AVX2] = avx2_any,
+    [RTK_SIMD_AVX512] = avx512_any,
+#endif
+};
+
+int rtk_wide_closest(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
+{
+    switch (path) {
+#if RTK_HAVE_X86
+    case RTK_SIMD_AVX512:
+        return work ? avx512_closest_work(s, ray, hit, work) : avx512_closest(s, ray, hit);
+    case RTK_SIMD_AVX2:
+        return work ? avx2_closest_work(s, ray, hit, work) : avx2_closest(s, ray, hit);
+    case RTK_SIMD_SSE:
+        return work ? sse_closest_work(s, ray, hit, work) : sse_closest(s, ray, hit);
+#endif
+    default:
+        return scalar_closest(s, ray, hit, work);
+    }
+}
+
+int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_trace_work *work)
+{
+    switch (path) {
+#if RTK_HAVE_X86
+    case RTK_SIMD_AVX512:
+        return work ? avx512_any_work(s, ray, work) : avx512_any(s, ray);
+    case RTK_SIMD_AVX2:
+        return work ? avx2_any_work(s, ray, work) : avx2_any(s, ray);
+    case RTK_SIMD_SSE:
+        return work ? sse_any_work(s, ray, work) : sse_any(s, ray);
+#endif
+    default:
+        return scalar_any(s, ray, work);
+    }
+}
+
+#else /* RTK_WIDE_AVX_PASS: the AVX node loop, read once per target (above) */
+
 /* Leaves out of line: the node loop keeps its registers. One per mode,
  * so that occlusion carries none of closest hit's bookkeeping; occlusion
  * comes here only in scenes with cutouts (otherwise the node loop tests a
- * leaf's first block itself and calls avx2_leaf_any_rest for the rest). */
-static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf_any(const rtk_scene *s, const rtk_wide_bvh *w,
+ * leaf's first block itself and calls the leaf_any_rest function for the rest). */
+static __attribute__((noinline)) RTK_TARGET_AVX int RTK_AVX(leaf_any)(const rtk_scene *s, const rtk_wide_bvh *w,
                                                                    uint32_t ref, const tri_ray *r,
                                                                    const rtk_ray *ray, rtk_trace_work *work)
 {
@@ -1660,7 +1780,7 @@ static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf_any(const rtk_sce
 /* Occlusion's leaf after its first block, tested in the node loop,
  * found no hit: that block's lanes left to the scalar test (scalar), then
  * the leaf's other blocks. Only without cutouts. */
-static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf_any_rest(const rtk_scene *s, const rtk_wide_tris *b,
+static __attribute__((noinline)) RTK_TARGET_AVX int RTK_AVX(leaf_any_rest)(const rtk_scene *s, const rtk_wide_tris *b,
                                                                         const rtk_wide_tris *end, int scalar,
                                                                         const tri_ray *r, const rtk_ray *ray,
                                                                         rtk_trace_work *work)
@@ -1673,7 +1793,7 @@ static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf_any_rest(const rt
     return blocks_test(s, b + 1, end, r, ray, NULL, 1, work);
 }
 
-static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf_closest(const rtk_scene *s, const rtk_wide_bvh *w,
+static __attribute__((noinline)) RTK_TARGET_AVX int RTK_AVX(leaf_closest)(const rtk_scene *s, const rtk_wide_bvh *w,
                                                                        uint32_t ref, const tri_ray *r,
                                                                        const rtk_ray *ray, rtk_hit *hit,
                                                                        rtk_trace_work *work)
@@ -1681,7 +1801,7 @@ static __attribute__((noinline)) RTK_TARGET_AVX2 int avx2_leaf_closest(const rtk
     return leaf_test(s, w, ref, r, ray, hit, 0, work);
 }
 
-RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, int any,
+RTK_INLINE RTK_TARGET_AVX int RTK_AVX(traverse)(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, int any,
                                              rtk_trace_work *work)
 {
     const rtk_wide_bvh *w = s->wide;
@@ -1706,7 +1826,9 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
     /* Occlusion's stack: references only, and room for a whole store of
      * eight past the deepest push. */
     uint32_t refs[RTK_WIDE_STACK + RTK_WIDE];
+#if !RTK_AVX512
     const __m256i lane_shift = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
+#endif
     int top = 0;
     uint32_t cur = 0;
     for (;;) {
@@ -1724,17 +1846,27 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
             /* See box_reduce_note. */
             __m256 t0 = _mm256_max_ps(_mm256_max_ps(tny, tnz), _mm256_max_ps(tnx, tmin8));
             __m256 t1 = _mm256_min_ps(_mm256_min_ps(tfy, tfz), _mm256_min_ps(tfx, tmax8));
+#if RTK_AVX512
+            uint32_t mask = (uint32_t)_mm256_cmp_ps_mask(t0, t1, _CMP_LE_OQ); /* no trip through a vector */
+#else
             uint32_t mask = (uint32_t)_mm256_movemask_ps(_mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
+#endif
             if (mask == 0)
                 goto pop;
             if (any) {
                 /* See pack_lanes. No prefetch of the next pop: occlusion's
                  * rays are short and end early, and it cost 1-2.6% of
                  * their time on the meshes (none on the showroom). */
+                const __m256i kids = _mm256_load_si256((const __m256i *)(const void *)n->child);
+#if RTK_AVX512
+                /* The hit children but the lowest, packed in one instruction. */
+                const __m256i packed = _mm256_maskz_compress_epi32((__mmask8)(mask & (mask - 1)), kids);
+#else
                 const __m256i lanes = _mm256_and_si256(
                     _mm256_srlv_epi32(_mm256_set1_epi32((int)pack_lanes[mask]), lane_shift), _mm256_set1_epi32(7));
-                const __m256i kids = _mm256_load_si256((const __m256i *)(const void *)n->child);
-                _mm256_storeu_si256((__m256i *)(void *)&refs[top], _mm256_permutevar8x32_epi32(kids, lanes));
+                const __m256i packed = _mm256_permutevar8x32_epi32(kids, lanes);
+#endif
+                _mm256_storeu_si256((__m256i *)(void *)&refs[top], packed);
                 top += __builtin_popcount(mask) - 1;
                 cur = n->child[__builtin_ctz(mask)];
             } else if ((mask & (mask - 1)) == 0) {
@@ -1769,9 +1901,9 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
             int scalar;
             if (tri_test4(b, &tr, ray->tmin, ray->tmax, &t, &u, &v, &scalar))
                 return 1;
-            if ((scalar || b + 1 < end) && avx2_leaf_any_rest(s, b, end, scalar, &tr, ray, work))
+            if ((scalar || b + 1 < end) && RTK_AVX(leaf_any_rest)(s, b, end, scalar, &tr, ray, work))
                 return 1;
-        } else if (any ? avx2_leaf_any(s, w, cur, &tr, ray, work) : avx2_leaf_closest(s, w, cur, &tr, ray, hit, work)) {
+        } else if (any ? RTK_AVX(leaf_any)(s, w, cur, &tr, ray, work) : RTK_AVX(leaf_closest)(s, w, cur, &tr, ray, hit, work)) {
             if (any)
                 return 1;
             tmax_w = widen(hit->t);
@@ -1793,98 +1925,21 @@ RTK_INLINE RTK_TARGET_AVX2 int avx2_traverse(const rtk_scene *s, const rtk_ray *
     }
 }
 
-static int sse_closest(const rtk_scene *s, const rtk_ray *r, rtk_hit *h)
+static RTK_TARGET_AVX int RTK_AVX(closest)(const rtk_scene *s, const rtk_ray *r, rtk_hit *h)
 {
-    return sse_traverse(s, r, h, 0, NULL);
+    return RTK_AVX(traverse)(s, r, h, 0, NULL);
 }
-static int sse_any(const rtk_scene *s, const rtk_ray *r)
+static RTK_TARGET_AVX int RTK_AVX(any)(const rtk_scene *s, const rtk_ray *r)
 {
-    return sse_traverse(s, r, NULL, 1, NULL);
+    return RTK_AVX(traverse)(s, r, NULL, 1, NULL);
 }
-static int sse_closest_work(const rtk_scene *s, const rtk_ray *r, rtk_hit *h, rtk_trace_work *wk)
+static RTK_TARGET_AVX int RTK_AVX(closest_work)(const rtk_scene *s, const rtk_ray *r, rtk_hit *h, rtk_trace_work *wk)
 {
-    return sse_traverse(s, r, h, 0, wk);
+    return RTK_AVX(traverse)(s, r, h, 0, wk);
 }
-static int sse_any_work(const rtk_scene *s, const rtk_ray *r, rtk_trace_work *wk)
+static RTK_TARGET_AVX int RTK_AVX(any_work)(const rtk_scene *s, const rtk_ray *r, rtk_trace_work *wk)
 {
-    return sse_traverse(s, r, NULL, 1, wk);
-}
-static RTK_TARGET_AVX2 int avx2_closest(const rtk_scene *s, const rtk_ray *r, rtk_hit *h)
-{
-    return avx2_traverse(s, r, h, 0, NULL);
-}
-static RTK_TARGET_AVX2 int avx2_any(const rtk_scene *s, const rtk_ray *r)
-{
-    return avx2_traverse(s, r, NULL, 1, NULL);
-}
-static RTK_TARGET_AVX2 int avx2_closest_work(const rtk_scene *s, const rtk_ray *r, rtk_hit *h, rtk_trace_work *wk)
-{
-    return avx2_traverse(s, r, h, 0, wk);
-}
-static RTK_TARGET_AVX2 int avx2_any_work(const rtk_scene *s, const rtk_ray *r, rtk_trace_work *wk)
-{
-    return avx2_traverse(s, r, NULL, 1, wk);
+    return RTK_AVX(traverse)(s, r, NULL, 1, wk);
 }
 
 #endif
-
-static int scalar_closest(const rtk_scene *s, const rtk_ray *r, rtk_hit *h, rtk_trace_work *wk)
-{
-    return scalar_traverse(s, r, h, 0, wk);
-}
-static int scalar_any(const rtk_scene *s, const rtk_ray *r, rtk_trace_work *wk)
-{
-    return scalar_traverse(s, r, NULL, 1, wk);
-}
-
-static int scalar_closest_fast(const rtk_scene *s, const rtk_ray *r, rtk_hit *h)
-{
-    return scalar_traverse(s, r, h, 0, NULL);
-}
-static int scalar_any_fast(const rtk_scene *s, const rtk_ray *r)
-{
-    return scalar_traverse(s, r, NULL, 1, NULL);
-}
-
-rtk_wide_closest_fn const rtk_wide_closest_path[4] = {
-    [RTK_SIMD_SCALAR] = scalar_closest_fast,
-#if RTK_HAVE_X86
-    [RTK_SIMD_SSE] = sse_closest,
-    [RTK_SIMD_AVX2] = avx2_closest,
-#endif
-};
-rtk_wide_any_fn const rtk_wide_any_path[4] = {
-    [RTK_SIMD_SCALAR] = scalar_any_fast,
-#if RTK_HAVE_X86
-    [RTK_SIMD_SSE] = sse_any,
-    [RTK_SIMD_AVX2] = avx2_any,
-#endif
-};
-
-int rtk_wide_closest(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
-{
-    switch (path) {
-#if RTK_HAVE_X86
-    case RTK_SIMD_AVX2:
-        return work ? avx2_closest_work(s, ray, hit, work) : avx2_closest(s, ray, hit);
-    case RTK_SIMD_SSE:
-        return work ? sse_closest_work(s, ray, hit, work) : sse_closest(s, ray, hit);
-#endif
-    default:
-        return scalar_closest(s, ray, hit, work);
-    }
-}
-
-int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_trace_work *work)
-{
-    switch (path) {
-#if RTK_HAVE_X86
-    case RTK_SIMD_AVX2:
-        return work ? avx2_any_work(s, ray, work) : avx2_any(s, ray);
-    case RTK_SIMD_SSE:
-        return work ? sse_any_work(s, ray, work) : sse_any(s, ray);
-#endif
-    default:
-        return scalar_any(s, ray, work);
-    }
-}

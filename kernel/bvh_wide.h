@@ -40,13 +40,16 @@ static inline float rtk_cull_distance(float tmax)
     return tmax + fabsf(tmax) * (4.0f * RTK_T_TOLERANCE);
 }
 
-/* Traversal implementations; RTK_SIMD=binary|scalar|sse|avx2 forces one. */
+/* Traversal implementations; RTK_SIMD=binary|scalar|sse|avx2|avx512 forces
+ * one. */
 typedef enum rtk_simd_path {
     RTK_SIMD_BINARY = 0, /* the binary tree, one node at a time (bvh.c) */
     RTK_SIMD_SCALAR = 1, /* the wide tree in plain C */
     RTK_SIMD_SSE = 2,    /* the wide tree, SSE4.1 */
-    RTK_SIMD_AVX2 = 3    /* the wide tree, AVX2 */
+    RTK_SIMD_AVX2 = 3,   /* the wide tree, AVX2 */
+    RTK_SIMD_AVX512 = 4  /* the wide tree, AVX2's loop with AVX-512F and VL */
 } rtk_simd_path;
+#define RTK_SIMD_PATHS 5
 
 /* A child reference: an inner node's index, or with RTK_WIDE_LEAF set a
  * leaf: first block << RTK_WIDE_LEAF_SHIFT | (block count - 1). */
@@ -104,7 +107,7 @@ int rtk_simd_supported(rtk_simd_path path);
 /* The path RTK_SIMD asks for (clamped to what the CPU runs), else the
  * best; unknown values are reported once. */
 rtk_simd_path rtk_simd_from_env(void);
-/* "binary", "scalar", "sse", "avx2". */
+/* "binary", "scalar", "sse", "avx2", "avx512". */
 const char *rtk_simd_name(rtk_simd_path path);
 
 /* Closest hit / any hit on s->wide with a given path (a supported wide
@@ -115,12 +118,12 @@ int rtk_wide_closest(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray,
 int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_trace_work *work);
 
 /* The same without counts, by path (NULL for RTK_SIMD_BINARY, and for SSE
- * and AVX2 off x86): rtk_bvh_closest / rtk_bvh_any reach a ray's traversal
+ * and the AVX paths off x86): rtk_bvh_closest / rtk_bvh_any reach a ray's traversal
  * through one indirect call instead of three calls. */
 typedef int (*rtk_wide_closest_fn)(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit);
 typedef int (*rtk_wide_any_fn)(const rtk_scene *s, const rtk_ray *ray);
-extern rtk_wide_closest_fn const rtk_wide_closest_path[4];
-extern rtk_wide_any_fn const rtk_wide_any_path[4];
+extern rtk_wide_closest_fn const rtk_wide_closest_path[RTK_SIMD_PATHS];
+extern rtk_wide_any_fn const rtk_wide_any_path[RTK_SIMD_PATHS];
 
 /* rtk_bvh_closest / rtk_bvh_any (bvh.c) that also count the work done on
  * the path the scene uses (zero counts for a plugin's own traversal). */

@@ -89,7 +89,7 @@ static int oracle(const rtk_scene *s, const rtk_ray *ray, rtk_hit *out)
     return out->prim != RTK_INVALID_ID;
 }
 
-static const rtk_simd_path paths[] = {RTK_SIMD_BINARY, RTK_SIMD_SCALAR, RTK_SIMD_SSE, RTK_SIMD_AVX2};
+static const rtk_simd_path paths[] = {RTK_SIMD_BINARY, RTK_SIMD_SCALAR, RTK_SIMD_SSE, RTK_SIMD_AVX2, RTK_SIMD_AVX512};
 
 /* Every path against the oracle on rays from gen; returns mismatches. */
 typedef rtk_ray (*ray_gen)(int i, void *data);

@@ -1,5 +1,5 @@
 /* Tests for kernel/bvh_wide.c: on every traversal path this CPU runs
- * (plain C, SSE, AVX2), the wide BVH answers exactly as the binary
+ * (plain C, SSE, AVX2, AVX-512), the wide BVH answers exactly as the binary
  * traversal and as brute force: same triangle, bit-identical t, u, v,
  * same any-hit answer; on several meshes and builders, for random rays,
  * rays with every combination of +-0 direction components, origins on
@@ -290,9 +290,9 @@ static const rtk_plugin chain = {RTK_PLUGIN_HEADER, .kind = RTK_KIND_ACCELERATOR
  * count rays of scene s built by plugin. */
 static void compare_paths(rtk_scene *s, const char *mesh, const char *builder, int count)
 {
-    rtk_simd_path paths[3];
+    rtk_simd_path paths[RTK_SIMD_PATHS];
     int npaths = 0;
-    for (int p = RTK_SIMD_SCALAR; p <= RTK_SIMD_AVX2; p++)
+    for (int p = RTK_SIMD_SCALAR; p < RTK_SIMD_PATHS; p++)
         if (rtk_simd_supported((rtk_simd_path)p))
             paths[npaths++] = (rtk_simd_path)p;
     check(s->wide != NULL, "%s / %s: wide BVH built (%u nodes, %u blocks, depth %u)", mesh, builder,
@@ -302,9 +302,10 @@ static void compare_paths(rtk_scene *s, const char *mesh, const char *builder, i
     rtk_simd_path saved = s->wide->path;
     rtk_pcg32 rng;
     rtk_pcg32_seed(&rng, 5u, 11u);
-    int bad_binary = 0, bad_brute[3] = {0}, bad_any[3] = {0}, bad_work = 0, bad_measure = 0, hits = 0;
-    int bad_vs_binary[3] = {0};
-    char first[3][512] = {"", "", ""};
+    int bad_binary = 0, bad_brute[RTK_SIMD_PATHS] = {0}, bad_any[RTK_SIMD_PATHS] = {0}, bad_work = 0,
+        bad_measure = 0, hits = 0;
+    int bad_vs_binary[RTK_SIMD_PATHS] = {0};
+    char first[RTK_SIMD_PATHS][512] = {""};
     for (int i = 0; i < count; i++) {
         rtk_ray ray = make_ray(s, &rng, i);
         if (!rtk_ray_valid(&ray))
