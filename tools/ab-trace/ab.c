@@ -1,10 +1,11 @@
 /* A/B of two tracers over the same rays in one process (see ab.sh).
  *
  * A is the build tree's kernel: rtk_wide_any / rtk_wide_closest on the
- * AVX2 path, over the tree ACCEL built. B is either a variant of
- * kernel/bvh_wide.c linked beside it (its functions renamed B_*, tracing
- * the same tree, or with AB_REBUILD=1 a wide tree its own code built on a
- * second copy of the scene), or, for "embree", the embree plugin through
+ * best path this CPU runs (or RTK_SIMD's), over the tree ACCEL built. B
+ * is either a variant of kernel/bvh_wide.c linked beside it (its
+ * functions renamed B_*, on the same path, tracing the same tree, or with
+ * AB_REBUILD=1 a wide tree its own code built on a second copy of the
+ * scene), or, for "embree", the embree plugin through
  * rtk_bvh_any / rtk_bvh_closest (A then goes through them too).
  *
  * The rays are BENCH.md's recipe (rtk bench's own functions): primary
@@ -25,31 +26,32 @@
 int B_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_trace_work *work);
 int B_wide_closest(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work);
 void B_wide_free(rtk_scene *s);
-rtk_status B_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes);
+rtk_status B_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes, int validate);
 
 enum { WIDTH = 512, HEIGHT = 384, AO_PER_HIT = 8 };
 
 static int embree_mode;
+static rtk_simd_path path; /* A's and B's */
 static rtk_scene *scene_a, *scene_b;
 
 static int any_a(const rtk_ray *r, rtk_trace_work *w)
 {
-    return embree_mode ? rtk_bvh_any(scene_a, r) : rtk_wide_any(scene_a, RTK_SIMD_AVX2, r, w);
+    return embree_mode ? rtk_bvh_any(scene_a, r) : rtk_wide_any(scene_a, path, r, w);
 }
 
 static int any_b(const rtk_ray *r, rtk_trace_work *w)
 {
-    return embree_mode ? rtk_bvh_any(scene_b, r) : B_wide_any(scene_b, RTK_SIMD_AVX2, r, w);
+    return embree_mode ? rtk_bvh_any(scene_b, r) : B_wide_any(scene_b, path, r, w);
 }
 
 static int closest_a(const rtk_ray *r, rtk_hit *h)
 {
-    return embree_mode ? rtk_bvh_closest(scene_a, r, h) : rtk_wide_closest(scene_a, RTK_SIMD_AVX2, r, h, NULL);
+    return embree_mode ? rtk_bvh_closest(scene_a, r, h) : rtk_wide_closest(scene_a, path, r, h, NULL);
 }
 
 static int closest_b(const rtk_ray *r, rtk_hit *h)
 {
-    return embree_mode ? rtk_bvh_closest(scene_b, r, h) : B_wide_closest(scene_b, RTK_SIMD_AVX2, r, h, NULL);
+    return embree_mode ? rtk_bvh_closest(scene_b, r, h) : B_wide_closest(scene_b, path, r, h, NULL);
 }
 
 static double cpu_now(void)
@@ -132,8 +134,9 @@ int main(int argc, char **argv)
         fprintf(stderr, "ab: at least 4 rounds\n");
         return 2;
     }
-    if (!rtk_simd_supported(RTK_SIMD_AVX2)) {
-        fprintf(stderr, "ab: this CPU has no AVX2\n");
+    path = rtk_simd_from_env();
+    if (path == RTK_SIMD_BINARY) {
+        fprintf(stderr, "ab: RTK_SIMD=binary has no wide tree to compare\n");
         return 2;
     }
     rtk_log_set_level(RTK_LOG_WARN);
@@ -152,7 +155,7 @@ int main(int argc, char **argv)
         scene_b = load_and_build(mesh, p, getenv("AB_SET"));
         if (scene_b) {
             B_wide_free(scene_b);
-            if (B_wide_build(scene_b, 1, NULL, 0) != RTK_OK)
+            if (B_wide_build(scene_b, 1, NULL, 0, 1) != RTK_OK)
                 return fail("variant's wide tree");
         }
     }
@@ -228,7 +231,7 @@ int main(int argc, char **argv)
     }
     report("AO     ", ratio_ao, rounds, ta, tb);
     report("primary", ratio_pr, rounds, pa, pb);
-    printf("A: %.2f AO, %.2f primary Mrays per CPU-second (checksum %zu)\n", (double)ao_chunk * rounds / ta / 1e6,
-           (double)pr_chunk * rounds / pa / 1e6, sink);
+    printf("A (%s): %.2f AO, %.2f primary Mrays per CPU-second (checksum %zu)\n", rtk_simd_name(path),
+           (double)ao_chunk * rounds / ta / 1e6, (double)pr_chunk * rounds / pa / 1e6, sink);
     return 0;
 }

@@ -18,8 +18,11 @@ trap 'rm -rf "$out"' EXIT
 variant=$3
 [ "$variant" = embree ] && variant=$src/kernel/bvh_wide.c
 inc=(-I"$build/kernel" -I"$src/kernel" -I"$build/include" -I"$src/include")
+# Under its own name: bvh_wide.c includes itself (the AVX node loop), and
+# the variant must read its own loop, not the kernel's.
+cp "$variant" "$out/bvh_wide.c"
 cc "${inc[@]}" -fvisibility=hidden -D_FILE_OFFSET_BITS=64 -std=c11 -O2 -g -D_GNU_SOURCE -fPIC -pthread \
-   -ffp-contract=off -fno-semantic-interposition -DRTK_BUILDING_KERNEL -c "$variant" -o "$out/variant.o"
+   -ffp-contract=off -fno-semantic-interposition -DRTK_BUILDING_KERNEL -c "$out/bvh_wide.c" -o "$out/variant.o"
 renames=()
 for sym in $(nm "$out/variant.o" | awk '$2 ~ /^[TDBR]$/ && $3 ~ /^rtk_/ {print $3}'); do
     renames+=(--redefine-sym "$sym=B_${sym#rtk_}")
