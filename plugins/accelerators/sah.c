@@ -22,18 +22,25 @@
  * slots fixed by the node alone (a node over m primitives owns the 2m - 2
  * slots of its region, its children first), subtrees are built in parallel
  * into those, and a final pass closes the gaps while keeping the order.
- * A subtree under 4096 primitives is built by one thread and fills its
+ * A subtree under 1024 primitives is built by one thread and fills its
  * region densely from the start, so the gaps are whole pages left
- * untouched rather than holes in every page. Closed, the slots hold the
+ * untouched rather than holes in every page; the builders record each
+ * run of filled slots (a dense subtree, a children pair above them), and
+ * closing the gaps moves only those runs. Closed, the slots hold the
  * children pairs in depth-first order, left first: a build on one thread
- * fills them in that order from the root and has no gaps to close.
+ * fills them in that order from the root and has no gaps to close. On
+ * threads the root is binned by all of them (its bins do not depend on
+ * how its primitives are divided), and a thread without a subtree spins a
+ * while for the next before it sleeps.
  */
 #include <rtk/rtk.h>
 
 #include <math.h>
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 /* Beyond this depth nodes are halved by count, which bounds the depth of
  * any input by this plus 33 levels, within the kernel's 256. */
@@ -41,7 +48,7 @@
 /* Largest number of pending nodes one worker holds (>= the depth bound). */
 #define SAH_STACK 264
 /* Subtrees of at least this many primitives go to the shared queue. */
-#define SAH_SPAWN_MIN 4096
+#define SAH_SPAWN_MIN 1024
 /* Nodes of at most this many primitives try every object split. */
 #define SAH_SMALL 8
 
@@ -124,7 +131,8 @@ typedef struct vbox {
 typedef struct job {
     vbox geom, cent;
     uint32_t slot, begin, end, region, depth;
-    uint32_t dense; /* 1: below a node under SAH_SPAWN_MIN primitives */
+    uint32_t dense;    /* 1: below a node under SAH_SPAWN_MIN primitives */
+    uint32_t presplit; /* 1: its split is build.root_split (the root, binned on threads) */
 } job;
 
 /* Jobs shared between workers; pending counts queued and running ones. */
@@ -132,8 +140,24 @@ typedef struct queue {
     pthread_mutex_t lock;
     pthread_cond_t wake;
     job *jobs;
-    uint32_t count, pending;
+    atomic_uint count, pending; /* changed under lock; read without it while spinning */
 } queue;
+
+/* Chosen split: the axis and the first bin (binned) or the first slot
+ * (sweep) of the right side; axis -1 when none separates the primitives. */
+typedef struct split {
+    int axis;
+    uint32_t at;
+    float cost;
+    uint8_t order[SAH_SMALL]; /* small nodes: the slots in order along axis */
+} split;
+
+/* A run of slots the tree fills on threads: a children pair above the
+ * dense subtrees, or a dense subtree's nodes below its root (dense set);
+ * shift: how far closing the gaps moves it down. */
+typedef struct segment {
+    uint32_t start, len, dense, shift;
+} segment;
 
 /* One build: options, arguments, scratch arrays and the queue. */
 typedef struct build {
@@ -144,9 +168,11 @@ typedef struct build {
     uint32_t *tmp;    /* sweep: partition scratch */
     float *area;      /* sweep: areas of suffix bounds */
     uint8_t *left;    /* sweep: side of each primitive */
-    uint32_t *used;   /* 1 for each slot written; NULL: one thread, dense from the root */
+    segment *segs;    /* threads: the runs of slots the tree fills (NULL: one thread) */
+    atomic_uint seg_count;
     uint32_t dense_end; /* one thread: the slots the tree fills, [0, dense_end) */
     queue *q;         /* NULL when building on one thread */
+    split root_split; /* the root's, when its job says presplit */
 } build;
 
 static rtk_status sah_create(const rtk_params *params, void **state)
@@ -227,15 +253,6 @@ static void write_node(rtk_bvh_node *n, const vbox *b, uint32_t offset, uint32_t
     n->count = count;
 }
 
-/* Chosen split: the axis and the first bin (binned) or the first slot
- * (sweep) of the right side; axis -1 when none separates the primitives. */
-typedef struct split {
-    int axis;
-    uint32_t at;
-    float cost;
-    uint8_t order[SAH_SMALL]; /* small nodes: the slots in order along axis */
-} split;
-
 /* Bins per axis of a node over count primitives: 4 + count / 20, at
  * most the option (as Embree's binner): a node of a hundred primitives
  * has little to gain from 16 bins and pays for clearing and sweeping
@@ -277,6 +294,17 @@ static void binning_clear(binning *bn, uint32_t nb)
     }
 }
 
+/* Adds the bins of from to those of to. */
+static void binning_merge(binning *to, const binning *from, uint32_t nb)
+{
+    for (int k = 0; k < 3; k++) {
+        for (uint32_t c = 0; c < nb; c++) {
+            box_grow(&to->box[k][c], from->box[k][c].lo, from->box[k][c].hi);
+            to->count[k][c] += from->count[k][c];
+        }
+    }
+}
+
 static inline void binning_add(binning *bn, const ref *r, v4 clo, v4 scale, v4 last)
 {
     v4 lo = ref_lo(r), hi = ref_hi(r);
@@ -290,36 +318,43 @@ static inline void binning_add(binning *bn, const ref *r, v4 clo, v4 scale, v4 l
     bn->count[2][bi[2]]++;
 }
 
-static split find_binned(const build *b, const job *j)
+/* Bins refs [begin, end) of node j into bn (cleared here): two sets of
+ * bins, even and odd slots, merged at the end. Neighbouring primitives
+ * often share a bin; two sets halve the chains of loads and stores on
+ * one bin. The bins' boxes are minima and maxima of finite bounds (the
+ * kernel refuses non-finite positions), and their counts integers: any
+ * division of a node's refs into parts, merged in any order, gives the
+ * same bins. */
+static void bin_refs(const build *b, const job *j, uint32_t begin, uint32_t end, binning bn[2])
+{
+    const uint32_t nb = node_bins(b->opt, j->end - j->begin);
+    v4 scale, last;
+    bin_setup(b->opt, j, &scale, &last);
+    const v4 clo = j->cent.lo;
+    int sets = end - begin >= 64 ? 2 : 1;
+    binning_clear(&bn[0], nb);
+    uint32_t i = begin;
+    if (sets == 2) {
+        binning_clear(&bn[1], nb);
+        for (; i + 1 < end; i += 2) {
+            binning_add(&bn[0], &b->refs[i], clo, scale, last);
+            binning_add(&bn[1], &b->refs[i + 1], clo, scale, last);
+        }
+        binning_merge(&bn[0], &bn[1], nb);
+    }
+    for (; i < end; i++)
+        binning_add(&bn[0], &b->refs[i], clo, scale, last);
+}
+
+/* The best binned split of node j from its bins. */
+static split best_binned(const build *b, const job *j, const binning *bn)
 {
     const sah *o = b->opt;
     const uint32_t count = j->end - j->begin, nb = node_bins(o, count);
-    binning bn[2];
     float rweight[256];
     uint32_t rcount[256];
     v4 scale, last;
     bin_setup(o, j, &scale, &last);
-    const v4 clo = j->cent.lo;
-    /* Neighbouring primitives often share a bin: two sets of bins, even
-     * and odd slots, halve the chains of loads and stores on one bin. */
-    int sets = count >= 64 ? 2 : 1;
-    binning_clear(&bn[0], nb);
-    uint32_t i = j->begin;
-    if (sets == 2) {
-        binning_clear(&bn[1], nb);
-        for (; i + 1 < j->end; i += 2) {
-            binning_add(&bn[0], &b->refs[i], clo, scale, last);
-            binning_add(&bn[1], &b->refs[i + 1], clo, scale, last);
-        }
-        for (int k = 0; k < 3; k++) {
-            for (uint32_t c = 0; c < nb; c++) {
-                box_grow(&bn[0].box[k][c], bn[1].box[k][c].lo, bn[1].box[k][c].hi);
-                bn[0].count[k][c] += bn[1].count[k][c];
-            }
-        }
-    }
-    for (; i < j->end; i++)
-        binning_add(&bn[0], &b->refs[i], clo, scale, last);
     float sc[4];
     v4_store(sc, scale);
     split best = {.axis = -1, .cost = INFINITY};
@@ -327,8 +362,8 @@ static split find_binned(const build *b, const job *j)
     for (int k = 0; k < 3; k++) {
         if (sc[k] == 0.0f)
             continue;
-        const vbox *box = bn[0].box[k];
-        const uint32_t *cnt = bn[0].count[k];
+        const vbox *box = bn->box[k];
+        const uint32_t *cnt = bn->count[k];
         vbox acc;
         box_empty(&acc);
         uint32_t n = 0;
@@ -356,6 +391,13 @@ static split find_binned(const build *b, const job *j)
     if (best.axis >= 0)
         best.cost = split_cost(o, best_weight, half_area(&j->geom), count);
     return best;
+}
+
+static split find_binned(const build *b, const job *j)
+{
+    binning bn[2];
+    bin_refs(b, j, j->begin, j->end, bn);
+    return best_binned(b, j, &bn[0]);
 }
 
 static inline void ref_grow(job *j, const ref *r)
@@ -590,10 +632,20 @@ static void partition_sweep(const build *b, const job *j, split s)
 static void queue_push(queue *q, const job *j)
 {
     pthread_mutex_lock(&q->lock);
-    q->jobs[q->count++] = *j;
-    q->pending++;
+    q->jobs[atomic_fetch_add(&q->count, 1u)] = *j;
+    atomic_fetch_add(&q->pending, 1u);
     pthread_cond_signal(&q->wake);
     pthread_mutex_unlock(&q->lock);
+}
+
+/* Records a run of slots the tree fills (on threads; none on one). */
+static void add_segment(const build *b, uint32_t start, uint32_t len, uint32_t dense)
+{
+    if (!b->segs || len == 0)
+        return;
+    build *mb = (build *)b; /* the count is atomic; the rest is read-only here */
+    const uint32_t k = atomic_fetch_add(&mb->seg_count, 1u);
+    b->segs[k] = (segment){start, len, dense, 0};
 }
 
 /* Builds the subtree of root, handing large subtrees to the queue.
@@ -604,19 +656,28 @@ static uint32_t build_subtree(const build *b, const job *root)
     rtk_build_args *a = b->a;
     job stack[SAH_STACK];
     uint32_t top = 0, bump = root->dense ? root->region : 0;
+    /* On threads: the dense subtree being built, [dense_start, bump),
+     * done when the stack is back to dense_mark entries. */
+    uint32_t dense_start = UINT32_MAX, dense_mark = 0;
     stack[top++] = *root;
-    while (top > 0) {
+    for (;;) {
+        if (dense_start != UINT32_MAX && top == dense_mark) {
+            add_segment(b, dense_start, bump - dense_start, 1);
+            dense_start = UINT32_MAX;
+        }
+        if (top == 0)
+            break;
         job j = stack[--top];
         const uint32_t count = j.end - j.begin;
         if (o->sweep)
             bounds_of_ids(b, b->ord[0], j.begin, j.end, &j.geom);
         split s = {.axis = -1, .cost = INFINITY};
-        if (count > 1 && j.depth < SAH_HALVING_DEPTH)
+        if (j.presplit)
+            s = b->root_split;
+        else if (count > 1 && j.depth < SAH_HALVING_DEPTH)
             s = o->sweep ? find_sweep(b, &j) : count <= SAH_SMALL ? find_small(b, &j) : find_binned(b, &j);
         if (count == 1 || (count <= o->max_leaf && (s.axis < 0 || o->t_tri * (float)count <= s.cost))) {
             write_node(&a->nodes[j.slot], &j.geom, j.begin, count);
-            if (b->used)
-                b->used[j.slot] = 1;
             if (!o->sweep)
                 for (uint32_t i = j.begin; i < j.end; i++)
                     a->prim_order[i] = b->refs[i].id;
@@ -629,8 +690,12 @@ static uint32_t build_subtree(const build *b, const job *root)
          * the memory the region spans. Above, children take the first
          * two slots of the region. Both rules depend on the tree alone. */
         const uint32_t dense = j.dense || count < SAH_SPAWN_MIN;
-        if (dense && !j.dense)
+        if (dense && !j.dense) {
             bump = j.region;
+            dense_start = j.region, dense_mark = top;
+        } else if (!dense && b->segs) {
+            add_segment(b, j.region, 2, 0);
+        }
         const uint32_t first = dense ? bump : j.region;
         bump += dense ? 2 : 0;
         job l = {.slot = first, .begin = j.begin, .region = j.region + 2, .depth = j.depth + 1, .dense = dense};
@@ -656,8 +721,6 @@ static uint32_t build_subtree(const build *b, const job *root)
         l.end = r.begin = mid;
         r.region = j.region + 2 * (mid - j.begin);
         write_node(&a->nodes[j.slot], &j.geom, first, 0);
-        if (b->used)
-            b->used[j.slot] = 1;
         if (b->q && r.end - r.begin >= SAH_SPAWN_MIN)
             queue_push(b->q, &r);
         else
@@ -667,6 +730,38 @@ static uint32_t build_subtree(const build *b, const job *root)
     return bump;
 }
 
+/* How long a worker without a job spins before it sleeps on the queue:
+ * the next job comes within microseconds of a split, a sleeping thread
+ * takes tens of microseconds and more to wake (up to milliseconds on a
+ * busy virtual machine: the two-thread build of a small mesh varied by
+ * half its time). */
+#define SAH_SPIN_NS 100000
+
+static int64_t now_ns(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+}
+
+/* Returns when q has a job or none is pending, or after SAH_SPIN_NS. */
+static void spin_for_job(queue *q)
+{
+    int64_t deadline = 0;
+    for (uint32_t i = 1; atomic_load(&q->count) == 0 && atomic_load(&q->pending) > 0; i++) {
+#if defined(__SSE2__)
+        _mm_pause();
+#endif
+        if ((i & 63) == 0) {
+            const int64_t now = now_ns();
+            if (deadline == 0)
+                deadline = now + SAH_SPIN_NS;
+            else if (now > deadline)
+                return;
+        }
+    }
+}
+
 /* Takes jobs from the queue until every job is done (rtk_team_fn). */
 static void work(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
 {
@@ -674,18 +769,19 @@ static void work(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
     const build *b = ctx;
     queue *q = b->q;
     for (;;) {
+        spin_for_job(q);
         pthread_mutex_lock(&q->lock);
-        while (q->count == 0 && q->pending > 0)
+        while (atomic_load(&q->count) == 0 && atomic_load(&q->pending) > 0)
             pthread_cond_wait(&q->wake, &q->lock);
-        if (q->count == 0) {
+        if (atomic_load(&q->count) == 0) {
             pthread_mutex_unlock(&q->lock);
             return;
         }
-        job j = q->jobs[--q->count];
+        job j = q->jobs[atomic_fetch_sub(&q->count, 1u) - 1];
         pthread_mutex_unlock(&q->lock);
         build_subtree(b, &j);
         pthread_mutex_lock(&q->lock);
-        if (--q->pending == 0)
+        if (atomic_fetch_sub(&q->pending, 1u) == 1)
             pthread_cond_broadcast(&q->wake);
         pthread_mutex_unlock(&q->lock);
     }
@@ -697,14 +793,52 @@ static uint32_t build_threads(const rtk_build_args *a)
     return a->thread_count < a->prim_count / SAH_SPAWN_MIN ? a->thread_count : a->prim_count / SAH_SPAWN_MIN;
 }
 
+/* The root's bins, one part of its refs per member of a team. */
+typedef struct root_binning {
+    const build *b;
+    const job *root;
+    binning (*parts)[2];
+} root_binning;
+
+static void bin_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
+{
+    (void)team;
+    const root_binning *r = ctx;
+    const uint32_t n = r->root->end;
+    bin_refs(r->b, r->root, (uint32_t)((uint64_t)n * index / size), (uint32_t)((uint64_t)n * (index + 1) / size),
+             r->parts[index]);
+}
+
+/* Bins the root on the build's threads (the others would wait for its
+ * split: a twentieth of a one-thread build of the bunny) and keeps its
+ * split in b->root_split; the same split as find_binned (bin_refs).
+ * Returns 0 when out of memory, and the root is binned as any node. */
+static int presplit_root(build *b, job *root, uint32_t threads)
+{
+    binning(*parts)[2] = malloc(sizeof *parts * threads);
+    if (!parts)
+        return 0;
+    root_binning r = {b, root, parts};
+    const uint32_t size = rtk_team_run(threads, bin_member, &r);
+    const uint32_t nb = node_bins(b->opt, root->end - root->begin);
+    for (uint32_t t = 1; t < size; t++)
+        binning_merge(&parts[0][0], &parts[t][0], nb);
+    b->root_split = best_binned(b, root, &parts[0][0]);
+    free(parts);
+    root->presplit = 1;
+    return 1;
+}
+
 /* Builds from root on the build's threads (the caller's included). */
-static rtk_status run_build(build *b, const job *root)
+static rtk_status run_build(build *b, job *root)
 {
     const uint32_t threads = build_threads(b->a), n = b->a->prim_count;
     if (threads <= 1) {
         b->dense_end = build_subtree(b, root);
         return RTK_OK;
     }
+    if (!b->opt->sweep && n > SAH_SMALL && root->depth < SAH_HALVING_DEPTH)
+        presplit_root(b, root, threads);
     queue q;
     /* Queued jobs cover disjoint ranges of at least SAH_SPAWN_MIN. */
     q.jobs = malloc(sizeof *q.jobs * (n / SAH_SPAWN_MIN + 2));
@@ -712,8 +846,8 @@ static rtk_status run_build(build *b, const job *root)
         return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
     pthread_mutex_init(&q.lock, NULL);
     pthread_cond_init(&q.wake, NULL);
-    q.count = 0;
-    q.pending = 0;
+    atomic_init(&q.count, 0u);
+    atomic_init(&q.pending, 0u);
     b->q = &q;
     queue_push(&q, root);
     rtk_team_run(threads, work, b);
@@ -724,24 +858,49 @@ static rtk_status run_build(build *b, const job *root)
     return RTK_OK;
 }
 
-/* Closes the gaps in slots [0, span): used[i] is 1 for the slots the tree
- * uses and 0 for the others (overwritten). Nodes move down keeping their
- * order, so siblings stay adjacent, and their children are renumbered.
- * Only the slots in use are written, in used and in nodes: pages of
- * either that the build never touched stay untouched. Sets node_count. */
-static void compact_nodes(rtk_build_args *a, uint32_t *used, uint32_t span)
+static int segment_order(const void *x, const void *y)
 {
+    const segment *p = x, *q = y;
+    return (p->start > q->start) - (p->start < q->start);
+}
+
+/* The segment that starts at slot (one does: a child pair's first slot
+ * is a pair's or a dense subtree's start). */
+static const segment *segment_at(const segment *segs, uint32_t n, uint32_t slot)
+{
+    uint32_t lo = 0, hi = n;
+    while (hi - lo > 1) {
+        uint32_t mid = (lo + hi) / 2;
+        if (segs[mid].start <= slot)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return &segs[lo];
+}
+
+/* Closes the gaps between the n segments the threads filled (the root's
+ * slot among them): each moves down by the slots unused before it,
+ * keeping the order, so siblings stay adjacent; children are renumbered
+ * (within a dense subtree by its own shift, elsewhere by the shift of
+ * the segment their pair starts). Only slots in use are read or written.
+ * Sets node_count. */
+static void close_gaps(rtk_build_args *a, segment *segs, uint32_t n)
+{
+    qsort(segs, n, sizeof *segs, segment_order);
     uint32_t total = 0;
-    for (uint32_t i = 0; i < span; i++)
-        if (used[i])
-            used[i] = ++total; /* the slot's new index + 1 */
-    for (uint32_t i = 0; i < span; i++) {
-        if (!used[i])
-            continue;
-        rtk_bvh_node n = a->nodes[i];
-        if (n.count == 0)
-            n.offset = used[n.offset] - 1;
-        a->nodes[used[i] - 1] = n;
+    for (uint32_t i = 0; i < n; i++) {
+        segs[i].shift = segs[i].start - total;
+        total += segs[i].len;
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        const segment *g = &segs[i];
+        for (uint32_t slot = g->start; slot < g->start + g->len; slot++) {
+            rtk_bvh_node node = a->nodes[slot];
+            if (node.count == 0)
+                node.offset -= g->dense ? g->shift : segment_at(segs, n, node.offset)->shift;
+            a->nodes[slot - g->shift] = node;
+        }
     }
     a->node_count = total;
 }
@@ -900,17 +1059,22 @@ static rtk_status sah_build(void *state, rtk_build_args *a)
      * first): no slot marks, no gaps to close. */
     const int dense = build_threads(a) <= 1;
     root.dense = dense;
+    atomic_init(&b.seg_count, 0u);
     if (!dense) {
-        b.used = calloc(a->max_nodes, sizeof *b.used);
-        if (!b.used)
+        /* Nodes over SAH_SPAWN_MIN or more primitives, at most 2 n /
+         * SAH_SPAWN_MIN, each a pair and up to two dense subtrees; and
+         * the root's slot. */
+        b.segs = malloc(sizeof *b.segs * (6 * ((size_t)a->prim_count / SAH_SPAWN_MIN + 1) + 1));
+        if (!b.segs)
             return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+        add_segment(&b, 0, 1, 0);
     }
     rtk_status st = b.opt->sweep ? build_sweep(&b, &root) : build_binned(&b, &root);
     if (st == RTK_OK && dense)
         a->node_count = b.dense_end;
     else if (st == RTK_OK)
-        compact_nodes(a, b.used, a->max_nodes);
-    free(b.used);
+        close_gaps(a, b.segs, atomic_load(&b.seg_count));
+    free(b.segs);
     return st;
 }
 
