@@ -169,7 +169,7 @@ typedef struct build {
     float *area;      /* sweep: areas of suffix bounds */
     uint8_t *left;    /* sweep: side of each primitive */
     segment *segs;    /* threads: the runs of slots the tree fills (NULL: one thread) */
-    atomic_uint seg_count;
+    atomic_uint *seg_count; /* how many: the next is taken with an atomic add */
     uint32_t dense_end; /* one thread: the slots the tree fills, [0, dense_end) */
     queue *q;         /* NULL when building on one thread */
     split root_split; /* the root's, when its job says presplit */
@@ -643,9 +643,7 @@ static void add_segment(const build *b, uint32_t start, uint32_t len, uint32_t d
 {
     if (!b->segs || len == 0)
         return;
-    build *mb = (build *)b; /* the count is atomic; the rest is read-only here */
-    const uint32_t k = atomic_fetch_add(&mb->seg_count, 1u);
-    b->segs[k] = (segment){start, len, dense, 0};
+    b->segs[atomic_fetch_add(b->seg_count, 1u)] = (segment){start, len, dense, 0};
 }
 
 /* Builds the subtree of root, handing large subtrees to the queue.
@@ -1059,7 +1057,9 @@ static rtk_status sah_build(void *state, rtk_build_args *a)
      * first): no slot marks, no gaps to close. */
     const int dense = build_threads(a) <= 1;
     root.dense = dense;
-    atomic_init(&b.seg_count, 0u);
+    atomic_uint seg_count;
+    atomic_init(&seg_count, 0u);
+    b.seg_count = &seg_count;
     if (!dense) {
         /* Nodes over SAH_SPAWN_MIN or more primitives, at most 2 n /
          * SAH_SPAWN_MIN, each a pair and up to two dense subtrees; and
@@ -1073,7 +1073,7 @@ static rtk_status sah_build(void *state, rtk_build_args *a)
     if (st == RTK_OK && dense)
         a->node_count = b.dense_end;
     else if (st == RTK_OK)
-        close_gaps(a, b.segs, atomic_load(&b.seg_count));
+        close_gaps(a, b.segs, atomic_load(&seg_count));
     free(b.segs);
     return st;
 }
