@@ -2,8 +2,8 @@
  * traversal in plain C, SSE, AVX2 and AVX-512, the SIMD paths compiled
  * here with target attributes and chosen at run time. The AVX2 and
  * AVX-512 paths are one node loop, compiled twice: this file includes
- * itself (RTK_WIDE_AVX_PASS), and the second reading compiles only the
- * loop at its end.
+ * itself once per target (RTK_WIDE_AVX_PASS), and each inclusion compiles
+ * only the loop at its end.
  *
  * Every path computes the same numbers: the box test (differences,
  * products by the reciprocal, NaN of 0 * inf dropped, far distances
@@ -1677,7 +1677,8 @@ static const uint32_t pack_lanes[256] = {PACK_32(0u), PACK_32(32u), PACK_32(64u)
  * passes differ (the hit mask straight from the compare into a mask
  * register, and occlusion's push by one compress instead of the table
  * above). AVX-512VL on 256-bit vectors also gives the loop 32 vector
- * registers: no broadcast of the ray is kept on the stack. */
+ * registers: its box test reads no broadcast of the ray from the stack
+ * (the AVX2 loop's, eight). */
 #define RTK_WIDE_AVX_PASS
 #define RTK_AVX512 0
 #define RTK_AVX(name) avx2_##name
