@@ -1770,10 +1770,10 @@ int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk
 /* Leaves out of line: the node loop keeps its registers. One per mode,
  * so that occlusion carries none of closest hit's bookkeeping; occlusion
  * comes here only in scenes with cutouts (otherwise the node loop tests a
- * leaf's first block itself and calls the leaf_any_rest function for the rest). */
+ * leaf's first block itself and calls leaf_any_rest for the rest). */
 static __attribute__((noinline)) RTK_TARGET_AVX int RTK_AVX(leaf_any)(const rtk_scene *s, const rtk_wide_bvh *w,
-                                                                   uint32_t ref, const tri_ray *r,
-                                                                   const rtk_ray *ray, rtk_trace_work *work)
+                                                                      uint32_t ref, const tri_ray *r,
+                                                                      const rtk_ray *ray, rtk_trace_work *work)
 {
     return leaf_test(s, w, ref, r, ray, NULL, 1, work);
 }
@@ -1781,10 +1781,11 @@ static __attribute__((noinline)) RTK_TARGET_AVX int RTK_AVX(leaf_any)(const rtk_
 /* Occlusion's leaf after its first block, tested in the node loop,
  * found no hit: that block's lanes left to the scalar test (scalar), then
  * the leaf's other blocks. Only without cutouts. */
-static __attribute__((noinline)) RTK_TARGET_AVX int RTK_AVX(leaf_any_rest)(const rtk_scene *s, const rtk_wide_tris *b,
-                                                                        const rtk_wide_tris *end, int scalar,
-                                                                        const tri_ray *r, const rtk_ray *ray,
-                                                                        rtk_trace_work *work)
+static __attribute__((noinline)) RTK_TARGET_AVX int RTK_AVX(leaf_any_rest)(const rtk_scene *s,
+                                                                           const rtk_wide_tris *b,
+                                                                           const rtk_wide_tris *end, int scalar,
+                                                                           const tri_ray *r, const rtk_ray *ray,
+                                                                           rtk_trace_work *work)
 {
     for (; scalar; scalar &= scalar - 1) {
         float st, su, sv;
@@ -1794,16 +1795,16 @@ static __attribute__((noinline)) RTK_TARGET_AVX int RTK_AVX(leaf_any_rest)(const
     return blocks_test(s, b + 1, end, r, ray, NULL, 1, work);
 }
 
-static __attribute__((noinline)) RTK_TARGET_AVX int RTK_AVX(leaf_closest)(const rtk_scene *s, const rtk_wide_bvh *w,
-                                                                       uint32_t ref, const tri_ray *r,
-                                                                       const rtk_ray *ray, rtk_hit *hit,
-                                                                       rtk_trace_work *work)
+static __attribute__((noinline)) RTK_TARGET_AVX int RTK_AVX(leaf_closest)(const rtk_scene *s,
+                                                                          const rtk_wide_bvh *w, uint32_t ref,
+                                                                          const tri_ray *r, const rtk_ray *ray,
+                                                                          rtk_hit *hit, rtk_trace_work *work)
 {
     return leaf_test(s, w, ref, r, ray, hit, 0, work);
 }
 
 RTK_INLINE RTK_TARGET_AVX int RTK_AVX(traverse)(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, int any,
-                                             rtk_trace_work *work)
+                                                rtk_trace_work *work)
 {
     const rtk_wide_bvh *w = s->wide;
     if (!any)
@@ -1915,7 +1916,8 @@ RTK_INLINE RTK_TARGET_AVX int RTK_AVX(traverse)(const rtk_scene *s, const rtk_ra
                 return 1;
             if ((scalar || b + 1 < end) && RTK_AVX(leaf_any_rest)(s, b, end, scalar, &tr, ray, work))
                 return 1;
-        } else if (any ? RTK_AVX(leaf_any)(s, w, cur, &tr, ray, work) : RTK_AVX(leaf_closest)(s, w, cur, &tr, ray, hit, work)) {
+        } else if (any ? RTK_AVX(leaf_any)(s, w, cur, &tr, ray, work)
+                       : RTK_AVX(leaf_closest)(s, w, cur, &tr, ray, hit, work)) {
             if (any)
                 return 1;
             tmax_w = widen(hit->t);
@@ -1950,7 +1952,8 @@ static RTK_TARGET_AVX int RTK_AVX(any)(const rtk_scene *s, const rtk_ray *r)
 {
     return RTK_AVX(traverse)(s, r, NULL, 1, NULL);
 }
-static RTK_TARGET_AVX int RTK_AVX(closest_work)(const rtk_scene *s, const rtk_ray *r, rtk_hit *h, rtk_trace_work *wk)
+static RTK_TARGET_AVX int RTK_AVX(closest_work)(const rtk_scene *s, const rtk_ray *r, rtk_hit *h,
+                                                rtk_trace_work *wk)
 {
     return RTK_AVX(traverse)(s, r, h, 0, wk);
 }
