@@ -353,14 +353,13 @@ static split best_binned(const build *b, const job *j, const binning *bn)
     const uint32_t count = j->end - j->begin, nb = node_bins(o, count);
     float rweight[256];
     uint32_t rcount[256];
-    v4 scale, last;
-    bin_setup(o, j, &scale, &last);
-    float sc[4];
-    v4_store(sc, scale);
+    float lo[4], hi[4];
+    v4_store(lo, j->cent.lo);
+    v4_store(hi, j->cent.hi);
     split best = {.axis = -1, .cost = INFINITY};
     float best_weight = INFINITY;
     for (int k = 0; k < 3; k++) {
-        if (sc[k] == 0.0f)
+        if (!(hi[k] - lo[k] > 0.0f)) /* flat: bin_setup's scale 0, all in one bin */
             continue;
         const vbox *box = bn->box[k];
         const uint32_t *cnt = bn->count[k];
@@ -810,12 +809,12 @@ static void bin_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
 /* Bins the root on the build's threads (the others would wait for its
  * split: a twentieth of a one-thread build of the bunny) and keeps its
  * split in b->root_split; the same split as find_binned (bin_refs).
- * Returns 0 when out of memory, and the root is binned as any node. */
-static int presplit_root(build *b, job *root, uint32_t threads)
+ * Out of memory, it leaves the root to be binned as any node. */
+static void presplit_root(build *b, job *root, uint32_t threads)
 {
     binning(*parts)[2] = malloc(sizeof *parts * threads);
     if (!parts)
-        return 0;
+        return;
     root_binning r = {b, root, parts};
     const uint32_t size = rtk_team_run(threads, bin_member, &r);
     const uint32_t nb = node_bins(b->opt, root->end - root->begin);
@@ -824,7 +823,6 @@ static int presplit_root(build *b, job *root, uint32_t threads)
     b->root_split = best_binned(b, root, &parts[0][0]);
     free(parts);
     root->presplit = 1;
-    return 1;
 }
 
 /* Builds from root on the build's threads (the caller's included). */
