@@ -14,7 +14,12 @@
  * primary rays, in thread CPU time; the ratios B/A of the rounds are
  * sorted and their median and quartiles printed. Slow drifts of a shared
  * host hit both sides of a round alike, so the median resolves
- * differences of about 1% where runs of separate processes vary by 10%. */
+ * differences of about 1% where runs of separate processes vary by 10%.
+ *
+ * With AB_BUILD=1 the rounds time the wide builds instead: A's
+ * rtk_wide_build and B's on their own copies of the binary tree (one
+ * thread, with validation, fresh arrays each time), after a check that
+ * the two give the same wide tree byte for byte. */
 #include "bench.h"
 #include "bvh_wide.h"
 
@@ -121,6 +126,49 @@ static void report(const char *what, double *ratio, int rounds, double total_a, 
            ratio[rounds / 4], ratio[3 * rounds / 4], total_b / total_a);
 }
 
+/* Whether A's and B's wide trees are the same bytes. */
+static int same_wide(const rtk_scene *a, const rtk_scene *b)
+{
+    const rtk_wide_bvh *x = a->wide, *y = b->wide;
+    return x && y && x->node_count == y->node_count && x->tri_block_count == y->tri_block_count &&
+           x->depth == y->depth && memcmp(x->nodes, y->nodes, sizeof *x->nodes * x->node_count) == 0 &&
+           memcmp(x->tris, y->tris, sizeof *x->tris * x->tri_block_count) == 0;
+}
+
+/* AB_BUILD: rounds of A's and B's wide build, in alternating order. */
+static int time_builds(int rounds)
+{
+    double *ratio = malloc(sizeof(double) * rounds), ta = 0, tb = 0;
+    if (!ratio) {
+        fprintf(stderr, "ab: out of memory\n");
+        return 2;
+    }
+    if (!same_wide(scene_a, scene_b)) {
+        fprintf(stderr, "ab: the two wide trees differ; not timing them\n");
+        return 1;
+    }
+    printf("wide trees identical: %u nodes, %u blocks, depth %u\n", scene_a->wide->node_count,
+           scene_a->wide->tri_block_count, scene_a->wide->depth);
+    for (int r = 0; r < rounds; r++) {
+        double t[2];
+        for (int o = 0; o < 2; o++) {
+            int b = o ^ (r & 1);
+            rtk_scene *s = b ? scene_b : scene_a;
+            double t0 = cpu_now();
+            rtk_status st = b ? (B_wide_free(s), B_wide_build(s, 1, NULL, 0, 1)) : (rtk_wide_free(s), rtk_wide_build(s, 1, NULL, 0, 1));
+            t[b] = cpu_now() - t0;
+            if (st != RTK_OK)
+                return fail(b ? "B's wide build" : "A's wide build");
+        }
+        ratio[r] = t[1] / t[0];
+        ta += t[0], tb += t[1];
+    }
+    report("build  ", ratio, rounds, ta, tb);
+    printf("A: %.3f ms a build\n", 1e3 * ta / rounds);
+    free(ratio);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 3) {
@@ -151,7 +199,7 @@ int main(int argc, char **argv)
         if (rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "embree", &pe) != RTK_OK)
             return fail("embree");
         scene_b = load_and_build(mesh, pe, NULL);
-    } else if (getenv("AB_REBUILD")) {
+    } else if (getenv("AB_REBUILD") || getenv("AB_BUILD")) {
         scene_b = load_and_build(mesh, p, getenv("AB_SET"));
         if (scene_b) {
             B_wide_free(scene_b);
@@ -161,6 +209,8 @@ int main(int argc, char **argv)
     }
     if (!scene_b)
         return 2;
+    if (!embree_mode && getenv("AB_BUILD"))
+        return time_builds(rounds);
     rtk_bench_camera cam;
     rtk_bench_camera_recipe(scene_a->bounds, &cam);
     const char *c = getenv("AB_CAMERA");

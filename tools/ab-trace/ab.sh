@@ -7,10 +7,12 @@
 # with the embree plugin. Environment: AB_CAMERA=EX,EY,EZ,LX,LY,LZ,FOV
 # (default: BENCH.md's recipe camera), AB_REBUILD=1 (the variant builds
 # its own wide tree, for changes to the collapse), AB_SET=KEY=VALUE (a
-# parameter of ACCEL for the variant's tree, with AB_REBUILD). Prints the
-# median and quartiles over ROUNDS (default 400) of B's time over A's.
+# parameter of ACCEL for the variant's tree, with AB_REBUILD), AB_BUILD=1
+# (time the wide builds, one thread, instead of the tracing; the trees
+# must be the same). Prints the median and quartiles over ROUNDS
+# (default 400) of B's time over A's.
 set -euo pipefail
-[ $# -ge 3 ] || { sed -n '2,12p' "$0" >&2; exit 2; }
+[ $# -ge 3 ] || { sed -n '2,14p' "$0" >&2; exit 2; }
 src=$(cd "$(dirname "$0")/../.." && pwd)
 build=$(cd "$1" && pwd)
 out=$(mktemp -d)
@@ -32,4 +34,4 @@ cc "${inc[@]}" -std=c11 -O2 -g -D_GNU_SOURCE -pthread -c "$src/tools/ab-trace/ab
 c++ -o "$out/ab" "$out/ab.o" "$out/variant_b.o" -Wl,--whole-archive "$build/kernel/librtk_static.a" \
     -Wl,--no-whole-archive "$build/kernel/librtk_bench.a" -Wl,--export-dynamic -lm -pthread \
     $(pkg-config --libs tinygltf tinyobjloader libconfig 2>/dev/null || echo -ltinygltf -ltinyobjloader -lconfig)
-RTK_PLUGIN_PATH=$build/plugins/accelerators "$out/ab" "$2" "$3" "${4:-sah}" "${5:-400}"
+RTK_PLUGIN_PATH=$build/plugins/accelerators ${AB_WRAP:-} "$out/ab" "$2" "$3" "${4:-sah}" "${5:-400}"
