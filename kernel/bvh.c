@@ -900,7 +900,7 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     }
     if (inputs) {
         prep_job prep = {s, bounds, centroids, vertices};
-        rtk_parallel_ranges(n, a.thread_count, 32768, prep_range, &prep);
+        rtk_parallel_ranges(n, a.thread_count, 8192, prep_range, &prep);
     }
     a.prim_bounds = bounds;
     double t1 = rtk_now();

@@ -292,20 +292,26 @@ static double half_area(const float lo[3], const float hi[3])
     return dx * dy + dy * dz + dz * dx;
 }
 
-/* Costs out[j - 1] = C(id, j) of binary node id, from its children's
- * (NULL for a binary leaf), and its plan. */
+/* Costs out[j - 1] = C(id, j) of binary leaf id (n), and its plan and
+ * triangles. */
+static inline void plan_leaf_costs(collapser *c, uint32_t id, const rtk_bvh_node *n, double *out)
+{
+    const double leaf =
+        half_area(n->lower, n->upper) * WIDE_COST_BLOCK * (double)((n->count + RTK_WIDE_TRIS - 1) / RTK_WIDE_TRIS);
+    for (int j = 0; j < RTK_WIDE; j++)
+        out[j] = leaf;
+    c->tri_total[id] = n->count;
+    c->plan[id] = PLAN_LEAF;
+}
+
+/* Costs out[j - 1] = C(id, j) of inner binary node id, from its
+ * children's, and its plan. */
 static void plan_costs(collapser *c, uint32_t id, const double *left, const double *right, double *out)
 {
     const rtk_bvh_node *n = &c->s->nodes[id];
     double area = half_area(n->lower, n->upper);
     uint32_t tris = c->tri_total[id];
     double leaf = area * WIDE_COST_BLOCK * (double)((tris + RTK_WIDE_TRIS - 1) / RTK_WIDE_TRIS);
-    if (!left) {
-        for (int j = 0; j < RTK_WIDE; j++)
-            out[j] = leaf;
-        c->plan[id] = PLAN_LEAF;
-        return;
-    }
     const int ll = (int)plan_leaves(c->plan[n->offset]), lr = (int)plan_leaves(c->plan[n->offset + 1]);
     const int lmax = ll + lr < RTK_WIDE ? ll + lr : RTK_WIDE;
     uint32_t plan = (uint32_t)(lmax - 1) << PLAN_LEAVES_SHIFT;
@@ -381,8 +387,7 @@ static int plan_walk(collapser *c, plan_scratch *w, uint32_t id, uint32_t depth,
     if (c->check && (n->count > 0 || depth != frontier) && !rtk_tree_check_node(c->check, &w->tally, id, depth + 1))
         return 0;
     if (n->count > 0) {
-        c->tri_total[id] = n->count;
-        plan_costs(c, id, NULL, NULL, out);
+        plan_leaf_costs(c, id, n, out);
         return 1;
     }
     if (depth == frontier) {
@@ -401,7 +406,7 @@ static int plan_walk(collapser *c, plan_scratch *w, uint32_t id, uint32_t depth,
 /* Large trees are planned on threads: the subtrees below the inner nodes
  * at this depth each by one thread, then the levels above them. */
 #define PLAN_FRONTIER 8
-#define PLAN_PARALLEL_NODES 16384u
+#define PLAN_PARALLEL_NODES 4096u
 
 /* The inner nodes at depth PLAN_FRONTIER under id, in walk order. An
  * unchecked tree's children are only read in range (the walks check the

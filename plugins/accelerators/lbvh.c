@@ -38,7 +38,7 @@
  * split first (only when several threads build). */
 #define LBVH_GRAIN 4096
 /* Fewest primitives worth a thread of their own. */
-#define LBVH_PART 16384
+#define LBVH_PART 4096
 /* Bits of the radix sort's digits. */
 #define LBVH_DIGIT 11
 /* Slots ahead whose bounds a leaf prefetches. */
