@@ -973,7 +973,7 @@ static void fill_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size
 
 /* Threads filling the refs: at least this many primitives each. The
  * first touch of the array's pages is most of the work. */
-#define SAH_FILL_PART 16384
+#define SAH_FILL_PART 8192
 #define SAH_FILL_MAX_THREADS 64
 
 static rtk_status build_binned(build *b, job *root)
