@@ -196,8 +196,8 @@ static void gather_slots(collapser *c, uint32_t bin, uint32_t *n)
     const rtk_bvh_node *bn = c->s->nodes;
     if (bn[bin].count > 0) {
         const rtk_bvh_node *leaf = &bn[bin];
-        const rtk_scene *s = c->s;
 #if RTK_HAVE_X86
+        const rtk_scene *s = c->s;
         /* Each corner is one 16-byte load (a float more follows the last
          * vertex) and one store; the stores overlap, each writing the
          * lane the next one or the next triangle's first overwrites

@@ -417,6 +417,27 @@ static void bounds_of_refs(const build *b, uint32_t begin, uint32_t end, job *j)
 /* Moves the primitives of bins below s.at to the front, as find_binned
  * binned them; fills both children's bounds. Returns the first slot of
  * the right side. */
+#if defined(__SSE2__)
+/* Lomuto without branches over refs [begin, end) on axis k (a constant
+ * once inlined): [begin, mid) is left, [mid, i) right. A ref moves as
+ * two 16-byte vectors, its doubled centroid is their sum, lane k. */
+static inline __attribute__((always_inline)) uint32_t lomuto(ref *refs, uint32_t begin, uint32_t end, int k, float clo,
+                                                             float scl, float at)
+{
+    uint32_t mid = begin;
+    for (uint32_t i = begin; i < end; i++) {
+        float *x = (float *)(void *)&refs[i], *y = (float *)(void *)&refs[mid];
+        const __m128 lo = _mm_loadu_ps(x), hi = _mm_loadu_ps(x + 4);
+        _mm_storeu_ps(x, _mm_loadu_ps(y)), _mm_storeu_ps(x + 4, _mm_loadu_ps(y + 4));
+        _mm_storeu_ps(y, lo), _mm_storeu_ps(y + 4, hi);
+        const __m128 c = _mm_add_ps(lo, hi);
+        const float ck = _mm_cvtss_f32(k == 0 ? c : k == 1 ? _mm_shuffle_ps(c, c, 0x55) : _mm_shuffle_ps(c, c, 0xaa));
+        mid += !((ck - clo) * scl >= at);
+    }
+    return mid;
+}
+#endif
+
 static uint32_t partition_binned(const build *b, const job *j, split s, job *l, job *r)
 {
     v4 scale, last;
@@ -428,8 +449,13 @@ static uint32_t partition_binned(const build *b, const job *j, split s, job *l, 
      * one lane of the same float operations. */
     const int k = s.axis;
     const float clo = lo[k], scl = sc[k], at = (float)s.at;
-#define SAH_LEFT(rf) (!(((rf).lo[k] + (rf).hi[k] - clo) * scl >= at))
     ref *refs = b->refs;
+#if defined(__SSE2__)
+    uint32_t mid = k == 0 ? lomuto(refs, j->begin, j->end, 0, clo, scl, at)
+                 : k == 1 ? lomuto(refs, j->begin, j->end, 1, clo, scl, at)
+                          : lomuto(refs, j->begin, j->end, 2, clo, scl, at);
+#else
+#define SAH_LEFT(rf) (!(((rf).lo[k] + (rf).hi[k] - clo) * scl >= at))
     /* Lomuto without branches: [begin, mid) is left, [mid, i) right. */
     uint32_t mid = j->begin;
     for (uint32_t i = j->begin; i < j->end; i++) {
@@ -439,6 +465,7 @@ static uint32_t partition_binned(const build *b, const job *j, split s, job *l, 
         mid += SAH_LEFT(x);
     }
 #undef SAH_LEFT
+#endif
     bounds_of_refs(b, j->begin, mid, l);
     bounds_of_refs(b, mid, j->end, r);
     return mid;

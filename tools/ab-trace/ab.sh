@@ -9,10 +9,11 @@
 # its own wide tree, for changes to the collapse), AB_SET=KEY=VALUE (a
 # parameter of ACCEL for the variant's tree, with AB_REBUILD), AB_BUILD=1
 # (time the wide builds, one thread, instead of the tracing; the trees
-# must be the same). Prints the median and quartiles over ROUNDS
-# (default 400) of B's time over A's.
+# must be the same unless AB_DIFFERENT=1), AB_WRAP=COMMAND (run the
+# program under it: perf record, valgrind). Prints the median and
+# quartiles over ROUNDS (default 400) of B's time over A's.
 set -euo pipefail
-[ $# -ge 3 ] || { sed -n '2,14p' "$0" >&2; exit 2; }
+[ $# -ge 3 ] || { sed -n '2,15p' "$0" >&2; exit 2; }
 src=$(cd "$(dirname "$0")/../.." && pwd)
 build=$(cd "$1" && pwd)
 out=$(mktemp -d)
