@@ -34,6 +34,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 /* Subtrees at most this large are built by one thread; larger ones are
  * split first (only when several threads build). */
 #define LBVH_GRAIN 4096
@@ -156,12 +160,42 @@ static void part(uint32_t n, uint32_t t, uint32_t team, uint32_t *begin, uint32_
     *end = (uint32_t)((uint64_t)n * (t + 1) / team);
 }
 
+#if defined(__SSE2__)
+/* A centroid as four floats, the fourth 0. */
+static inline __m128 load_centroid(const rtk_vec3 *c)
+{
+    return _mm_movelh_ps(_mm_loadl_pi(_mm_setzero_ps(), (const __m64 *)(const void *)c), _mm_load_ss(&c->z));
+}
+
+/* spread10 on each lane. */
+static inline __m128i spread10_lanes(__m128i x)
+{
+    x = _mm_and_si128(x, _mm_set1_epi32(0x3ff));
+    x = _mm_and_si128(_mm_or_si128(x, _mm_slli_epi32(x, 16)), _mm_set1_epi32(0x030000ff));
+    x = _mm_and_si128(_mm_or_si128(x, _mm_slli_epi32(x, 8)), _mm_set1_epi32(0x0300f00f));
+    x = _mm_and_si128(_mm_or_si128(x, _mm_slli_epi32(x, 4)), _mm_set1_epi32(0x030c30c3));
+    x = _mm_and_si128(_mm_or_si128(x, _mm_slli_epi32(x, 2)), _mm_set1_epi32(0x09249249));
+    return x;
+}
+#endif
+
 static void morton_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
 {
     const rtk_build_args *a = b->a;
     uint32_t begin, end;
     part(a->prim_count, t, size, &begin, &end);
     float *cb = b->cbounds[t];
+#if defined(__SSE2__)
+    __m128 clo = _mm_set1_ps(INFINITY), chi = _mm_set1_ps(-INFINITY);
+    for (uint32_t i = begin; i < end; i++) {
+        const __m128 c = load_centroid(&a->centroids[i]);
+        clo = _mm_min_ps(clo, c), chi = _mm_max_ps(chi, c);
+    }
+    float lo4[4], hi4[4];
+    _mm_storeu_ps(lo4, clo), _mm_storeu_ps(hi4, chi);
+    for (int k = 0; k < 3; k++)
+        cb[k] = lo4[k], cb[3 + k] = hi4[k];
+#else
     cb[0] = cb[1] = cb[2] = INFINITY;
     cb[3] = cb[4] = cb[5] = -INFINITY;
     for (uint32_t i = begin; i < end; i++) {
@@ -169,6 +203,7 @@ static void morton_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
         cb[0] = min_f(cb[0], c->x), cb[1] = min_f(cb[1], c->y), cb[2] = min_f(cb[2], c->z);
         cb[3] = max_f(cb[3], c->x), cb[4] = max_f(cb[4], c->y), cb[5] = max_f(cb[5], c->z);
     }
+#endif
     rtk_team_sync(team);
     float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (uint32_t u = 0; u < size; u++) {
@@ -187,6 +222,24 @@ static void morton_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
     void *codes = b->codes;
     const int wide = per_axis != 10;
     uint32_t *ids = a->prim_order;
+#if defined(__SSE2__)
+    if (!wide) {
+        /* quantise on the three lanes: (c - lo) * scale clamped to [0,
+         * last], NaN to 0 (max returns its second operand for NaN). */
+        const __m128 vlo = _mm_setr_ps(lo[0], lo[1], lo[2], 0.0f), vscale = _mm_setr_ps(scale[0], scale[1], scale[2], 0.0f);
+        const __m128 vlast = _mm_set1_ps(last), zero = _mm_setzero_ps();
+        for (uint32_t i = begin; i < end; i++) {
+            const __m128 f = _mm_mul_ps(_mm_sub_ps(load_centroid(&a->centroids[i]), vlo), vscale);
+            const __m128i q = spread10_lanes(_mm_cvttps_epi32(_mm_min_ps(_mm_max_ps(f, zero), vlast)));
+            const uint32_t x = (uint32_t)_mm_cvtsi128_si32(q), y = (uint32_t)_mm_cvtsi128_si32(_mm_shuffle_epi32(q, 1)),
+                           z = (uint32_t)_mm_cvtsi128_si32(_mm_shuffle_epi32(q, 2));
+            code_set(codes, 0, i, x << 2 | y << 1 | z);
+            ids[i] = i;
+        }
+        rtk_team_sync(team);
+        return;
+    }
+#endif
     for (uint32_t i = begin; i < end; i++) {
         const rtk_vec3 *c = &a->centroids[i];
         uint32_t x = quantise(c->x, lo[0], scale[0], last);
