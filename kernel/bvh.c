@@ -592,10 +592,19 @@ static void walk_worker(void *ctx, uint32_t begin, uint32_t end)
 
 static int all_set(const uint8_t *seen, uint32_t n)
 {
-    uint8_t all = 1;
-    for (uint32_t i = 0; i < n; i++)
-        all &= seen[i];
-    return all;
+    /* Marks are 0 or 1: eight at a time (a byte loop is not vectorised
+     * at -O2, 5 instructions a byte). */
+    uint64_t all = 0x0101010101010101ull;
+    uint32_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+        uint64_t word;
+        memcpy(&word, seen + i, sizeof word);
+        all &= word;
+    }
+    uint8_t tail = 1;
+    for (; i < n; i++)
+        tail &= seen[i];
+    return all == 0x0101010101010101ull && tail;
 }
 
 /* Whether the sets of bits (count of them, words each) are disjoint and
