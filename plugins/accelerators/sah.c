@@ -414,9 +414,6 @@ static void bounds_of_refs(const build *b, uint32_t begin, uint32_t end, job *j)
         ref_grow(j, &b->refs[i]);
 }
 
-/* Moves the primitives of bins below s.at to the front, as find_binned
- * binned them; fills both children's bounds. Returns the first slot of
- * the right side. */
 #if defined(__SSE2__)
 /* Lomuto without branches over refs [begin, end) on axis k (a constant
  * once inlined): [begin, mid) is left, [mid, i) right. A ref moves as
@@ -438,6 +435,9 @@ static inline __attribute__((always_inline)) uint32_t lomuto(ref *refs, uint32_t
 }
 #endif
 
+/* Moves the primitives of bins below s.at to the front, as find_binned
+ * binned them; fills both children's bounds. Returns the first slot of
+ * the right side. */
 static uint32_t partition_binned(const build *b, const job *j, split s, job *l, job *r)
 {
     v4 scale, last;

@@ -150,6 +150,7 @@ static int time_builds(int rounds)
                scene_b->wide->node_count, scene_b->wide->tri_block_count, scene_b->wide->depth);
         if (!getenv("AB_DIFFERENT")) {
             fprintf(stderr, "ab: not timing them (AB_DIFFERENT=1 times them anyway)\n");
+            free(ratio);
             return 1;
         }
     } else {
@@ -162,10 +163,16 @@ static int time_builds(int rounds)
             int b = o ^ (r & 1);
             rtk_scene *s = b ? scene_b : scene_a;
             double t0 = cpu_now();
-            rtk_status st = b ? (B_wide_free(s), B_wide_build(s, 1, NULL, 0, 1)) : (rtk_wide_free(s), rtk_wide_build(s, 1, NULL, 0, 1));
+            if (b)
+                B_wide_free(s);
+            else
+                rtk_wide_free(s);
+            rtk_status st = b ? B_wide_build(s, 1, NULL, 0, 1) : rtk_wide_build(s, 1, NULL, 0, 1);
             t[b] = cpu_now() - t0;
-            if (st != RTK_OK)
+            if (st != RTK_OK) {
+                free(ratio);
                 return fail(b ? "B's wide build" : "A's wide build");
+            }
         }
         ratio[r] = t[1] / t[0];
         ta += t[0], tb += t[1];
