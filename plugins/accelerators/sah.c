@@ -82,13 +82,11 @@ static inline v4 v4_mul(v4 a, v4 b) { return _mm_mul_ps(a, b); }
  * and NaN in a gives b. */
 static inline v4 v4_min(v4 a, v4 b) { return _mm_min_ps(a, b); }
 static inline v4 v4_max(v4 a, v4 b) { return _mm_max_ps(a, b); }
-/* Truncates lanes 0-2, which hold values in [0, 255]. */
-static inline void v4_to_u32(v4 a, uint32_t out[3])
+/* Truncates the lanes, of which 0-2 hold values in [0, 255] (lane 3 is
+ * stored too, and ignored). */
+static inline void v4_to_u32(v4 a, uint32_t out[4])
 {
-    __m128i i = _mm_cvttps_epi32(a);
-    out[0] = (uint32_t)_mm_cvtsi128_si32(i);
-    out[1] = (uint32_t)_mm_cvtsi128_si32(_mm_shuffle_epi32(i, 1));
-    out[2] = (uint32_t)_mm_cvtsi128_si32(_mm_shuffle_epi32(i, 2));
+    _mm_storeu_si128((__m128i *)(void *)out, _mm_cvttps_epi32(a));
 }
 #else
 typedef struct v4 {
@@ -104,7 +102,7 @@ static inline v4 v4_sub(v4 a, v4 b) { V4_LANES(a.f[k] - b.f[k]); }
 static inline v4 v4_mul(v4 a, v4 b) { V4_LANES(a.f[k] * b.f[k]); }
 static inline v4 v4_min(v4 a, v4 b) { V4_LANES(a.f[k] < b.f[k] ? a.f[k] : b.f[k]); }
 static inline v4 v4_max(v4 a, v4 b) { V4_LANES(a.f[k] > b.f[k] ? a.f[k] : b.f[k]); }
-static inline void v4_to_u32(v4 a, uint32_t out[3]) { for (int k = 0; k < 3; k++) out[k] = (uint32_t)a.f[k]; }
+static inline void v4_to_u32(v4 a, uint32_t out[4]) { for (int k = 0; k < 3; k++) out[k] = (uint32_t)a.f[k]; }
 #undef V4_LANES
 #endif
 
@@ -228,7 +226,7 @@ static v4 bounds_upper(const rtk_bounds *b)
 
 /* Bins of a doubled centroid c on each axis: (c - lo) * scale clamped to
  * [0, bins - 1]; NaN (0 * inf on a tiny extent) goes to bin 0. */
-static inline void bins_of(v4 c, v4 lo, v4 scale, v4 last, uint32_t out[3])
+static inline void bins_of(v4 c, v4 lo, v4 scale, v4 last, uint32_t out[4])
 {
     v4_to_u32(v4_min(v4_max(v4_mul(v4_sub(c, lo), scale), v4_set1(0.0f)), last), out);
 }
@@ -305,11 +303,10 @@ static void binning_merge(binning *to, const binning *from, uint32_t nb)
     }
 }
 
-static inline void binning_add(binning *bn, const ref *r, v4 clo, v4 scale, v4 last)
+/* Adds a ref to its bins bi (one per axis) of bn. */
+static inline void binning_add(binning *bn, const ref *r, const uint32_t bi[4])
 {
     v4 lo = ref_lo(r), hi = ref_hi(r);
-    uint32_t bi[3];
-    bins_of(v4_add(lo, hi), clo, scale, last, bi);
     box_grow(&bn->box[0][bi[0]], lo, hi);
     box_grow(&bn->box[1][bi[1]], lo, hi);
     box_grow(&bn->box[2][bi[2]], lo, hi);
@@ -318,32 +315,41 @@ static inline void binning_add(binning *bn, const ref *r, v4 clo, v4 scale, v4 l
     bn->count[2][bi[2]]++;
 }
 
-/* Bins refs [begin, end) of node j into bn (cleared here): two sets of
- * bins, even and odd slots, merged at the end. Neighbouring primitives
- * often share a bin; two sets halve the chains of loads and stores on
- * one bin. The bins' boxes are minima and maxima of finite bounds (the
- * kernel refuses non-finite positions), and their counts integers: any
- * division of a node's refs into parts, merged in any order, gives the
- * same bins. */
+/* Refs binned a batch at a time: their bins first, then the adds. */
+#define SAH_BIN_BATCH 32
+
+/* Bins refs [begin, end) of node j into bn (cleared here). A batch of
+ * refs gets its bins computed before any is added: were each add's
+ * addresses computed from its ref's load, the loads of the bins would
+ * wait on the stores before them, their addresses not yet known, and
+ * the loop would run at a third of the speed (the elephant's root). Two
+ * sets of bins, even and odd slots, merged at the end: neighbouring
+ * primitives often share a bin, and two sets halve the chains of loads
+ * and stores on one bin. The bins' boxes are minima and maxima of
+ * finite bounds (the kernel refuses non-finite positions), and their
+ * counts integers: any division of a node's refs into parts, merged in
+ * any order, gives the same bins. */
 static void bin_refs(const build *b, const job *j, uint32_t begin, uint32_t end, binning bn[2])
 {
     const uint32_t nb = node_bins(b->opt, j->end - j->begin);
     v4 scale, last;
     bin_setup(b->opt, j, &scale, &last);
     const v4 clo = j->cent.lo;
-    int sets = end - begin >= 64 ? 2 : 1;
+    const uint32_t sets = end - begin >= 64 ? 2 : 1;
     binning_clear(&bn[0], nb);
-    uint32_t i = begin;
-    if (sets == 2) {
+    if (sets == 2)
         binning_clear(&bn[1], nb);
-        for (; i + 1 < end; i += 2) {
-            binning_add(&bn[0], &b->refs[i], clo, scale, last);
-            binning_add(&bn[1], &b->refs[i + 1], clo, scale, last);
-        }
-        binning_merge(&bn[0], &bn[1], nb);
+    const ref *refs = b->refs;
+    uint32_t bins[SAH_BIN_BATCH][4];
+    for (uint32_t first = begin; first < end; first += SAH_BIN_BATCH) {
+        const uint32_t stop = end - first < SAH_BIN_BATCH ? end : first + SAH_BIN_BATCH;
+        for (uint32_t i = first; i < stop; i++)
+            bins_of(v4_add(ref_lo(&refs[i]), ref_hi(&refs[i])), clo, scale, last, bins[i - first]);
+        for (uint32_t i = first; i < stop; i++)
+            binning_add(&bn[(i - begin) & (sets - 1)], &refs[i], bins[i - first]);
     }
-    for (; i < end; i++)
-        binning_add(&bn[0], &b->refs[i], clo, scale, last);
+    if (sets == 2)
+        binning_merge(&bn[0], &bn[1], nb);
 }
 
 /* The best binned split of node j from its bins. */
