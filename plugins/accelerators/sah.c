@@ -352,8 +352,8 @@ static void bin_refs(const build *b, const job *j, uint32_t begin, uint32_t end,
         binning_merge(&bn[0], &bn[1], nb);
 }
 
-/* The best binned split of node j from its bins. */
-static split best_binned(const build *b, const job *j, const binning *bn)
+/* The best binned split of node j from its bins, into best. */
+static void best_binned(const build *b, const job *j, const binning *bn, split *best)
 {
     const sah *o = b->opt;
     const uint32_t count = j->end - j->begin, nb = node_bins(o, count);
@@ -362,7 +362,8 @@ static split best_binned(const build *b, const job *j, const binning *bn)
     float lo[4], hi[4];
     v4_store(lo, j->cent.lo);
     v4_store(hi, j->cent.hi);
-    split best = {.axis = -1, .cost = INFINITY};
+    int axis = -1;
+    uint32_t at = 0;
     float best_weight = INFINITY;
     for (int k = 0; k < 3; k++) {
         if (!(hi[k] - lo[k] > 0.0f)) /* flat: bin_setup's scale 0, all in one bin */
@@ -388,21 +389,21 @@ static split best_binned(const build *b, const job *j, const binning *bn)
             float weight = half_area(&acc) * (float)n + rweight[c];
             if (weight < best_weight) {
                 best_weight = weight;
-                best.axis = k;
-                best.at = c;
+                axis = k;
+                at = c;
             }
         }
     }
-    if (best.axis >= 0)
-        best.cost = split_cost(o, best_weight, half_area(&j->geom), count);
-    return best;
+    best->axis = axis;
+    best->at = at;
+    best->cost = axis >= 0 ? split_cost(o, best_weight, half_area(&j->geom), count) : INFINITY;
 }
 
-static split find_binned(const build *b, const job *j)
+static void find_binned(const build *b, const job *j, split *best)
 {
     binning bn[2];
     bin_refs(b, j, j->begin, j->end, bn);
-    return best_binned(b, j, &bn[0]);
+    best_binned(b, j, &bn[0], best);
 }
 
 static inline void ref_grow(job *j, const ref *r)
@@ -444,7 +445,7 @@ static inline __attribute__((always_inline)) uint32_t lomuto(ref *refs, uint32_t
 /* Moves the primitives of bins below s.at to the front, as find_binned
  * binned them; fills both children's bounds. Returns the first slot of
  * the right side. */
-static uint32_t partition_binned(const build *b, const job *j, split s, job *l, job *r)
+static uint32_t partition_binned(const build *b, const job *j, const split *s, job *l, job *r)
 {
     v4 scale, last;
     bin_setup(b->opt, j, &scale, &last);
@@ -453,8 +454,8 @@ static uint32_t partition_binned(const build *b, const job *j, split s, job *l, 
     v4_store(sc, scale);
     /* bins_of(c) < at exactly when !((c - lo) * scale >= at), NaN included:
      * one lane of the same float operations. */
-    const int k = s.axis;
-    const float clo = lo[k], scl = sc[k], at = (float)s.at;
+    const int k = s->axis;
+    const float clo = lo[k], scl = sc[k], at = (float)s->at;
     ref *refs = b->refs;
 #if defined(__SSE2__)
     uint32_t mid = k == 0 ? lomuto(refs, j->begin, j->end, 0, clo, scl, at)
@@ -533,22 +534,23 @@ static void sort_small(const ref *refs, uint32_t m, uint8_t ord[3][SAH_SMALL])
 
 /* Exact SAH over every object split of a small node: cheaper there than
  * binning, and better. Equal costs go to the split nearest the middle. */
-static split find_small(const build *b, const job *j)
+static void find_small(const build *b, const job *j, split *best)
 {
     const sah *o = b->opt;
     const ref *refs = b->refs + j->begin;
     const uint32_t m = j->end - j->begin;
-    split best = {.axis = -1, .cost = INFINITY};
     float best_weight = INFINITY, rweight[SAH_SMALL];
     uint32_t best_skew = UINT32_MAX;
     if (m == 2) {
         /* One split, the same on every axis; the order stays. */
         vbox one = {ref_lo(&refs[0]), ref_hi(&refs[0])}, two = {ref_lo(&refs[1]), ref_hi(&refs[1])};
-        best = (split){.axis = 0, .at = 1};
-        best_weight = half_area(&one) + half_area(&two);
-        best.cost = split_cost(o, best_weight, half_area(&j->geom), m);
-        return best;
+        best->axis = 0;
+        best->at = 1;
+        best->cost = split_cost(o, half_area(&one) + half_area(&two), half_area(&j->geom), m);
+        return;
     }
+    int axis = -1;
+    uint32_t at = 0;
     uint8_t order[3][SAH_SMALL];
     sort_small(refs, m, order);
     for (int k = 0; k < 3; k++) {
@@ -567,32 +569,33 @@ static split find_small(const build *b, const job *j)
             if (weight < best_weight || (weight == best_weight && skew < best_skew)) {
                 best_weight = weight;
                 best_skew = skew;
-                best.axis = k;
-                best.at = i;
+                axis = k;
+                at = i;
             }
         }
     }
-    best.cost = split_cost(o, best_weight, half_area(&j->geom), m);
-    if (best.axis >= 0)
-        memcpy(best.order, order[best.axis], m);
-    return best;
+    best->axis = axis;
+    best->at = at;
+    best->cost = split_cost(o, best_weight, half_area(&j->geom), m);
+    if (axis >= 0)
+        memcpy(best->order, order[axis], sizeof best->order);
 }
 
 /* Reorders the refs of j as find_small ordered them along s.axis and
  * fills both children's bounds. Returns the first slot of the right side. */
-static uint32_t partition_small(const build *b, const job *j, split s, job *l, job *r)
+static uint32_t partition_small(const build *b, const job *j, const split *s, job *l, job *r)
 {
     ref *refs = b->refs + j->begin, tmp[SAH_SMALL];
     const uint32_t m = j->end - j->begin;
     if (m > 2) {
         for (uint32_t i = 0; i < m; i++)
-            tmp[i] = refs[s.order[i]];
+            tmp[i] = refs[s->order[i]];
         memcpy(refs, tmp, sizeof *refs * m);
     }
     box_empty(&l->geom), box_empty(&l->cent), box_empty(&r->geom), box_empty(&r->cent);
     for (uint32_t i = 0; i < m; i++)
-        ref_grow(i < s.at ? l : r, &refs[i]);
-    return j->begin + s.at;
+        ref_grow(i < s->at ? l : r, &refs[i]);
+    return j->begin + s->at;
 }
 
 static void bounds_of_ids(const build *b, const uint32_t *ids, uint32_t begin, uint32_t end, vbox *geom)
@@ -606,7 +609,7 @@ static void bounds_of_ids(const build *b, const uint32_t *ids, uint32_t begin, u
 
 /* Best object split of the sorted orders; equal costs go to the split
  * nearest the middle, so identical primitives give a balanced tree. */
-static split find_sweep(const build *b, const job *j)
+static void find_sweep(const build *b, const job *j, split *s)
 {
     const sah *o = b->opt;
     const uint32_t begin = j->begin, end = j->end, count = end - begin;
@@ -634,19 +637,19 @@ static split find_sweep(const build *b, const job *j)
             }
         }
     }
-    return best;
+    *s = best;
 }
 
 /* Splits the sorted orders at s: the chosen axis is already split; the
  * others are partitioned stably so each side stays sorted. */
-static void partition_sweep(const build *b, const job *j, split s)
+static void partition_sweep(const build *b, const job *j, const split *s)
 {
     const uint32_t begin = j->begin, end = j->end;
-    const uint32_t *axis = b->ord[s.axis];
+    const uint32_t *axis = b->ord[s->axis];
     for (uint32_t i = begin; i < end; i++)
-        b->left[axis[i]] = i < s.at;
+        b->left[axis[i]] = i < s->at;
     for (int k = 0; k < 3; k++) {
-        if (k == s.axis)
+        if (k == s->axis)
             continue;
         uint32_t *ids = b->ord[k];
         uint32_t l = begin, r = begin;
@@ -679,7 +682,12 @@ static void add_segment(const build *b, uint32_t start, uint32_t len, uint32_t d
 }
 
 /* Builds the subtree of root, handing large subtrees to the queue.
- * Returns the next slot after a dense root's subtree. */
+ * Returns the next slot after a dense root's subtree. A node's left
+ * child is built next in place of the node (j), its right child waits
+ * on the stack, written where it waits: a job's fields are stored one
+ * by one, and copying a job just stored loads each 16 bytes from stores
+ * of 4, which must reach the cache first (the same holds for a split,
+ * passed by pointer). */
 static uint32_t build_subtree(const build *b, const job *root)
 {
     const sah *o = b->opt;
@@ -687,30 +695,35 @@ static uint32_t build_subtree(const build *b, const job *root)
     job stack[SAH_STACK];
     uint32_t top = 0, bump = root->dense ? root->region : 0;
     /* On threads: the dense subtree being built, [dense_start, bump),
-     * done when the stack is back to dense_mark entries. */
+     * done when the stack is back to dense_mark entries and the node in
+     * hand is done. */
     uint32_t dense_start = UINT32_MAX, dense_mark = 0;
-    stack[top++] = *root;
+    job j = *root;
     for (;;) {
-        if (dense_start != UINT32_MAX && top == dense_mark) {
-            add_segment(b, dense_start, bump - dense_start, 1);
-            dense_start = UINT32_MAX;
-        }
-        if (top == 0)
-            break;
-        job j = stack[--top];
         const uint32_t count = j.end - j.begin;
         if (o->sweep)
             bounds_of_ids(b, b->ord[0], j.begin, j.end, &j.geom);
-        split s = {.axis = -1, .cost = INFINITY};
+        split s;
+        s.axis = -1;
+        s.cost = INFINITY;
         if (j.presplit)
             s = b->root_split;
+        else if (count > 1 && j.depth < SAH_HALVING_DEPTH && o->sweep)
+            find_sweep(b, &j, &s);
         else if (count > 1 && j.depth < SAH_HALVING_DEPTH)
-            s = o->sweep ? find_sweep(b, &j) : count <= SAH_SMALL ? find_small(b, &j) : find_binned(b, &j);
+            count <= SAH_SMALL ? find_small(b, &j, &s) : find_binned(b, &j, &s);
         if (count == 1 || (count <= o->max_leaf && (s.axis < 0 || o->t_tri * (float)count <= s.cost))) {
             write_node(&a->nodes[j.slot], &j.geom, j.begin, count);
             if (!o->sweep)
                 for (uint32_t i = j.begin; i < j.end; i++)
                     a->prim_order[i] = b->refs[i].id;
+            if (dense_start != UINT32_MAX && top == dense_mark) {
+                add_segment(b, dense_start, bump - dense_start, 1);
+                dense_start = UINT32_MAX;
+            }
+            if (top == 0)
+                break;
+            j = stack[--top];
             continue;
         }
         /* A node under SAH_SPAWN_MIN primitives is built here with all
@@ -728,34 +741,37 @@ static uint32_t build_subtree(const build *b, const job *root)
         }
         const uint32_t first = dense ? bump : j.region;
         bump += dense ? 2 : 0;
-        job l = {.slot = first, .begin = j.begin, .region = j.region + 2, .depth = j.depth + 1, .dense = dense};
-        job r = {.slot = first + 1, .end = j.end, .depth = j.depth + 1, .dense = dense};
+        job l, *r = &stack[top];
+        r->slot = first + 1, r->end = j.end, r->depth = j.depth + 1, r->dense = dense, r->presplit = 0;
         uint32_t mid;
         if (s.axis < 0) {
             /* Nothing separates the centroids, or too deep: halve. */
             mid = j.begin + count / 2;
             if (o->sweep) {
-                partition_sweep(b, &j, (split){.axis = 0, .at = mid});
+                partition_sweep(b, &j, &(split){.axis = 0, .at = mid});
             } else {
                 bounds_of_refs(b, j.begin, mid, &l);
-                bounds_of_refs(b, mid, j.end, &r);
+                bounds_of_refs(b, mid, j.end, r);
             }
         } else if (o->sweep) {
             mid = s.at;
-            partition_sweep(b, &j, s);
+            partition_sweep(b, &j, &s);
         } else if (count <= SAH_SMALL) {
-            mid = partition_small(b, &j, s, &l, &r);
+            mid = partition_small(b, &j, &s, &l, r);
         } else {
-            mid = partition_binned(b, &j, s, &l, &r);
+            mid = partition_binned(b, &j, &s, &l, r);
         }
-        l.end = r.begin = mid;
-        r.region = j.region + 2 * (mid - j.begin);
+        r->begin = mid;
+        r->region = j.region + 2 * (mid - j.begin);
         write_node(&a->nodes[j.slot], &j.geom, first, 0);
-        if (b->q && r.end - r.begin >= SAH_SPAWN_MIN)
-            queue_push(b->q, &r);
+        if (b->q && r->end - r->begin >= SAH_SPAWN_MIN)
+            queue_push(b->q, r);
         else
-            stack[top++] = r;
-        stack[top++] = l;
+            top++;
+        /* The left child (sweep mode's bounds come from its orders). */
+        if (!o->sweep)
+            j.geom = l.geom, j.cent = l.cent;
+        j.slot = first, j.end = mid, j.region += 2, j.depth++, j.dense = dense, j.presplit = 0;
     }
     return bump;
 }
@@ -853,7 +869,7 @@ static void presplit_root(build *b, job *root, uint32_t threads)
     const uint32_t nb = node_bins(b->opt, root->end - root->begin);
     for (uint32_t t = 1; t < size; t++)
         binning_merge(&parts[0][0], &parts[t][0], nb);
-    b->root_split = best_binned(b, root, &parts[0][0]);
+    best_binned(b, root, &parts[0][0], &b->root_split);
     free(parts);
     root->presplit = 1;
 }
