@@ -26,6 +26,20 @@ RTK_API const char *rtk_kind_name(rtk_plugin_kind kind)
     return "unknown kind";
 }
 
+/* "a filter", "an integrator": the kind with its article, for messages. */
+static const char *kind_with_article(rtk_plugin_kind kind)
+{
+    switch (kind) {
+    case RTK_KIND_INTEGRATOR:
+        return "an integrator";
+    case RTK_KIND_ACCELERATOR:
+        return "an accelerator";
+    case RTK_KIND_FILTER:
+        return "a filter";
+    }
+    return "an unknown kind";
+}
+
 /* Smallest function table each kind must provide: its required fields;
  * later fields are read only when the table's size covers them. */
 static size_t min_table_size(rtk_plugin_kind kind)
@@ -112,8 +126,8 @@ rtk_status rtk_plugin_check(const rtk_plugin *p, const char *path, rtk_plugin_ki
     if (!p->version || !p->summary)
         return rtk_error(RTK_ERR_PLUGIN, "%s: plugin '%s' has no version or summary", path, p->name);
     if (expected && p->kind != expected)
-        return rtk_error(RTK_ERR_PLUGIN, "%s: plugin '%s' is a %s, expected a %s", path, p->name,
-                         rtk_kind_name(p->kind), rtk_kind_name(expected));
+        return rtk_error(RTK_ERR_PLUGIN, "%s: plugin '%s' is %s, expected %s", path, p->name,
+                         kind_with_article(p->kind), kind_with_article(expected));
     if (p->param_count && !p->params)
         return rtk_error(RTK_ERR_PLUGIN, "%s: plugin '%s' declares %u parameters but no table", path,
                          p->name, p->param_count);
@@ -440,8 +454,8 @@ RTK_API rtk_status rtk_registry_find(rtk_registry *r, rtk_plugin_kind kind, cons
         }
     }
     if (other_kind)
-        return rtk_error(RTK_ERR_PLUGIN, "plugin '%s' is a %s, not an %s; %ss available: %s", name,
-                         rtk_kind_name(other_kind->kind), rtk_kind_name(kind), rtk_kind_name(kind),
+        return rtk_error(RTK_ERR_PLUGIN, "plugin '%s' is %s, not %s; %ss available: %s", name,
+                         kind_with_article(other_kind->kind), kind_with_article(kind), rtk_kind_name(kind),
                          avail[0] ? avail : "none");
     char dirs[2048] = "";
     for (size_t i = 0; i < r->dir_count; i++) {
