@@ -3,6 +3,7 @@
 #include "bvh_cache.h"
 #include "bvh_wide.h"
 
+#include <dirent.h>
 #include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -432,6 +433,8 @@ int rtk_bvh_cache_load(rtk_scene *s, const char *path, uint64_t geometry, uint64
             snprintf(why, sizeof why, "cannot open: %s", strerror(errno));
     } else {
         ok = load_checked(s, fd, path, geometry, builder, plugin, threads, why, sizeof why);
+        if (ok)
+            futimens(fd, NULL); /* used now, for rtk_bvh_cache_prune; a read-only cache stays as it is */
         close(fd);
     }
     if (!ok && why[0])
@@ -503,6 +506,114 @@ rtk_status rtk_bvh_cache_save(const rtk_scene *s, const char *path, uint64_t geo
     }
     free(temp);
     return st;
+}
+
+/* Whether name is a tree file's, <16 hex>-<16 hex>.bvh (what
+ * rtk_bvh_cache_path makes), and with tmp set, a save's temporary file
+ * (that name and ".tmp" then anything). */
+static int cache_file_name(const char *name, int *tmp)
+{
+    for (int i = 0; i < 33; i++) {
+        const char c = name[i];
+        const int hex = (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f');
+        if (i == 16 ? c != '-' : !hex)
+            return 0;
+    }
+    if (strncmp(name + 33, ".bvh", 4) != 0)
+        return 0;
+    *tmp = name[37] != '\0';
+    return !*tmp || strncmp(name + 37, ".tmp", 4) == 0;
+}
+
+typedef struct cache_entry {
+    char *name;
+    uint64_t bytes;
+    struct timespec used;
+} cache_entry;
+
+static int timespec_before(struct timespec a, struct timespec b)
+{
+    return a.tv_sec < b.tv_sec || (a.tv_sec == b.tv_sec && a.tv_nsec < b.tv_nsec);
+}
+
+/* Least recently used first; equal times by name, so the order is fixed. */
+static int entry_order(const void *x, const void *y)
+{
+    const cache_entry *a = x, *b = y;
+    if (timespec_before(a->used, b->used))
+        return -1;
+    if (timespec_before(b->used, a->used))
+        return 1;
+    return strcmp(a->name, b->name);
+}
+
+/* Removes dir/name; 1 when it went (or was already gone). */
+static int remove_entry(int fd, const char *dir, const char *name)
+{
+    if (unlinkat(fd, name, 0) == 0 || errno == ENOENT)
+        return 1;
+    rtk_log(RTK_LOG_DEBUG, "BVH cache %s/%s: cannot remove it: %s", dir, name, strerror(errno));
+    return 0;
+}
+
+uint32_t rtk_bvh_cache_prune(const char *dir, uint64_t limit, struct timespec since, uint64_t *freed)
+{
+    DIR *d = opendir(dir);
+    if (!d) {
+        rtk_log(RTK_LOG_DEBUG, "BVH cache %s: cannot read the directory to prune it: %s", dir, strerror(errno));
+        return 0;
+    }
+    const int fd = dirfd(d);
+    struct timespec now;
+    clock_gettime(CLOCK_REALTIME, &now);
+    cache_entry *entries = NULL;
+    uint32_t count = 0, cap = 0, removed = 0;
+    uint64_t total = 0, gone = 0;
+    int complete = 1;
+    for (struct dirent *e; (e = readdir(d));) {
+        int tmp;
+        struct stat st;
+        if (!cache_file_name(e->d_name, &tmp) || fstatat(fd, e->d_name, &st, AT_SYMLINK_NOFOLLOW) != 0 ||
+            !S_ISREG(st.st_mode))
+            continue;
+        if (tmp) {
+            /* A save takes seconds at most: an hour-old one is dead. */
+            if (now.tv_sec - st.st_mtim.tv_sec >= 3600 && remove_entry(fd, dir, e->d_name))
+                removed++, gone += (uint64_t)st.st_size;
+            continue;
+        }
+        total += (uint64_t)st.st_size;
+        if (!timespec_before(st.st_mtim, since))
+            continue; /* this render's own */
+        if (!rtk_grow_array((void **)&entries, &cap, count, sizeof *entries)) {
+            complete = 0;
+            break;
+        }
+        if (!(entries[count].name = rtk_strdup(e->d_name))) {
+            complete = 0;
+            break;
+        }
+        entries[count].bytes = (uint64_t)st.st_size;
+        entries[count++].used = st.st_mtim;
+    }
+    /* Out of memory part way: the total is short, so remove nothing more. */
+    if (complete && limit > 0 && total > limit) {
+        qsort(entries, count, sizeof *entries, entry_order);
+        for (uint32_t i = 0; i < count && total > limit; i++) {
+            if (remove_entry(fd, dir, entries[i].name)) {
+                total -= entries[i].bytes;
+                gone += entries[i].bytes;
+                removed++;
+            }
+        }
+    }
+    closedir(d);
+    for (uint32_t i = 0; i < count; i++)
+        free(entries[i].name);
+    free(entries);
+    if (freed)
+        *freed += gone;
+    return removed;
 }
 
 /* mkdir -p dir; on failure why says what went wrong. */

@@ -35,6 +35,7 @@
 #define RTK_BVH_CACHE_H
 
 #include "internal.h"
+#include <time.h>
 
 #define RTK_BVH_CACHE_VERSION 1u
 #define RTK_BVH_CACHE_HEADER_SIZE 104u
@@ -100,6 +101,18 @@ int rtk_bvh_cache_load(rtk_scene *scene, const char *path, uint64_t geometry, ui
  * the error; the scene is untouched either way. */
 rtk_status rtk_bvh_cache_save(const rtk_scene *scene, const char *path, uint64_t geometry, uint64_t builder,
                               const rtk_plugin *plugin);
+
+/* Keeps the cache in dir within limit bytes (0: no limit): removes its
+ * tree files (<16 hex digits>-<16 hex digits>.bvh), least recently used
+ * first (a load or a save marks a file used: its modification time), until
+ * the ones left take at most limit bytes. Files used at or after since
+ * (the render's own) are never removed. Temporary files of saves
+ * (<tree file>.tmp*) an hour old or more are removed too, whatever the
+ * limit: a process that died while saving left them. Nothing else in dir
+ * is touched. Returns the number of files removed and adds their bytes to
+ * *freed (may be NULL). A directory that cannot be read, or a file that
+ * will not go, is skipped: pruning never fails a render. */
+uint32_t rtk_bvh_cache_prune(const char *dir, uint64_t limit, struct timespec since, uint64_t *freed);
 
 /* rtk_bvh_build behind the cache in dir (NULL = caching off): loads a
  * valid cache file, else builds and saves. Accelerators with their own

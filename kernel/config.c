@@ -33,6 +33,8 @@ static const rtk_param_desc top_params[] = {
     {.name = "cache", .type = RTK_PARAM_STRING, .def_string = "",
      .doc = "BVH cache directory, relative to the config file; \"off\" disables; "
             "default $XDG_CACHE_HOME/rtk or ~/.cache/rtk"},
+    {.name = "cache_limit", .type = RTK_PARAM_INT, .def = 4096, .min = 0, .max = 1048576,
+     .doc = "MB the BVH cache may hold: past it, the least recently used trees are removed; 0 = no limit"},
     {.name = "plugin_path", .type = RTK_PARAM_STRING,
      .doc = "directory or list of directories with more plugins (trusted configs only)"},
     {.name = "lights", .type = RTK_PARAM_STRING,
@@ -984,6 +986,7 @@ static rtk_status read_top(const loader *ld, const config_setting_t *root, rtk_c
         return status;
     const char *scene = rtk_params_string(params, "scene");
     cfg->threads = (uint32_t)rtk_params_int(params, "threads");
+    cfg->cache_limit = (uint64_t)rtk_params_int(params, "cache_limit") << 20;
     if (!scene[0])
         status = fail(ld, member(root, "scene"), RTK_ERR_INVALID, "scene is empty: give the model to render");
     else if (!(cfg->scene_path = rtk_path_join(ld->dir, scene)))

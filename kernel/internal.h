@@ -643,6 +643,7 @@ struct rtk_config {
     uint64_t seed;
     uint32_t threads;            /* 0 = all cores */
     char *cache_dir;             /* BVH cache directory, NULL = caching off */
+    uint64_t cache_limit;        /* bytes the BVH cache may hold, 0 = no limit */
     rtk_punctual_light *lights;  /* the config's punctual lights */
     uint32_t light_count;
     rtk_config_instance *instances; /* models placed beside the scene */

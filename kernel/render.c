@@ -407,11 +407,25 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
         count_textures(scene, &report->textures, &report->textures_decoded);
 
     t = rtk_now();
+    struct timespec build_start;
+    clock_gettime(CLOCK_REALTIME, &build_start);
     rtk_bvh_cache_use cache;
     st = rtk_bvh_build_cached(scene, cfg->accelerator.plugin, cfg->accelerator.params, threads, cfg->cache_dir,
                               &cache);
     if (st != RTK_OK)
         goto done;
+    if (cfg->cache_dir && cfg->cache_limit) {
+        /* The trees this render used or saved are newer than build_start
+         * and stay: less two seconds, for file times from a coarse clock
+         * (a tick behind) or stored in whole seconds (two on FAT). */
+        build_start.tv_sec -= 2;
+        uint64_t freed = 0;
+        uint32_t removed = rtk_bvh_cache_prune(cfg->cache_dir, cfg->cache_limit, build_start, &freed);
+        if (removed)
+            rtk_log(RTK_LOG_INFO, "BVH cache %s: removed %u old file%s (%.1f MB) to stay within cache_limit = %llu MB",
+                    cfg->cache_dir, removed, removed == 1 ? "" : "s",
+                    (double)freed / (1024.0 * 1024.0), (unsigned long long)(cfg->cache_limit >> 20));
+    }
     report->build_seconds = rtk_now() - t;
     if (report_has(report, offsetof(rtk_render_report, bvh_cache_file) + sizeof report->bvh_cache_file)) {
         report->bvh_from_cache = cache.from_cache;

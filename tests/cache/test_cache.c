@@ -16,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "../check.h"
@@ -838,6 +839,88 @@ static void test_fuzz(int rounds)
     group_done(title, f0, p0);
 }
 
+/* A file of size bytes in d, last modified age seconds before now. */
+static void make_aged(const char *d, const char *name, size_t size, long age, struct timespec now)
+{
+    char full[1024];
+    snprintf(full, sizeof full, "%s/%s", d, name);
+    char *data = calloc(1, size);
+    write_file(full, data, size);
+    free(data);
+    const struct timespec times[2] = {{now.tv_sec - age, 0}, {now.tv_sec - age, 0}};
+    utimensat(AT_FDCWD, full, times, 0);
+}
+
+static int exists_in(const char *d, const char *name)
+{
+    char full[1024];
+    snprintf(full, sizeof full, "%s/%s", d, name);
+    struct stat st;
+    return lstat(full, &st) == 0;
+}
+
+/* cache_limit: least recently used trees go first, the render's own and
+ * other files never; dead temporary files go whatever the limit; a load
+ * marks its file used. */
+static void test_prune(void)
+{
+    int f0 = failed, p0 = passed;
+    char d[512];
+    snprintf(d, sizeof d, "%s/prune", dir);
+    mkdir(d, 0755);
+    struct timespec now;
+    clock_gettime(CLOCK_REALTIME, &now);
+    const char *a = "00000000000000a1-00000000000000b1.bvh", *b = "00000000000000a2-00000000000000b2.bvh",
+               *c = "00000000000000a3-00000000000000b3.bvh", *own = "00000000000000a4-00000000000000b4.bvh";
+    make_aged(d, a, 1000, 300, now);
+    make_aged(d, b, 2000, 200, now);
+    make_aged(d, c, 3000, 100, now);
+    make_aged(d, own, 4000, 0, now);
+    make_aged(d, "notes.txt", 5000, 1000, now);
+    make_aged(d, "00000000000000A1-00000000000000B1.bvh", 5000, 1000, now); /* not a name the cache makes */
+    make_aged(d, "00000000000000a1-00000000000000b1.bvh.tmp77-0", 10, 7200, now);
+    make_aged(d, "00000000000000a2-00000000000000b2.bvh.tmp78-0", 10, 60, now);
+    make_aged(d, "00000000000000a1-00000000000000b1.bvh.old", 10, 7200, now);
+    char sub[1024];
+    snprintf(sub, sizeof sub, "%s/00000000000000a5-00000000000000b5.bvh", d);
+    mkdir(sub, 0755);
+    struct timespec since = {now.tv_sec - 50, 0};
+    uint64_t freed = 0;
+    uint32_t removed = rtk_bvh_cache_prune(d, 0, since, &freed);
+    check(removed == 1 && freed == 10 && !exists_in(d, "00000000000000a1-00000000000000b1.bvh.tmp77-0") &&
+              exists_in(d, "00000000000000a2-00000000000000b2.bvh.tmp78-0") && exists_in(d, a),
+          "no limit: only the hour-old temporary file goes (removed %u, %llu bytes)", removed,
+          (unsigned long long)freed);
+    freed = 0;
+    removed = rtk_bvh_cache_prune(d, 7500, since, &freed);
+    check(removed == 2 && freed == 3000 && !exists_in(d, a) && !exists_in(d, b) && exists_in(d, c) &&
+              exists_in(d, own),
+          "7500 bytes over 10000: the two least recently used go (removed %u, %llu bytes)", removed,
+          (unsigned long long)freed);
+    freed = 0;
+    removed = rtk_bvh_cache_prune(d, 1, since, &freed);
+    check(removed == 1 && freed == 3000 && !exists_in(d, c) && exists_in(d, own),
+          "1 byte: all but the render's own tree go (removed %u, %llu bytes)", removed, (unsigned long long)freed);
+    check(exists_in(d, "notes.txt") && exists_in(d, "00000000000000A1-00000000000000B1.bvh") &&
+              exists_in(d, "00000000000000a2-00000000000000b2.bvh.tmp78-0") &&
+              exists_in(d, "00000000000000a1-00000000000000b1.bvh.old") && exists_in(d, "00000000000000a5-00000000000000b5.bvh"),
+          "other files, a fresh temporary file and a directory stay");
+    check(rtk_bvh_cache_prune("/nonexistent/rtk-cache", 1, since, NULL) == 0, "a missing directory: nothing, no failure");
+    /* A load marks the file used. */
+    write_file(path, good, good_size);
+    const struct timespec old[2] = {{now.tv_sec - 1000, 0}, {now.tv_sec - 1000, 0}};
+    utimensat(AT_FDCWD, path, old, 0);
+    capture cap;
+    capture_begin(&cap);
+    int used = rtk_bvh_cache_load(probe, path, ghash, bhash, median, 1);
+    free(capture_end(&cap));
+    struct stat st;
+    check(used && stat(path, &st) == 0 && st.st_mtime >= now.tv_sec - 5,
+          "a load marks the file used (modified %lld s before the test)", (long long)(now.tv_sec - st.st_mtime));
+    nftw(d, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+    group_done("cache_limit: least recently used trees removed, nothing else", f0, p0);
+}
+
 int main(void)
 {
     check_failures_only = 1;
@@ -879,6 +962,7 @@ int main(void)
         test_structure();
         test_stale();
         test_odd_files();
+        test_prune();
         test_fuzz(quick ? 60 : 600);
     }
     check(dir_count(dir, ".tmp") == 0, "no temporary file left in the cache dir");

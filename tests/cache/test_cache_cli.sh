@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The BVH cache through the rtk command: a second render loads what the
 # first saved and makes the same image; a damaged cache is one warning and
-# a rebuild; --no-cache and cache = "off" leave no file; the default
-# directory follows XDG_CACHE_HOME and HOME; a cache directory that cannot
-# be created never fails a render.
+# a rebuild; cache_limit removes old trees; --no-cache and cache = "off"
+# leave no file; the default directory follows XDG_CACHE_HOME and HOME; a
+# cache directory that cannot be created never fails a render.
 # usage: test_cache_cli.sh RTK
 set -u
 rtk=$1
@@ -65,6 +65,18 @@ printf 'garbage' >"$file"
 render "${base[@]}" --set cache="$tmp/c" --set accelerator.max_leaf=2
 check "other parameters: a file of its own, the damaged one untouched" \
     [ "$(count "$tmp/c")" -eq 2 -a "$(cat "$file")" = garbage ]
+
+# cache_limit (MB): an old tree past the limit goes, the render's own stay.
+head -c 2097152 /dev/zero >"$tmp/c/0000000000000001-0000000000000002.bvh"
+touch -d '1 hour ago' "$tmp/c/0000000000000001-0000000000000002.bvh"
+kept=$(count "$tmp/c")
+render "${base[@]}" --set cache="$tmp/c" --set cache_limit=1
+check "cache_limit: the old 2 MB tree is removed" [ $status -eq 0 -a ! -e "$tmp/c/0000000000000001-0000000000000002.bvh" ]
+check "cache_limit: the render says so" has "removed 1 old file (2.0 MB) to stay within cache_limit = 1 MB"
+check "cache_limit: the other trees stay" [ "$(count "$tmp/c")" -eq $((kept - 1)) ]
+render "${base[@]}" --set cache="$tmp/c" --set cache_limit=-1
+refused_naming() { [ $status -ne 0 ] && has "$1"; }
+check "cache_limit below 0: an error naming the setting" refused_naming "cache_limit"
 
 render "${base[@]}" --no-cache -o "$tmp/plain.png"
 check "--no-cache renders" [ $status -eq 0 ]
