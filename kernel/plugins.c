@@ -26,18 +26,10 @@ RTK_API const char *rtk_kind_name(rtk_plugin_kind kind)
     return "unknown kind";
 }
 
-/* "a filter", "an integrator": the kind with its article, for messages. */
-static const char *kind_with_article(rtk_plugin_kind kind)
+/* The article of rtk_kind_name(kind) in messages: "a filter", "an integrator". */
+static const char *kind_article(rtk_plugin_kind kind)
 {
-    switch (kind) {
-    case RTK_KIND_INTEGRATOR:
-        return "an integrator";
-    case RTK_KIND_ACCELERATOR:
-        return "an accelerator";
-    case RTK_KIND_FILTER:
-        return "a filter";
-    }
-    return "an unknown kind";
+    return kind == RTK_KIND_FILTER ? "a" : "an";
 }
 
 /* Smallest function table each kind must provide: its required fields;
@@ -126,8 +118,9 @@ rtk_status rtk_plugin_check(const rtk_plugin *p, const char *path, rtk_plugin_ki
     if (!p->version || !p->summary)
         return rtk_error(RTK_ERR_PLUGIN, "%s: plugin '%s' has no version or summary", path, p->name);
     if (expected && p->kind != expected)
-        return rtk_error(RTK_ERR_PLUGIN, "%s: plugin '%s' is %s, expected %s", path, p->name,
-                         kind_with_article(p->kind), kind_with_article(expected));
+        return rtk_error(RTK_ERR_PLUGIN, "%s: plugin '%s' is %s %s, expected %s %s", path, p->name,
+                         kind_article(p->kind), rtk_kind_name(p->kind), kind_article(expected),
+                         rtk_kind_name(expected));
     if (p->param_count && !p->params)
         return rtk_error(RTK_ERR_PLUGIN, "%s: plugin '%s' declares %u parameters but no table", path,
                          p->name, p->param_count);
@@ -454,8 +447,9 @@ RTK_API rtk_status rtk_registry_find(rtk_registry *r, rtk_plugin_kind kind, cons
         }
     }
     if (other_kind)
-        return rtk_error(RTK_ERR_PLUGIN, "plugin '%s' is %s, not %s; %ss available: %s", name,
-                         kind_with_article(other_kind->kind), kind_with_article(kind), rtk_kind_name(kind),
+        return rtk_error(RTK_ERR_PLUGIN, "plugin '%s' is %s %s, not %s %s; %ss available: %s", name,
+                         kind_article(other_kind->kind), rtk_kind_name(other_kind->kind), kind_article(kind),
+                         rtk_kind_name(kind), rtk_kind_name(kind),
                          avail[0] ? avail : "none");
     char dirs[2048] = "";
     for (size_t i = 0; i < r->dir_count; i++) {
