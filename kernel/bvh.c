@@ -748,6 +748,12 @@ int rtk_accelerator_traverses_itself(const rtk_plugin *accelerator)
     return own_traversal(accelerator->functions) != NULL;
 }
 
+uint32_t rtk_accelerator_build_flags(const rtk_plugin *accelerator)
+{
+    const rtk_accelerator_fns *fns = accelerator->functions;
+    return fns->size >= offsetof(rtk_accelerator_fns, build_flags) + sizeof fns->build_flags ? fns->build_flags : 0;
+}
+
 /* The builder's inputs (corners, bounds, centroids of every triangle),
  * split over threads. */
 typedef struct prep_job {
@@ -805,6 +811,13 @@ static void prep_range(void *ctx, uint32_t begin, uint32_t end)
         j->centroids[i] = rtk_vec3_make((lx + hx) * 0.5f, (ly + hy) * 0.5f, (lz + hz) * 0.5f);
 #endif
     }
+}
+
+void rtk_bvh_prepare_inputs(const rtk_scene *s, uint32_t threads, rtk_bounds *bounds, rtk_vec3 *centroids,
+                            rtk_vec3 *vertices)
+{
+    prep_job prep = {s, bounds, centroids, vertices};
+    rtk_parallel_ranges(s->triangle_count, threads, 8192, prep_range, &prep);
 }
 
 /* Every leaf's box against its triangles' corners: the check validation
@@ -902,8 +915,7 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
      * reads is computed (RTK_BUILD_NO_*: the block keeps its size, for the
      * wide tree), and there is no block when it reads none of it. */
     const rtk_accelerator_fns *fns = plugin->functions;
-    const uint32_t flags =
-        fns->size >= offsetof(rtk_accelerator_fns, build_flags) + sizeof fns->build_flags ? fns->build_flags : 0;
+    const uint32_t flags = rtk_accelerator_build_flags(plugin);
     const int want_bounds = !(flags & RTK_BUILD_NO_BOUNDS), want_vertices = !(flags & RTK_BUILD_NO_VERTICES);
     const size_t input_bytes = (sizeof(rtk_bounds) + sizeof(rtk_vec3) * 4) * (size_t)n;
     char *inputs = want_bounds || want_vertices ? rtk_alloc_large(input_bytes) : NULL;
@@ -925,8 +937,7 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
         goto fail;
     }
     if (inputs) {
-        prep_job prep = {s, bounds, centroids, vertices};
-        rtk_parallel_ranges(n, a.thread_count, 8192, prep_range, &prep);
+        rtk_bvh_prepare_inputs(s, a.thread_count, bounds, centroids, vertices);
     }
     a.prim_bounds = bounds;
     double t1 = rtk_now();

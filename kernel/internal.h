@@ -538,6 +538,13 @@ int rtk_bvh_closest_own(const rtk_scene *scene, const rtk_ray *ray, rtk_hit *hit
 int rtk_bvh_any_own(const rtk_scene *scene, const rtk_ray *ray, rtk_trace_work *work);
 /* 1 when the accelerator supplies its own traversal (closest and any). */
 int rtk_accelerator_traverses_itself(const rtk_plugin *accelerator);
+/* The accelerator's RTK_BUILD_* flags (0 for a table older than them). */
+uint32_t rtk_accelerator_build_flags(const rtk_plugin *accelerator);
+/* A builder's inputs for s's triangles, as rtk_bvh_build makes them, on
+ * up to threads threads: each triangle's bounds and their centre (both
+ * NULL, or both filled) and its three corners (vertices, NULL or filled). */
+void rtk_bvh_prepare_inputs(const rtk_scene *s, uint32_t threads, rtk_bounds *bounds, rtk_vec3 *centroids,
+                            rtk_vec3 *vertices);
 /* 1 if ray has finite origin/direction, non-zero direction, tmin <= tmax. */
 int rtk_ray_valid(const rtk_ray *ray);
 

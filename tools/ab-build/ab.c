@@ -2,8 +2,9 @@
  *
  * Both files are loaded with dlopen and checked as the kernel's loader
  * checks a plugin; each gets its defaults (and AB_SET's parameter). The
- * inputs are the kernel's for the mesh: each triangle's bounds and
- * centroid, its corners for a builder that reads them, and for one that
+ * inputs are the kernel's for the mesh (rtk_bvh_prepare_inputs): each
+ * triangle's bounds and centroid, its corners for a builder that reads
+ * them, and for one that
  * does not (RTK_BUILD_NO_VERTICES) the 36 bytes a triangle of scratch the
  * kernel hands it, touched once beforehand as the kernel's are. Round 0
  * builds with both and compares the trees (node count, nodes, primitive
@@ -58,14 +59,12 @@ static int open_side(side *s, const char *set)
         return 0;
     }
     s->fns = s->plugin->functions;
-    if (s->fns->closest) {
+    if (rtk_accelerator_traverses_itself(s->plugin)) {
         fprintf(stderr, "ab: %s traverses with its own code; this compares builders of the kernel's trees\n",
                 s->path);
         return 0;
     }
-    s->flags = s->fns->size >= offsetof(rtk_accelerator_fns, build_flags) + sizeof s->fns->build_flags
-                   ? s->fns->build_flags
-                   : 0;
+    s->flags = rtk_accelerator_build_flags(s->plugin);
     rtk_params *params = rtk_params_defaults(s->plugin);
     if (!params) {
         fprintf(stderr, "ab: %s: %s\n", s->path, rtk_error_message());
@@ -135,19 +134,7 @@ int main(int argc, char **argv)
         return 2;
     }
     memset(scratch, 0, scratch_bytes);
-    for (uint32_t i = 0; i < n; i++) {
-        float lo[3], hi[3];
-        for (int c = 0; c < 3; c++) {
-            const float *p = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)i + c];
-            corners[3 * (size_t)i + c] = (rtk_vec3){p[0], p[1], p[2]};
-            for (int k = 0; k < 3; k++) {
-                lo[k] = c == 0 || p[k] < lo[k] ? p[k] : lo[k];
-                hi[k] = c == 0 || p[k] > hi[k] ? p[k] : hi[k];
-            }
-        }
-        bounds[i] = (rtk_bounds){{lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}};
-        centroids[i] = (rtk_vec3){0.5f * (lo[0] + hi[0]), 0.5f * (lo[1] + hi[1]), 0.5f * (lo[2] + hi[2])};
-    }
+    rtk_bvh_prepare_inputs(scene, (uint32_t)threads, bounds, centroids, corners);
     double total[2] = {0.0, 0.0};
     for (int round = 0; round <= rounds; round++) {
         double t[2];
