@@ -414,6 +414,7 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
                               &cache);
     if (st != RTK_OK)
         goto done;
+    report->build_seconds = rtk_now() - t;
     if (cfg->cache_dir && cfg->cache_limit) {
         /* The trees this render used or saved are newer than build_start
          * and stay: less two seconds, for file times from a coarse clock
@@ -426,7 +427,6 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
                     cfg->cache_dir, removed, removed == 1 ? "" : "s",
                     (double)freed / (1024.0 * 1024.0), (unsigned long long)(cfg->cache_limit >> 20));
     }
-    report->build_seconds = rtk_now() - t;
     if (report_has(report, offsetof(rtk_render_report, bvh_cache_file) + sizeof report->bvh_cache_file)) {
         report->bvh_from_cache = cache.from_cache;
         snprintf(report->bvh_cache_file, sizeof report->bvh_cache_file, "%s", cache.file);
