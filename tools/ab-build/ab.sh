@@ -12,15 +12,7 @@
 # it: perf record, valgrind).
 set -euo pipefail
 [ $# -ge 4 ] || { sed -n '2,13p' "$0" >&2; exit 2; }
-src=$(cd "$(dirname "$0")/../.." && pwd)
-build=$(cd "$1" && pwd)
-out=$(mktemp -d)
-trap 'rm -rf "$out"' EXIT
-inc=(-I"$build/kernel" -I"$src/kernel" -I"$build/include" -I"$src/include")
-cc "${inc[@]}" -std=c11 -O2 -g -D_GNU_SOURCE -pthread -c "$src/tools/ab-build/ab.c" -o "$out/ab.o"
-# The kernel linked in and exported: the plugins' calls into librtk
-# resolve to it, the copy whose state (errors, thread pool) ab reads.
-c++ -o "$out/ab" "$out/ab.o" -Wl,--whole-archive "$build/kernel/librtk_static.a" \
-    -Wl,--no-whole-archive "$build/kernel/librtk_bench.a" -Wl,--export-dynamic -lm -pthread -ldl \
-    $(pkg-config --libs tinygltf tinyobjloader libconfig 2>/dev/null || echo -ltinygltf -ltinyobjloader -lconfig)
+. "$(dirname "$0")/../ab-harness.sh"
+ab_compile "$src/tools/ab-build/ab.c"
+ab_link
 ${AB_WRAP:-} "$out/ab" "$2" "$(realpath "$3")" "$(realpath "$4")" "${5:-40}" "${6:-1}"

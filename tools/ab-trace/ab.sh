@@ -14,13 +14,9 @@
 # quartiles over ROUNDS (default 400) of B's time over A's.
 set -euo pipefail
 [ $# -ge 3 ] || { sed -n '2,15p' "$0" >&2; exit 2; }
-src=$(cd "$(dirname "$0")/../.." && pwd)
-build=$(cd "$1" && pwd)
-out=$(mktemp -d)
-trap 'rm -rf "$out"' EXIT
+. "$(dirname "$0")/../ab-harness.sh"
 variant=$3
 [ "$variant" = embree ] && variant=$src/kernel/bvh_wide.c
-inc=(-I"$build/kernel" -I"$src/kernel" -I"$build/include" -I"$src/include")
 # Under its own name: bvh_wide.c includes itself (the AVX node loop), and
 # the variant must read its own loop, not the kernel's.
 cp "$variant" "$out/bvh_wide.c"
@@ -31,8 +27,6 @@ for sym in $(nm "$out/variant.o" | awk '$2 ~ /^[TDBR]$/ && $3 ~ /^rtk_/ {print $
     renames+=(--redefine-sym "$sym=B_${sym#rtk_}")
 done
 objcopy "${renames[@]}" "$out/variant.o" "$out/variant_b.o"
-cc "${inc[@]}" -std=c11 -O2 -g -D_GNU_SOURCE -pthread -c "$src/tools/ab-trace/ab.c" -o "$out/ab.o"
-c++ -o "$out/ab" "$out/ab.o" "$out/variant_b.o" -Wl,--whole-archive "$build/kernel/librtk_static.a" \
-    -Wl,--no-whole-archive "$build/kernel/librtk_bench.a" -Wl,--export-dynamic -lm -pthread \
-    $(pkg-config --libs tinygltf tinyobjloader libconfig 2>/dev/null || echo -ltinygltf -ltinyobjloader -lconfig)
+ab_compile "$src/tools/ab-trace/ab.c"
+ab_link "$out/variant_b.o"
 RTK_PLUGIN_PATH=$build/plugins/accelerators ${AB_WRAP:-} "$out/ab" "$2" "$3" "${4:-sah}" "${5:-400}"
