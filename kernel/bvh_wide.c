@@ -1278,9 +1278,9 @@ RTK_INLINE float min_ps(float a, float b)
 
 /* box_int_note: the AVX paths' occlusion reduces the slab distances with
  * integer max and min of their bit patterns where no slab distance can be
- * NaN:
- * for rays whose direction components are all at least FLT_MIN in
- * magnitude, -1 / d and its widening are finite and not 0, and the
+ * NaN: for rays whose direction components are all at least FLT_MIN in
+ * magnitude (and finite, as rtk_ray_valid has checked before any
+ * traversal), -1 / d and its widening are finite and not 0, and the
  * bounds and origin are not NaN, so (o - b) * (-1 / d) is never NaN
  * (empty lanes' infinite bounds give infinities). Signed integer order
  * is float order on values with the sign bit clear, puts every value
