@@ -698,33 +698,69 @@ static rtk_status read_camera(const loader *ld, const config_setting_t *root, rt
     return RTK_OK;
 }
 
+/* A config list of groups such as lights or instances: what its groups
+ * look like, for the messages, and how their settings are read. */
+typedef struct group_list {
+    const char *key;     /* "lights" */
+    const char *example; /* a whole group, for the list's message */
+    const char *brief;   /* its start, for an element's message */
+    const rtk_plugin *schema;
+    const char *const *special;
+} group_list;
+
+/* The list gl->key of root, or *list NULL when there is none; else its
+ * length in *n and n + 1 zeroed elements of size bytes in *out. */
+static rtk_status open_group_list(const loader *ld, const config_setting_t *root, const group_list *gl, size_t size,
+                                  const config_setting_t **list, int *n, void **out)
+{
+    *list = member(root, gl->key);
+    *n = 0;
+    if (!*list)
+        return RTK_OK;
+    if (config_setting_type(*list) != CONFIG_TYPE_LIST) {
+        char found[256];
+        describe_setting(*list, found, sizeof found);
+        return fail(ld, *list, RTK_ERR_INVALID, "%s: expected a list of groups ( %s ), found %s", gl->key,
+                    gl->example, found);
+    }
+    *n = config_setting_length(*list);
+    *out = rtk_calloc((size_t)*n + 1, size);
+    return *out ? RTK_OK : RTK_ERR_NOMEM;
+}
+
+/* Element i of the list: its group *g, its label ("lights[2]") and its
+ * settings read against the schema into *params. */
+static rtk_status group_list_elem(const loader *ld, const config_setting_t *list, const group_list *gl, int i,
+                                  const config_setting_t **g, char label[32], rtk_params **params)
+{
+    *g = config_setting_get_elem(list, (unsigned)i);
+    snprintf(label, 32, "%s[%d]", gl->key, i);
+    if (config_setting_type(*g) != CONFIG_TYPE_GROUP)
+        return fail(ld, *g, RTK_ERR_INVALID, "%s: expected a group %s", label, gl->brief);
+    slot_spec spec = {.label = label, .schema = gl->schema, .special = gl->special};
+    return fill_params(ld, *g, &spec, params);
+}
+
 /* Reads the list of punctual lights. */
 static rtk_status read_lights(const loader *ld, const config_setting_t *root, rtk_config *cfg)
 {
-    const config_setting_t *list = member(root, "lights");
-    if (!list)
-        return RTK_OK;
-    if (config_setting_type(list) != CONFIG_TYPE_LIST) {
-        char found[256];
-        describe_setting(list, found, sizeof found);
-        return fail(ld, list, RTK_ERR_INVALID,
-                    "lights: expected a list of groups ( { type = \"point\"; position = [0, 2, 0]; "
-                    "intensity = [5, 5, 5]; } ), found %s", found);
-    }
-    int n = config_setting_length(list);
-    cfg->lights = rtk_calloc((size_t)n + 1, sizeof *cfg->lights);
-    if (!cfg->lights)
-        return RTK_ERR_NOMEM;
+    static const group_list gl = {.key = "lights",
+                                  .example = "{ type = \"point\"; position = [0, 2, 0]; intensity = [5, 5, 5]; }",
+                                  .brief = "{ type = \"point\"; ... }",
+                                  .schema = &light_schema,
+                                  .special = light_special};
+    const config_setting_t *list;
+    int n;
+    void *mem = NULL;
+    rtk_status status = open_group_list(ld, root, &gl, sizeof *cfg->lights, &list, &n, &mem);
+    cfg->lights = mem;
+    if (status != RTK_OK || !list)
+        return status;
     for (int i = 0; i < n; i++) {
-        const config_setting_t *g = config_setting_get_elem(list, (unsigned)i);
+        const config_setting_t *g;
         char label[32];
-        snprintf(label, sizeof label, "lights[%d]", i);
-        if (config_setting_type(g) != CONFIG_TYPE_GROUP)
-            return fail(ld, g, RTK_ERR_INVALID, "%s: expected a group { type = \"point\"; ... }", label);
         rtk_params *params = NULL;
-        slot_spec spec = {.label = label, .schema = &light_schema, .special = light_special};
-        rtk_status status = fill_params(ld, g, &spec, &params);
-        if (status != RTK_OK)
+        if ((status = group_list_elem(ld, list, &gl, i, &g, label, &params)) != RTK_OK)
             return status;
         rtk_punctual_light *l = &cfg->lights[i];
         const char *type = rtk_params_string(params, "type");
@@ -784,30 +820,23 @@ static void compose(const double t[3], const double axis[3], double degrees, con
 /* Reads the list of instanced models. */
 static rtk_status read_instances(const loader *ld, const config_setting_t *root, rtk_config *cfg)
 {
-    const config_setting_t *list = member(root, "instances");
-    if (!list)
-        return RTK_OK;
-    if (config_setting_type(list) != CONFIG_TYPE_LIST) {
-        char found[256];
-        describe_setting(list, found, sizeof found);
-        return fail(ld, list, RTK_ERR_INVALID,
-                    "instances: expected a list of groups ( { file = \"bunny.obj\"; translate = [0, 0, 0]; } ), "
-                    "found %s", found);
-    }
-    int n = config_setting_length(list);
-    cfg->instances = rtk_calloc((size_t)n + 1, sizeof *cfg->instances);
-    if (!cfg->instances)
-        return RTK_ERR_NOMEM;
+    static const group_list gl = {.key = "instances",
+                                  .example = "{ file = \"bunny.obj\"; translate = [0, 0, 0]; }",
+                                  .brief = "{ file = \"bunny.obj\"; ... }",
+                                  .schema = &instance_schema,
+                                  .special = instance_special};
+    const config_setting_t *list;
+    int n;
+    void *mem = NULL;
+    rtk_status status = open_group_list(ld, root, &gl, sizeof *cfg->instances, &list, &n, &mem);
+    cfg->instances = mem;
+    if (status != RTK_OK || !list)
+        return status;
     for (int i = 0; i < n; i++) {
-        const config_setting_t *g = config_setting_get_elem(list, (unsigned)i);
+        const config_setting_t *g;
         char label[32];
-        snprintf(label, sizeof label, "instances[%d]", i);
-        if (config_setting_type(g) != CONFIG_TYPE_GROUP)
-            return fail(ld, g, RTK_ERR_INVALID, "%s: expected a group { file = \"bunny.obj\"; ... }", label);
         rtk_params *params = NULL;
-        slot_spec spec = {.label = label, .schema = &instance_schema, .special = instance_special};
-        rtk_status status = fill_params(ld, g, &spec, &params);
-        if (status != RTK_OK)
+        if ((status = group_list_elem(ld, list, &gl, i, &g, label, &params)) != RTK_OK)
             return status;
         rtk_config_instance *in = &cfg->instances[cfg->instance_count];
         const char *file = rtk_params_string(params, "file");

@@ -200,6 +200,23 @@ static void test_errors(void)
     p = write_file("syntax.cfg", "scene = \"m.obj\";\n\nfilm = { width = ; };\n");
     expect_error(__LINE__, p, NULL, "syntax.cfg:3", "syntax error", NULL);
 
+    /* The lists of groups (lights, instances) share their checks. */
+    p = write_file("lights_list.cfg", "scene = \"m.obj\";\nlights = { type = \"point\"; };\n");
+    expect_error(__LINE__, p, NULL, "lights_list.cfg:2", "lights: expected a list of groups",
+                 "{ type = \"point\"; position = [0, 2, 0]; intensity = [5, 5, 5]; }", "found a group", NULL);
+    p = write_file("lights_elem.cfg", "scene = \"m.obj\";\n"
+                                      "lights = ( { type = \"point\"; position = [0, 1, 0]; intensity = [1, 1, 1]; },\n"
+                                      "  42 );\n");
+    expect_error(__LINE__, p, NULL, "lights_elem.cfg:3", "lights[1]: expected a group { type = \"point\"; ... }", NULL);
+    p = write_file("lights_key.cfg", "scene = \"m.obj\";\nlights = ( {\n  tpye = \"point\"; } );\n");
+    expect_error(__LINE__, p, NULL, "lights_key.cfg:3", "lights[0]", "'tpye'", "did you mean 'type'", NULL);
+    p = write_file("instances_list.cfg", "scene = \"m.obj\";\ninstances = [1, 2];\n");
+    expect_error(__LINE__, p, NULL, "instances_list.cfg:2", "instances: expected a list of groups",
+                 "{ file = \"bunny.obj\"; translate = [0, 0, 0]; }", NULL);
+    p = write_file("instances_elem.cfg", "scene = \"m.obj\";\ninstances = (\n  \"bunny.obj\" );\n");
+    expect_error(__LINE__, p, NULL, "instances_elem.cfg:3",
+                 "instances[0]: expected a group { file = \"bunny.obj\"; ... }", NULL);
+
     char missing[512];
     snprintf(missing, sizeof missing, "%s/nope.cfg", tmpdir);
     expect_error(__LINE__, missing, NULL, "nope.cfg", "cannot read config", NULL);
