@@ -8,6 +8,7 @@
 #include "bvh_cache.h"
 #include "internal.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <libconfig.h>
 #include <limits.h>
@@ -1231,6 +1232,154 @@ static rtk_status apply_override(loader *ld, char *entry)
     return RTK_OK;
 }
 
+/* libconfig 1.5 reads an integer without the L suffix into 32 bits and
+ * wraps it without a word (width = 4294967297 became 1, 2147483648 became
+ * -2147483648, 0xffffffff -1) and one beyond 64 bits into -1. So before
+ * it parses a file, its integer literals are checked here: every one
+ * outside comments and strings, in the file and in those it @includes.
+ * Returns RTK_OK when the file cannot be read (libconfig then says so). */
+#define INCLUDE_DEPTH_MAX 10
+static rtk_status check_int_literals(const loader *ld, const char *path, const char *shown, int depth)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return RTK_OK;
+    size_t cap = 4096, len = 0;
+    char *text = rtk_alloc(cap);
+    size_t got;
+    while (text && (got = fread(text + len, 1, cap - len - 1, f)) > 0) {
+        len += got;
+        if (len + 1 == cap) {
+            char *more = cap > SIZE_MAX / 2 ? NULL : rtk_realloc_array(text, cap, 2);
+            if (!more)
+                free(text);
+            text = more, cap *= 2;
+        }
+    }
+    fclose(f);
+    if (!text)
+        return RTK_ERR_NOMEM;
+    text[len] = '\0';
+    rtk_status status = RTK_OK;
+    unsigned line = 1;
+    int line_start = 1;
+    for (size_t i = 0; i < len && status == RTK_OK;) {
+        char c = text[i];
+        if (c == '\n') {
+            line++, line_start = 1, i++;
+            continue;
+        }
+        if (c == '#' || (c == '/' && text[i + 1] == '/')) {
+            while (i < len && text[i] != '\n')
+                i++;
+            continue;
+        }
+        if (c == '/' && text[i + 1] == '*') {
+            for (i += 2; i < len && !(text[i] == '*' && text[i + 1] == '/'); i++)
+                line += text[i] == '\n';
+            i += 2;
+            continue;
+        }
+        if (c == '"') {
+            for (i++; i < len && text[i] != '"'; i++) {
+                if (text[i] == '\\' && i + 1 < len)
+                    i++;
+                line += text[i] == '\n';
+            }
+            i++;
+            line_start = 0;
+            continue;
+        }
+        if (c == '@' && line_start && strncmp(text + i, "@include", 8) == 0) {
+            /* @include "file", relative to the config's directory */
+            size_t q = i + 8;
+            while (q < len && (text[q] == ' ' || text[q] == '\t'))
+                q++;
+            size_t e = q + 1;
+            while (q < len && text[q] == '"' && e < len && text[e] != '"' && text[e] != '\n')
+                e++;
+            if (q < len && text[q] == '"' && e < len && text[e] == '"' && depth < INCLUDE_DEPTH_MAX) {
+                char *name = rtk_alloc(e - q);
+                if (!name) {
+                    status = RTK_ERR_NOMEM;
+                    break;
+                }
+                memcpy(name, text + q + 1, e - q - 1);
+                name[e - q - 1] = '\0';
+                char *inc = name[0] == '/' ? rtk_strdup(name) : rtk_path_join(ld->dir, name);
+                status = inc ? check_int_literals(ld, inc, inc, depth + 1) : RTK_ERR_NOMEM;
+                free(inc);
+                free(name);
+            }
+            i = e + 1;
+            continue;
+        }
+        if (c == ' ' || c == '\t' || c == '\r') {
+            i++;
+            continue;
+        }
+        line_start = 0;
+        if (isalpha((unsigned char)c) || c == '*' || c == '_') { /* a name, digits and all */
+            while (i < len && (isalnum((unsigned char)text[i]) || (text[i] && strchr("-_*", text[i]))))
+                i++;
+            continue;
+        }
+        int sign = (c == '-' || c == '+') && i + 1 < len && isdigit((unsigned char)text[i + 1]);
+        if (!isdigit((unsigned char)c) && !sign) {
+            i++;
+            continue;
+        }
+        /* A number: sign, then digits, letters and dots, and a sign after
+         * a decimal exponent's e. */
+        size_t b = i;
+        int hex = text[i + sign] == '0' && (text[i + sign + 1] == 'x' || text[i + sign + 1] == 'X');
+        for (i += (size_t)sign; i < len; i++) {
+            if (isalnum((unsigned char)text[i]) || text[i] == '.')
+                continue;
+            if (!hex && (text[i] == '-' || text[i] == '+') && (text[i - 1] == 'e' || text[i - 1] == 'E'))
+                continue;
+            break;
+        }
+        const size_t at = b + (size_t)sign + (hex ? 2 : 0);
+        size_t digits = 0;
+        while (at + digits < i && (hex ? isxdigit((unsigned char)text[at + digits])
+                                       : isdigit((unsigned char)text[at + digits])))
+            digits++;
+        const size_t rest = i - at - digits; /* the suffix: "", "L" or "LL" for an integer */
+        int wide = rest > 0 && rest <= 2 && text[at + digits] == 'L' && (rest == 1 || text[at + digits + 1] == 'L');
+        if (digits == 0 || (rest > 0 && !wide))
+            continue; /* a float, or not an integer libconfig reads */
+        int beyond64 = 1, beyond32 = 1;
+        if (i - b < 64) {
+            char tok[64];
+            memcpy(tok, text + b, i - b);
+            tok[i - b] = '\0';
+            errno = 0;
+            if (hex) {
+                unsigned long long u = strtoull(tok + sign, NULL, 16);
+                beyond64 = errno == ERANGE || u > (unsigned long long)LLONG_MAX;
+                beyond32 = u > 0x7fffffffull;
+            } else {
+                long long v = strtoll(tok, NULL, 10);
+                beyond64 = errno == ERANGE;
+                beyond32 = v < INT_MIN || v > INT_MAX;
+            }
+        }
+        const int shown_len = i - b < 64 ? (int)(i - b) : 64;
+        const char *more = i - b < 64 ? "" : "...";
+        if (beyond64)
+            status = rtk_error(RTK_ERR_PARSE, "%s:%u: the integer %.*s%s does not fit in 64 bits; give a smaller value",
+                               shown, line, shown_len, text + b, more);
+        else if (beyond32 && !wide)
+            status = rtk_error(RTK_ERR_PARSE,
+                               "%s:%u: the integer %.*s does not fit in 32 bits, and libconfig would read it wrapped; "
+                               "write %.*sL for a 64-bit integer (or give a smaller value)",
+                               shown, line, shown_len, text + b, shown_len, text + b);
+    }
+    free(text);
+    return status;
+}
+
 /* Parses the file into ld->cfg with an error naming the file and line. */
 static rtk_status parse_file(loader *ld)
 {
@@ -1239,6 +1388,9 @@ static rtk_status parse_file(loader *ld)
         return rtk_error(RTK_ERR_IO, "%s: cannot read config: %s", ld->path, strerror(errno));
     if (S_ISDIR(st.st_mode))
         return rtk_error(RTK_ERR_IO, "%s: is a directory, not a config file", ld->path);
+    rtk_status checked = check_int_literals(ld, ld->path, ld->path, 0);
+    if (checked != RTK_OK)
+        return checked;
     config_set_include_dir(&ld->cfg, ld->dir);
     if (config_read_file(&ld->cfg, ld->path))
         return RTK_OK;

@@ -222,6 +222,42 @@ static void test_errors(void)
     expect_error(__LINE__, missing, NULL, "nope.cfg", "cannot read config", NULL);
 }
 
+/* libconfig wraps an integer without L that does not fit in 32 bits
+ * (4294967297 became width 1): the loader refuses such literals first. */
+static void test_int_literals(void)
+{
+    const char *p;
+    p = write_file("int32.cfg", "scene = \"m.obj\";\nfilm = {\n  width = 4294967297; };\n");
+    expect_error(__LINE__, p, NULL, "int32.cfg:3", "the integer 4294967297 does not fit in 32 bits",
+                 "write 4294967297L", NULL);
+    p = write_file("int32neg.cfg", "scene = \"m.obj\";\nthreads = -2147483649;\n");
+    expect_error(__LINE__, p, NULL, "int32neg.cfg:2", "the integer -2147483649 does not fit in 32 bits", NULL);
+    p = write_file("hex32.cfg", "scene = \"m.obj\";\nthreads = 0xffffffff;\n");
+    expect_error(__LINE__, p, NULL, "hex32.cfg:2", "the integer 0xffffffff does not fit in 32 bits", NULL);
+    p = write_file("int64.cfg", "scene = \"m.obj\";\ncache_limit = 99999999999999999999L;\n");
+    expect_error(__LINE__, p, NULL, "int64.cfg:2", "the integer 99999999999999999999L does not fit in 64 bits",
+                 NULL);
+    p = write_file("int64b.cfg", "scene = \"m.obj\";\ncache_limit = 9223372036854775808;\n");
+    expect_error(__LINE__, p, NULL, "int64b.cfg:2", "does not fit in 64 bits", NULL);
+    /* In an @include'd file: its own name and line. */
+    write_file("inc_int.cfg", "# included\nfilm = {\n  width = 2147483648; };\n");
+    p = write_file("inc_main.cfg", "scene = \"m.obj\";\n@include \"inc_int.cfg\"\n");
+    expect_error(__LINE__, p, NULL, "inc_int.cfg:3", "the integer 2147483648 does not fit in 32 bits", NULL);
+    /* Allowed: in range, with L, in comments, strings and names, floats. */
+    p = write_file("int_ok.cfg", "# width = 4294967297\n/* 99999999999999999999\n 4294967297 */\n"
+                                 "scene = \"m4294967297\\\"9999999999.obj\";\n"
+                                 "cache_limit = 1048576L; // 4294967297\nthreads = 0x10;\n"
+                                 "film = { width = 0x40; height = 48; spp = 1; };\nsampler = { seed = 2147483647; };\n"
+                                 "camera = { position = [1e10, -2.5e-10, 4294967297.0]; look_at = [0, 0, 0]; };\n");
+    rtk_config *cfg = expect_ok(__LINE__, p, NULL);
+    if (cfg) {
+        CHECK(cfg->cache_limit == (uint64_t)1048576 << 20);
+        CHECK(cfg->width == 64 && cfg->height == 48 && cfg->threads == 16 && cfg->seed == 2147483647);
+        CHECK(ends_with(cfg->scene_path, "m4294967297\"9999999999.obj"));
+        rtk_config_destroy(cfg);
+    }
+}
+
 static void test_plugins(void)
 {
     const char *p;
@@ -405,6 +441,7 @@ int main(void)
     test_minimal();
     test_full();
     test_errors();
+    test_int_literals();
     test_plugins();
     test_overrides();
     test_paths();
