@@ -1237,10 +1237,16 @@ static rtk_status apply_override(loader *ld, char *entry)
  * -2147483648, 0xffffffff -1) and one beyond 64 bits into -1. So before
  * it parses a file, its integer literals are checked here: every one
  * outside comments and strings, in the file and in those it @includes.
- * Returns RTK_OK when the file cannot be read (libconfig then says so). */
+ * Returns RTK_OK when the file cannot be read (libconfig then says so) or
+ * is not a regular file. */
 #define INCLUDE_DEPTH_MAX 10
 static rtk_status check_int_literals(const loader *ld, const char *path, const char *shown, int depth)
 {
+    /* Only regular files: a pipe (rtk render <(...)) read here would be
+     * empty for libconfig. */
+    struct stat st;
+    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode))
+        return RTK_OK;
     FILE *f = fopen(path, "rb");
     if (!f)
         return RTK_OK;

@@ -54,6 +54,13 @@ printf 'scene = "quad.obj";\nfilm = { width = 32; height = 24; spp = 2; output =
 expect "minimal config renders" 0 "rays" "Mrays/s" "mean" -- "$rtk" render "$tmp/min.cfg"
 [ -f "$tmp/quad.png" ] && ok "output written next to the config" || bad "output written next to the config"
 ls "$tmp" | grep -q tmp && bad "no temporary file left behind" || ok "no temporary file left behind"
+# A config from a pipe: the check of integer literals reads regular files
+# only, so libconfig still gets the whole text.
+expect "a config read from a pipe renders" 0 "32x24" -- "$rtk" render \
+    <(printf 'scene = "%s/quad.obj";\nfilm = { width = 32; height = 24; spp = 1; output = "%s/pipe.png"; };\n' "$tmp" "$tmp")
+printf 'scene = "quad.obj";\nfilm = {\n  width = 4294967297; height = 24; };\n' >"$tmp/wrap.cfg"
+expect "an integer libconfig would wrap is refused with file and line" fail "wrap.cfg:3" "4294967297L" -- \
+    "$rtk" render "$tmp/wrap.cfg"
 
 printf 'scene = "quad.obj";\nfilm = {\n  widht = 32;\n};\n' >"$tmp/typo.cfg"
 expect "typo'd key names file, line and suggestion" fail "typo.cfg:3" "did you mean 'width'" -- "$rtk" render "$tmp/typo.cfg"
