@@ -699,47 +699,97 @@ static rtk_status read_camera(const loader *ld, const config_setting_t *root, rt
     return RTK_OK;
 }
 
+/* One element of a list of groups: its group g, label ("lights[2]") and
+ * settings checked against the list's schema, into item. */
+typedef rtk_status (*group_elem_fn)(const loader *ld, const config_setting_t *g, const char *label,
+                                    const rtk_params *params, void *item, rtk_config *cfg);
+
 /* A config list of groups such as lights or instances: what its groups
- * look like, for the messages, and how their settings are read. */
+ * look like, for the messages, how their settings are checked and read. */
 typedef struct group_list {
     const char *key;     /* "lights" */
     const char *example; /* a whole group, for the list's message */
     const char *brief;   /* its start, for an element's message */
     const rtk_plugin *schema;
     const char *const *special;
+    size_t size; /* of an element */
+    group_elem_fn read;
 } group_list;
 
-/* The list gl->key of root, or *list NULL when there is none; else its
- * length in *n and n + 1 zeroed elements of size bytes in *out. */
-static rtk_status open_group_list(const loader *ld, const config_setting_t *root, const group_list *gl, size_t size,
-                                  const config_setting_t **list, int *n, void **out)
+/* Reads the list gl->key of root, if there is one, into n + 1 zeroed
+ * elements at *out, one group at a time. */
+static rtk_status read_group_list(const loader *ld, const config_setting_t *root, const group_list *gl, void **out,
+                                  rtk_config *cfg)
 {
-    *list = member(root, gl->key);
-    *n = 0;
-    if (!*list)
+    const config_setting_t *list = member(root, gl->key);
+    if (!list)
         return RTK_OK;
-    if (config_setting_type(*list) != CONFIG_TYPE_LIST) {
+    if (config_setting_type(list) != CONFIG_TYPE_LIST) {
         char found[256];
-        describe_setting(*list, found, sizeof found);
-        return fail(ld, *list, RTK_ERR_INVALID, "%s: expected a list of groups ( %s ), found %s", gl->key,
+        describe_setting(list, found, sizeof found);
+        return fail(ld, list, RTK_ERR_INVALID, "%s: expected a list of groups ( %s ), found %s", gl->key,
                     gl->example, found);
     }
-    *n = config_setting_length(*list);
-    *out = rtk_calloc((size_t)*n + 1, size);
-    return *out ? RTK_OK : RTK_ERR_NOMEM;
+    int n = config_setting_length(list);
+    char *items = rtk_calloc((size_t)n + 1, gl->size);
+    *out = items;
+    if (!items)
+        return RTK_ERR_NOMEM;
+    for (int i = 0; i < n; i++) {
+        const config_setting_t *g = config_setting_get_elem(list, (unsigned)i);
+        char label[32];
+        snprintf(label, sizeof label, "%s[%d]", gl->key, i);
+        if (config_setting_type(g) != CONFIG_TYPE_GROUP)
+            return fail(ld, g, RTK_ERR_INVALID, "%s: expected a group %s", label, gl->brief);
+        rtk_params *params = NULL;
+        slot_spec spec = {.label = label, .schema = gl->schema, .special = gl->special};
+        rtk_status status = fill_params(ld, g, &spec, &params);
+        if (status == RTK_OK)
+            status = gl->read(ld, g, label, params, items + (size_t)i * gl->size, cfg);
+        rtk_params_destroy(params);
+        if (status != RTK_OK)
+            return status;
+    }
+    return RTK_OK;
 }
 
-/* Element i of the list: its group *g, its label ("lights[2]") and its
- * settings read against the schema into *params. */
-static rtk_status group_list_elem(const loader *ld, const config_setting_t *list, const group_list *gl, int i,
-                                  const config_setting_t **g, char label[32], rtk_params **params)
+/* One entry of the lights list. */
+static rtk_status read_light(const loader *ld, const config_setting_t *g, const char *label,
+                             const rtk_params *params, void *item, rtk_config *cfg)
 {
-    *g = config_setting_get_elem(list, (unsigned)i);
-    snprintf(label, 32, "%s[%d]", gl->key, i);
-    if (config_setting_type(*g) != CONFIG_TYPE_GROUP)
-        return fail(ld, *g, RTK_ERR_INVALID, "%s: expected a group %s", label, gl->brief);
-    slot_spec spec = {.label = label, .schema = gl->schema, .special = gl->special};
-    return fill_params(ld, *g, &spec, params);
+    rtk_punctual_light *l = item;
+    const char *type = rtk_params_string(params, "type");
+    l->type = strcmp(type, "directional") == 0 ? RTK_LIGHT_DIRECTIONAL
+              : strcmp(type, "spot") == 0      ? RTK_LIGHT_SPOT
+                                               : RTK_LIGHT_POINT;
+    double inner = rtk_params_float(params, "inner"), outer = rtk_params_float(params, "outer");
+    const char *need = l->type == RTK_LIGHT_POINT ? "position" : l->type == RTK_LIGHT_DIRECTIONAL ? "direction" : NULL;
+    if (need && !member(g, need))
+        return fail(ld, g, RTK_ERR_INVALID, "%s: a %s light needs %s = [x, y, z]", label, type, need);
+    if (l->type == RTK_LIGHT_SPOT && (!member(g, "position") || !member(g, "direction")))
+        return fail(ld, g, RTK_ERR_INVALID, "%s: a spot light needs position and direction", label);
+    if (!member(g, "intensity"))
+        return fail(ld, g, RTK_ERR_INVALID, "%s: no intensity: add intensity = [r, g, b];", label);
+    rtk_vec3 intensity = rtk_vec3_make(0, 0, 0);
+    rtk_status status;
+    if ((status = read_vec3(ld, g, label, "position", &l->position)) != RTK_OK ||
+        (status = read_vec3(ld, g, label, "direction", &l->direction)) != RTK_OK ||
+        (status = read_vec3(ld, g, label, "intensity", &intensity)) != RTK_OK)
+        return status;
+    if (intensity.x < 0.0f || intensity.y < 0.0f || intensity.z < 0.0f)
+        return fail(ld, member(g, "intensity"), RTK_ERR_INVALID, "%s: intensity must not be negative", label);
+    l->intensity = rtk_rgb_make(intensity.x, intensity.y, intensity.z);
+    if (l->type != RTK_LIGHT_POINT) {
+        if (rtk_vec3_length(l->direction) == 0.0f)
+            return fail(ld, member(g, "direction"), RTK_ERR_INVALID, "%s: direction is zero", label);
+        l->direction = rtk_vec3_normalize(l->direction);
+    }
+    if (l->type == RTK_LIGHT_SPOT && inner > outer)
+        return fail(ld, g, RTK_ERR_INVALID, "%s: inner (%g) is wider than outer (%g)", label, inner, outer);
+    l->cos_inner = (float)cos(inner * M_PI / 180.0);
+    l->cos_outer = (float)cos(outer * M_PI / 180.0);
+    cfg->light_count++;
+    return RTK_OK;
 }
 
 /* Reads the list of punctual lights. */
@@ -749,54 +799,13 @@ static rtk_status read_lights(const loader *ld, const config_setting_t *root, rt
                                   .example = "{ type = \"point\"; position = [0, 2, 0]; intensity = [5, 5, 5]; }",
                                   .brief = "{ type = \"point\"; ... }",
                                   .schema = &light_schema,
-                                  .special = light_special};
-    const config_setting_t *list;
-    int n;
-    void *mem = NULL;
-    rtk_status status = open_group_list(ld, root, &gl, sizeof *cfg->lights, &list, &n, &mem);
-    cfg->lights = mem;
-    if (status != RTK_OK || !list)
-        return status;
-    for (int i = 0; i < n; i++) {
-        const config_setting_t *g;
-        char label[32];
-        rtk_params *params = NULL;
-        if ((status = group_list_elem(ld, list, &gl, i, &g, label, &params)) != RTK_OK)
-            return status;
-        rtk_punctual_light *l = &cfg->lights[i];
-        const char *type = rtk_params_string(params, "type");
-        l->type = strcmp(type, "directional") == 0 ? RTK_LIGHT_DIRECTIONAL
-                  : strcmp(type, "spot") == 0      ? RTK_LIGHT_SPOT
-                                                   : RTK_LIGHT_POINT;
-        double inner = rtk_params_float(params, "inner"), outer = rtk_params_float(params, "outer");
-        rtk_params_destroy(params);
-        const char *need = l->type == RTK_LIGHT_POINT ? "position" : l->type == RTK_LIGHT_DIRECTIONAL ? "direction" : NULL;
-        if (need && !member(g, need))
-            return fail(ld, g, RTK_ERR_INVALID, "%s: a %s light needs %s = [x, y, z]", label, type, need);
-        if (l->type == RTK_LIGHT_SPOT && (!member(g, "position") || !member(g, "direction")))
-            return fail(ld, g, RTK_ERR_INVALID, "%s: a spot light needs position and direction", label);
-        if (!member(g, "intensity"))
-            return fail(ld, g, RTK_ERR_INVALID, "%s: no intensity: add intensity = [r, g, b];", label);
-        rtk_vec3 intensity = rtk_vec3_make(0, 0, 0);
-        if ((status = read_vec3(ld, g, label, "position", &l->position)) != RTK_OK ||
-            (status = read_vec3(ld, g, label, "direction", &l->direction)) != RTK_OK ||
-            (status = read_vec3(ld, g, label, "intensity", &intensity)) != RTK_OK)
-            return status;
-        if (intensity.x < 0.0f || intensity.y < 0.0f || intensity.z < 0.0f)
-            return fail(ld, member(g, "intensity"), RTK_ERR_INVALID, "%s: intensity must not be negative", label);
-        l->intensity = rtk_rgb_make(intensity.x, intensity.y, intensity.z);
-        if (l->type != RTK_LIGHT_POINT) {
-            if (rtk_vec3_length(l->direction) == 0.0f)
-                return fail(ld, member(g, "direction"), RTK_ERR_INVALID, "%s: direction is zero", label);
-            l->direction = rtk_vec3_normalize(l->direction);
-        }
-        if (l->type == RTK_LIGHT_SPOT && inner > outer)
-            return fail(ld, g, RTK_ERR_INVALID, "%s: inner (%g) is wider than outer (%g)", label, inner, outer);
-        l->cos_inner = (float)cos(inner * M_PI / 180.0);
-        l->cos_outer = (float)cos(outer * M_PI / 180.0);
-        cfg->light_count++;
-    }
-    return RTK_OK;
+                                  .special = light_special,
+                                  .size = sizeof(rtk_punctual_light),
+                                  .read = read_light};
+    void *lights = NULL;
+    rtk_status status = read_group_list(ld, root, &gl, &lights, cfg);
+    cfg->lights = lights;
+    return status;
 }
 
 /* Most copies one instances entry may ask for. */
@@ -818,6 +827,64 @@ static void compose(const double t[3], const double axis[3], double degrees, con
     }
 }
 
+/* One entry of the instances list (its file owned once counted, so that
+ * rtk_config_destroy frees it). */
+static rtk_status read_instance(const loader *ld, const config_setting_t *g, const char *label,
+                                const rtk_params *params, void *item, rtk_config *cfg)
+{
+    rtk_config_instance *in = item;
+    const char *file = rtk_params_string(params, "file");
+    if (!file[0])
+        return fail(ld, member(g, "file"), RTK_ERR_INVALID, "%s: file is empty: give the model to place", label);
+    if (!(in->file = rtk_path_join(ld->dir, file)))
+        return RTK_ERR_NOMEM;
+    cfg->instance_count++;
+    char loc[1050];
+    where(ld, g, loc, sizeof loc);
+    snprintf(in->where, sizeof in->where, "%s: %s", loc, label);
+
+    double t[3] = {0, 0, 0}, rot[4] = {0, 1, 0, 0}, s[3] = {1, 1, 1}, grid[3] = {1, 1, 1};
+    rtk_status status;
+    const config_setting_t *scale = member(g, "scale");
+    if (scale && (is_int_setting(scale) || config_setting_type(scale) == CONFIG_TYPE_FLOAT)) {
+        double v = is_int_setting(scale) ? (double)config_setting_get_int64(scale) : config_setting_get_float(scale);
+        s[0] = s[1] = s[2] = v;
+    } else if ((status = read_numbers(ld, g, label, "scale", 3, "[sx, sy, sz] (or one number)", s)) != RTK_OK) {
+        return status;
+    }
+    if ((status = read_numbers(ld, g, label, "translate", 3, "[x, y, z]", t)) != RTK_OK ||
+        (status = read_numbers(ld, g, label, "rotate", 4, "[ax, ay, az, degrees]", rot)) != RTK_OK ||
+        (status = read_numbers(ld, g, label, "grid", 3, "[nx, ny, nz]", grid)) != RTK_OK ||
+        (status = read_numbers(ld, g, label, "spacing", 3, "[dx, dy, dz]", in->spacing)) != RTK_OK)
+        return status;
+    for (int k = 0; k < 3; k++) {
+        if (!isfinite(s[k]) || s[k] == 0.0)
+            return fail(ld, scale, RTK_ERR_INVALID, "%s: scale must be finite and not zero (it would flatten "
+                        "the model)", label);
+    }
+    if (rot[0] == 0.0 && rot[1] == 0.0 && rot[2] == 0.0) {
+        if (rot[3] != 0.0)
+            return fail(ld, member(g, "rotate"), RTK_ERR_INVALID,
+                        "%s: rotate: the axis [0, 0, 0] has no direction; give e.g. [0, 1, 0, %g]", label, rot[3]);
+        rot[1] = 1.0;
+    }
+    double copies = 1.0;
+    for (int k = 0; k < 3; k++) {
+        if (grid[k] < 1.0 || grid[k] != floor(grid[k]))
+            return fail(ld, member(g, "grid"), RTK_ERR_INVALID,
+                        "%s: grid: element %d (%g) must be a whole number of copies, at least 1", label, k + 1,
+                        grid[k]);
+        copies *= grid[k];
+    }
+    if (copies > RTK_MAX_GRID_COPIES)
+        return fail(ld, member(g, "grid"), RTK_ERR_INVALID, "%s: grid asks for %.0f copies; at most %u", label,
+                    copies, RTK_MAX_GRID_COPIES);
+    for (int k = 0; k < 3; k++)
+        in->grid[k] = (uint32_t)grid[k];
+    compose(t, rot, rot[3], s, in->to_world);
+    return RTK_OK;
+}
+
 /* Reads the list of instanced models. */
 static rtk_status read_instances(const loader *ld, const config_setting_t *root, rtk_config *cfg)
 {
@@ -825,74 +892,13 @@ static rtk_status read_instances(const loader *ld, const config_setting_t *root,
                                   .example = "{ file = \"bunny.obj\"; translate = [0, 0, 0]; }",
                                   .brief = "{ file = \"bunny.obj\"; ... }",
                                   .schema = &instance_schema,
-                                  .special = instance_special};
-    const config_setting_t *list;
-    int n;
-    void *mem = NULL;
-    rtk_status status = open_group_list(ld, root, &gl, sizeof *cfg->instances, &list, &n, &mem);
-    cfg->instances = mem;
-    if (status != RTK_OK || !list)
-        return status;
-    for (int i = 0; i < n; i++) {
-        const config_setting_t *g;
-        char label[32];
-        rtk_params *params = NULL;
-        if ((status = group_list_elem(ld, list, &gl, i, &g, label, &params)) != RTK_OK)
-            return status;
-        rtk_config_instance *in = &cfg->instances[cfg->instance_count];
-        const char *file = rtk_params_string(params, "file");
-        if (!file[0])
-            status = fail(ld, member(g, "file"), RTK_ERR_INVALID, "%s: file is empty: give the model to place", label);
-        else if (!(in->file = rtk_path_join(ld->dir, file)))
-            status = RTK_ERR_NOMEM;
-        rtk_params_destroy(params);
-        if (status != RTK_OK)
-            return status;
-        cfg->instance_count++;
-        char loc[1050];
-        where(ld, g, loc, sizeof loc);
-        snprintf(in->where, sizeof in->where, "%s: %s", loc, label);
-
-        double t[3] = {0, 0, 0}, rot[4] = {0, 1, 0, 0}, s[3] = {1, 1, 1}, grid[3] = {1, 1, 1};
-        const config_setting_t *scale = member(g, "scale");
-        if (scale && (is_int_setting(scale) || config_setting_type(scale) == CONFIG_TYPE_FLOAT)) {
-            double v = is_int_setting(scale) ? (double)config_setting_get_int64(scale) : config_setting_get_float(scale);
-            s[0] = s[1] = s[2] = v;
-        } else if ((status = read_numbers(ld, g, label, "scale", 3, "[sx, sy, sz] (or one number)", s)) != RTK_OK) {
-            return status;
-        }
-        if ((status = read_numbers(ld, g, label, "translate", 3, "[x, y, z]", t)) != RTK_OK ||
-            (status = read_numbers(ld, g, label, "rotate", 4, "[ax, ay, az, degrees]", rot)) != RTK_OK ||
-            (status = read_numbers(ld, g, label, "grid", 3, "[nx, ny, nz]", grid)) != RTK_OK ||
-            (status = read_numbers(ld, g, label, "spacing", 3, "[dx, dy, dz]", in->spacing)) != RTK_OK)
-            return status;
-        for (int k = 0; k < 3; k++) {
-            if (!isfinite(s[k]) || s[k] == 0.0)
-                return fail(ld, scale, RTK_ERR_INVALID, "%s: scale must be finite and not zero (it would flatten "
-                            "the model)", label);
-        }
-        if (rot[0] == 0.0 && rot[1] == 0.0 && rot[2] == 0.0) {
-            if (rot[3] != 0.0)
-                return fail(ld, member(g, "rotate"), RTK_ERR_INVALID,
-                            "%s: rotate: the axis [0, 0, 0] has no direction; give e.g. [0, 1, 0, %g]", label, rot[3]);
-            rot[1] = 1.0;
-        }
-        double copies = 1.0;
-        for (int k = 0; k < 3; k++) {
-            if (grid[k] < 1.0 || grid[k] != floor(grid[k]))
-                return fail(ld, member(g, "grid"), RTK_ERR_INVALID,
-                            "%s: grid: element %d (%g) must be a whole number of copies, at least 1", label, k + 1,
-                            grid[k]);
-            copies *= grid[k];
-        }
-        if (copies > RTK_MAX_GRID_COPIES)
-            return fail(ld, member(g, "grid"), RTK_ERR_INVALID, "%s: grid asks for %.0f copies; at most %u", label,
-                        copies, RTK_MAX_GRID_COPIES);
-        for (int k = 0; k < 3; k++)
-            in->grid[k] = (uint32_t)grid[k];
-        compose(t, rot, rot[3], s, in->to_world);
-    }
-    return RTK_OK;
+                                  .special = instance_special,
+                                  .size = sizeof(rtk_config_instance),
+                                  .read = read_instance};
+    void *instances = NULL;
+    rtk_status status = read_group_list(ld, root, &gl, &instances, cfg);
+    cfg->instances = instances;
+    return status;
 }
 
 /* "<config name without .cfg>.png" next to the config. */

@@ -208,6 +208,11 @@ static void test_errors(void)
                                       "lights = ( { type = \"point\"; position = [0, 1, 0]; intensity = [1, 1, 1]; },\n"
                                       "  42 );\n");
     expect_error(__LINE__, p, NULL, "lights_elem.cfg:3", "lights[1]: expected a group { type = \"point\"; ... }", NULL);
+    /* The light's type named in the message (read before its settings are freed). */
+    p = write_file("lights_dir.cfg",
+                   "scene = \"m.obj\";\nlights = ( {\n  type = \"directional\"; intensity = [1, 1, 1]; } );\n");
+    expect_error(__LINE__, p, NULL, "lights_dir.cfg:2", "lights[0]: a directional light needs direction = [x, y, z]",
+                 NULL);
     p = write_file("lights_key.cfg", "scene = \"m.obj\";\nlights = ( {\n  tpye = \"point\"; } );\n");
     expect_error(__LINE__, p, NULL, "lights_key.cfg:3", "lights[0]", "'tpye'", "did you mean 'type'", NULL);
     p = write_file("instances_list.cfg", "scene = \"m.obj\";\ninstances = [1, 2];\n");
