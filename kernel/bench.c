@@ -5,10 +5,11 @@
  * and its counts can be checked against any other's. Each accelerator is
  * built through the kernel (rtk_bvh_build) and traced through the kernel's
  * path (rtk_bvh_closest / rtk_bvh_any), which hands the rays to a plugin's
- * own traversal when it has one (embree). The builds run in rounds, each
- * round over every accelerator at one thread count, so that drifting load
- * from elsewhere on the machine weighs on all of them alike; the passes
- * follow, one accelerator at a time. */
+ * own traversal when it has one (embree). Builds and passes both run in
+ * rounds, each round over every accelerator at one thread count, so that
+ * load from elsewhere on the machine, which drifts over seconds, weighs
+ * on all of them alike: for the passes every accelerator's trees are
+ * kept at once (rtk_accel_set) and swapped into the scene in turn. */
 #include "bench.h"
 #include "bvh_wide.h"
 
@@ -431,7 +432,19 @@ typedef struct bench_row {
     size_t memory;            /* bytes of the binary tree's nodes and leaf-order ids */
     size_t wide_memory;       /* bytes of the 8-wide tree the kernel traverses, 0 if none */
     const char *traversal;    /* "avx2", "sse", "scalar", "binary" or "own" */
+    int done;                 /* measured: in the report */
 } bench_row;
+
+/* AO rays made from one set of primary hits, shared by every tracer whose
+ * hits are the same (prim, instance and the bits of t: what the rays are
+ * made from), so that rtk's builders, which agree to the bit, hold one
+ * copy between them. */
+typedef struct ao_rays {
+    rtk_hit *hits;            /* the hits they came from, one per pixel */
+    rtk_ray *rays;
+    size_t *rows;             /* image row y holds rays [rows[y], rows[y + 1]) */
+    size_t count;
+} ao_rays;
 
 /* Everything one run needs, freed by bench_free. */
 typedef struct bench {
@@ -445,14 +458,14 @@ typedef struct bench {
     uint32_t width, height;
     rtk_bench_camera cam;
     double diag;
-    rtk_ray *primary, *ao;
+    rtk_ray *primary;
     rtk_hit *hits;
-    size_t *primary_rows, *ao_rows;
+    size_t *primary_rows;
     uint64_t *row_count;
-    double *times, *cpu_times;            /* one row's passes */
+    double *times, *cpu_times;            /* one thread count's passes: accelerator a, round i at a * runs + i */
     double *build_times, *build_cpu;      /* every row's builds: row r, round i at r * runs + i */
     bench_row *rows;
-    size_t row_count_done;
+    size_t rows_done;
     uint64_t hash;
 } bench;
 
@@ -464,10 +477,8 @@ static void bench_free(bench *b)
     free(b->accels);
     free(b->threads);
     free(b->primary);
-    free(b->ao);
     free(b->hits);
     free(b->primary_rows);
-    free(b->ao_rows);
     free(b->row_count);
     free(b->times);
     free(b->cpu_times);
@@ -719,8 +730,9 @@ static void tree_stats(const rtk_scene *s, bench_row *row)
 
 /* With -v: the kernel's work counters over the same rays, untimed (the
  * figures do not depend on the machine; zero for an own traversal). */
-static void log_work(const bench *b, const bench_accel *a, uint32_t threads, size_t n_ao)
+static void log_work(const bench *b, const bench_accel *a, uint32_t threads, const ao_rays *ao)
 {
+    const size_t n_ao = ao->count;
     const size_t n_primary = (size_t)b->width * b->height;
     uint64_t pn = 0, pt = 0, an = 0, at = 0;
     for (size_t i = 0; i < n_primary; i++) {
@@ -731,7 +743,7 @@ static void log_work(const bench *b, const bench_accel *a, uint32_t threads, siz
     }
     for (size_t i = 0; i < n_ao; i++) {
         rtk_trace_work w = {0, 0};
-        rtk_bvh_any_measure(b->scene, &b->ao[i], &w);
+        rtk_bvh_any_measure(b->scene, &ao->rays[i], &w);
         an += w.nodes, at += w.triangles;
     }
     double np = n_primary ? (double)n_primary : 1.0, na = n_ao ? (double)n_ao : 1.0;
@@ -788,75 +800,187 @@ static rtk_status measure_builds(bench *b, size_t *failed)
     return RTK_OK;
 }
 
-/* Builds row's tree once more (untimed: the build figures are
- * measure_builds') and traces both passes, median of the runs. */
-static rtk_status measure_traces(bench *b, bench_row *row)
+/* Whether hits a and b, one per pixel, make the same AO rays. */
+static int same_hits(const rtk_hit *a, const rtk_hit *b, size_t n)
 {
-    rtk_scene *s = b->scene;
-    const bench_accel *a = row->accel;
-    const uint32_t threads = row->threads, runs = b->opt.runs;
-    progress(b, a, threads, "build for tracing", 1, 1);
-    double wall, cpu_build;
-    rtk_status st = timed_build(b, row, &wall, &cpu_build);
-    if (st != RTK_OK)
-        return st;
-    tree_stats(s, row);
+    for (size_t i = 0; i < n; i++)
+        if (a[i].prim != b[i].prim || a[i].inst != b[i].inst || memcmp(&a[i].t, &b[i].t, sizeof a[i].t) != 0)
+            return 0;
+    return 1;
+}
 
-    bench_pass pp = {.scene = s, .rays = b->primary, .row_start = b->primary_rows, .rows = b->height,
-                     .closest = 1, .hits = b->hits, .row_count = b->row_count};
-    progress(b, a, threads, "primary warm-up", 1, 1);
-    uint64_t hits = 0, count = 0;
-    double cpu;
-    if (run_pass(&pp, threads, &hits, &cpu) < 0.0)
+static void ao_rays_free(ao_rays *ao)
+{
+    free(ao->hits);
+    free(ao->rays);
+    free(ao->rows);
+}
+
+/* The AO rays of the primary hits in b->hits: an earlier tracer's when
+ * its hits were the same, else made here into sets[*count] (untimed).
+ * Their index into *which. */
+static rtk_status ao_rays_for_hits(bench *b, ao_rays *sets, size_t *count, size_t *which)
+{
+    const size_t pixels = (size_t)b->width * b->height;
+    for (size_t k = 0; k < *count; k++) {
+        if (same_hits(sets[k].hits, b->hits, pixels)) {
+            *which = k;
+            return RTK_OK;
+        }
+    }
+    ao_rays *ao = &sets[*count];
+    size_t n = 0;
+    for (size_t i = 0; i < pixels; i++)
+        n += b->hits[i].prim != RTK_INVALID_ID;
+    ao->hits = rtk_alloc(sizeof *ao->hits * pixels);
+    ao->rays = rtk_alloc(sizeof *ao->rays * (n ? n * BENCH_AO_RAYS : 1));
+    ao->rows = rtk_alloc(sizeof *ao->rows * ((size_t)b->height + 1));
+    if (!ao->hits || !ao->rays || !ao->rows) {
+        ao_rays_free(ao);
+        memset(ao, 0, sizeof *ao);
         return RTK_ERR_NOMEM;
-    row->primary_hits = hits;
-
-    /* AO rays from this tracer's own hits, generated before any timing. */
+    }
+    memcpy(ao->hits, b->hits, sizeof *ao->hits * pixels);
     size_t n_ao = 0;
     for (uint32_t y = 0; y < b->height; y++) {
-        b->ao_rows[y] = n_ao;
+        ao->rows[y] = n_ao;
         for (uint32_t x = 0; x < b->width; x++) {
             size_t i = (size_t)y * b->width + x;
             if (b->hits[i].prim == RTK_INVALID_ID)
                 continue;
-            rtk_bench_ao_rays(s, &b->primary[i], &b->hits[i], i, b->diag, BENCH_AO_RAYS, &b->ao[n_ao]);
+            rtk_bench_ao_rays(b->scene, &b->primary[i], &b->hits[i], i, b->diag, BENCH_AO_RAYS, &ao->rays[n_ao]);
             n_ao += BENCH_AO_RAYS;
         }
     }
-    b->ao_rows[b->height] = n_ao;
-    row->ao_rays = n_ao;
-    bench_pass ap = {.scene = s, .rays = b->ao, .row_start = b->ao_rows, .rows = b->height, .closest = 0,
-                     .row_count = b->row_count};
-    progress(b, a, threads, "AO warm-up", 1, 1);
-    if (run_pass(&ap, threads, &row->ao_unoccluded, &cpu) < 0.0)
-        return RTK_ERR_NOMEM;
-
-    for (uint32_t i = 0; i < runs; i++) {
-        progress(b, a, threads, "primary pass", i + 1, runs);
-        b->times[i] = run_pass(&pp, threads, &count, &b->cpu_times[i]);
-        if (b->times[i] < 0.0)
-            return RTK_ERR_NOMEM;
-        if (count != row->primary_hits)
-            return rtk_error(RTK_ERR_PLUGIN, "bench: %s: primary hits changed between passes (%llu, then %llu)",
-                             a->label, (unsigned long long)row->primary_hits, (unsigned long long)count);
-    }
-    row->primary_ms = 1e3 * median(b->times, runs);
-    row->primary_cpu_ms = 1e3 * median(b->cpu_times, runs);
-    for (uint32_t i = 0; i < runs; i++) {
-        progress(b, a, threads, "AO pass", i + 1, runs);
-        b->times[i] = run_pass(&ap, threads, &count, &b->cpu_times[i]);
-        if (b->times[i] < 0.0)
-            return RTK_ERR_NOMEM;
-        if (count != row->ao_unoccluded)
-            return rtk_error(RTK_ERR_PLUGIN, "bench: %s: unoccluded AO rays changed between passes (%llu, then %llu)",
-                             a->label, (unsigned long long)row->ao_unoccluded, (unsigned long long)count);
-    }
-    row->ao_ms = 1e3 * median(b->times, runs);
-    row->ao_cpu_ms = 1e3 * median(b->cpu_times, runs);
-    if (rtk_log_enabled(RTK_LOG_DEBUG))
-        log_work(b, a, threads, n_ao);
-    rtk_bvh_release(s);
+    ao->rows[b->height] = n_ao;
+    ao->count = n_ao;
+    *which = (*count)++;
     return RTK_OK;
+}
+
+/* The tracing of one thread count, every accelerator's trees alive at
+ * once in sets (swapped into the scene for each pass, the others held
+ * aside; builds untimed: the build figures are measure_builds'). */
+typedef struct trace_round {
+    bench *b;
+    size_t t;                 /* the thread count's index */
+    rtk_accel_set *sets;      /* per accelerator */
+    size_t *ao_of;            /* per accelerator: its AO rays in ao */
+    ao_rays *ao;              /* at most one per accelerator */
+    size_t ao_count;
+} trace_round;
+
+static bench_row *round_row(const trace_round *tr, size_t a)
+{
+    return &tr->b->rows[a * tr->b->thread_count + tr->t];
+}
+
+/* One pass of accelerator a (closest: primary rays, else its AO rays)
+ * into round i's slot; the count must match the warm-up's. */
+static rtk_status timed_pass(trace_round *tr, size_t a, int closest, uint32_t i)
+{
+    bench *b = tr->b;
+    bench_row *row = round_row(tr, a);
+    const ao_rays *ao = &tr->ao[tr->ao_of[a]];
+    bench_pass p = {.scene = b->scene, .rows = b->height, .closest = closest, .row_count = b->row_count};
+    if (closest)
+        p.rays = b->primary, p.row_start = b->primary_rows, p.hits = b->hits;
+    else
+        p.rays = ao->rays, p.row_start = ao->rows;
+    progress(b, row->accel, row->threads, closest ? "primary pass" : "AO pass", i + 1, b->opt.runs);
+    const size_t slot = a * b->opt.runs + i;
+    uint64_t count = 0;
+    rtk_accel_swap(b->scene, &tr->sets[a]);
+    b->times[slot] = run_pass(&p, row->threads, &count, &b->cpu_times[slot]);
+    rtk_accel_swap(b->scene, &tr->sets[a]);
+    if (b->times[slot] < 0.0)
+        return RTK_ERR_NOMEM;
+    const uint64_t want = closest ? row->primary_hits : row->ao_unoccluded;
+    if (count != want)
+        return rtk_error(RTK_ERR_PLUGIN, "bench: %s: %s changed between passes (%llu, then %llu)", row->accel->label,
+                         closest ? "primary hits" : "unoccluded AO rays", (unsigned long long)want,
+                         (unsigned long long)count);
+    return RTK_OK;
+}
+
+/* Accelerator a's tree, built into the scene and moved to its set; its
+ * statistics, warm-up passes (which count its hits and unoccluded rays)
+ * and AO rays. */
+static rtk_status trace_setup(trace_round *tr, size_t a)
+{
+    bench *b = tr->b;
+    bench_row *row = round_row(tr, a);
+    progress(b, row->accel, row->threads, "build for tracing", 1, 1);
+    double wall, cpu;
+    rtk_status st = rtk_accel_set_init(&tr->sets[a], b->scene);
+    if (st == RTK_OK)
+        st = timed_build(b, row, &wall, &cpu);
+    if (st != RTK_OK)
+        return st;
+    tree_stats(b->scene, row);
+    progress(b, row->accel, row->threads, "primary warm-up", 1, 1);
+    bench_pass pp = {.scene = b->scene, .rays = b->primary, .row_start = b->primary_rows, .rows = b->height,
+                     .closest = 1, .hits = b->hits, .row_count = b->row_count};
+    if (run_pass(&pp, row->threads, &row->primary_hits, &cpu) < 0.0)
+        return RTK_ERR_NOMEM;
+    /* AO rays from this tracer's own hits, made before any timing. */
+    if ((st = ao_rays_for_hits(b, tr->ao, &tr->ao_count, &tr->ao_of[a])) != RTK_OK)
+        return st;
+    const ao_rays *ao = &tr->ao[tr->ao_of[a]];
+    row->ao_rays = ao->count;
+    progress(b, row->accel, row->threads, "AO warm-up", 1, 1);
+    bench_pass ap = {.scene = b->scene, .rays = ao->rays, .row_start = ao->rows, .rows = b->height, .closest = 0,
+                     .row_count = b->row_count};
+    if (run_pass(&ap, row->threads, &row->ao_unoccluded, &cpu) < 0.0)
+        return RTK_ERR_NOMEM;
+    if (rtk_log_enabled(RTK_LOG_DEBUG))
+        log_work(b, row->accel, row->threads, ao);
+    rtk_accel_swap(b->scene, &tr->sets[a]); /* the scene has no tree again */
+    return RTK_OK;
+}
+
+/* The passes of thread count t: every accelerator built and warmed up,
+ * then runs rounds of primary passes, each round one pass of every
+ * accelerator in turn, then as many rounds of AO passes; the median of
+ * each accelerator's rounds. On failure *failed is the row that failed. */
+static rtk_status measure_traces(bench *b, size_t t, size_t *failed)
+{
+    const size_t n = b->accel_count;
+    const uint32_t runs = b->opt.runs;
+    trace_round tr = {.b = b, .t = t};
+    tr.sets = rtk_calloc(n, sizeof *tr.sets);
+    tr.ao_of = rtk_calloc(n, sizeof *tr.ao_of);
+    tr.ao = rtk_calloc(n, sizeof *tr.ao);
+    rtk_status st = tr.sets && tr.ao_of && tr.ao ? RTK_OK : RTK_ERR_NOMEM;
+    *failed = t;
+    for (size_t a = 0; a < n && st == RTK_OK; a++) {
+        *failed = a * b->thread_count + t;
+        st = trace_setup(&tr, a);
+    }
+    for (int closest = 1; closest >= 0 && st == RTK_OK; closest--) {
+        for (uint32_t i = 0; i < runs && st == RTK_OK; i++)
+            for (size_t a = 0; a < n && st == RTK_OK; a++) {
+                *failed = a * b->thread_count + t;
+                st = timed_pass(&tr, a, closest, i);
+            }
+        for (size_t a = 0; a < n && st == RTK_OK; a++) {
+            bench_row *row = round_row(&tr, a);
+            double ms = 1e3 * median(&b->times[a * runs], runs), cpu_ms = 1e3 * median(&b->cpu_times[a * runs], runs);
+            if (closest)
+                row->primary_ms = ms, row->primary_cpu_ms = cpu_ms;
+            else
+                row->ao_ms = ms, row->ao_cpu_ms = cpu_ms, row->done = 1;
+        }
+    }
+    rtk_bvh_release(b->scene);
+    for (size_t a = 0; tr.sets && a < n; a++)
+        rtk_accel_set_free(&tr.sets[a]);
+    for (size_t k = 0; k < tr.ao_count; k++)
+        ao_rays_free(&tr.ao[k]);
+    free(tr.sets);
+    free(tr.ao_of);
+    free(tr.ao);
+    return st;
 }
 
 static double mrays(uint64_t rays, double ms)
@@ -887,8 +1011,8 @@ static void print_report(const bench *b, const char *path, FILE *out)
     fprintf(out, "image %ux%u, camera eye (%.6g, %.6g, %.6g) forward (%.6g, %.6g, %.6g), vertical fov %.6g\n",
             b->width, b->height, c->eye[0], c->eye[1], c->eye[2], c->fwd[0], c->fwd[1], c->fwd[2],
             2.0 * atan(c->th) * 180.0 / M_PI);
-    fprintf(out, "AO: %u rays per hit, tfar %.6g; median of %u builds (per thread count, in rounds over every "
-            "accelerator) and %u timed passes (after one warm-up)\n",
+    fprintf(out, "AO: %u rays per hit, tfar %.6g; median of %u builds and of %u timed passes of each kind (after "
+            "one warm-up), both in rounds over every accelerator at each thread count\n",
             BENCH_AO_RAYS, (double)(float)(0.1 * b->diag), b->opt.runs, b->opt.runs);
     fprintf(out, "primary_ray_hash 0x%016llx\n\n", (unsigned long long)b->hash);
     int w = 11;
@@ -897,8 +1021,10 @@ static void print_report(const bench *b, const char *path, FILE *out)
             w = (int)strlen(b->accels[i].label);
     fprintf(out, "%-*s %7s %9s %13s %9s %12s %9s %13s %9s %9s\n", w, "accelerator", "threads", "build_ms",
             "primary_mrays", "ao_mrays", "primary_hits", "ao_rays", "ao_unoccluded", "mean_ao", "total_ms");
-    for (size_t i = 0; i < b->row_count_done; i++) {
+    for (size_t i = 0; i < b->accel_count * b->thread_count; i++) {
         const bench_row *r = &b->rows[i];
+        if (!r->done)
+            continue;
         fprintf(out, "%-*s %7u %9.2f %13.3f %9.3f %12llu %9llu %13llu %9.6f %9.2f\n", w, r->accel->label,
                 r->threads, r->build_ms, mrays(pixels, r->primary_ms), mrays(r->ao_rays, r->ao_ms),
                 (unsigned long long)r->primary_hits, (unsigned long long)r->ao_rays,
@@ -909,8 +1035,10 @@ static void print_report(const bench *b, const char *path, FILE *out)
     fprintf(out, "\n%-*s %7s %9s %9s %5s %8s %9s %7s %9s %12s %14s %11s\n", w, "accelerator", "threads", "nodes",
             "leaves", "depth", "sah_cost", "memory_MB", "wide_MB", "traversal", "build_cpu_ms", "primary_cpu_mr",
             "ao_cpu_mr");
-    for (size_t i = 0; i < b->row_count_done; i++) {
+    for (size_t i = 0; i < b->accel_count * b->thread_count; i++) {
         const bench_row *r = &b->rows[i];
+        if (!r->done)
+            continue;
         fprintf(out, "%-*s %7u", w, r->accel->label, r->threads);
         if (r->has_tree)
             fprintf(out, " %9u %9u %5u %8.2f %9.2f", r->nodes, r->leaves, r->depth, r->sah_cost,
@@ -926,12 +1054,13 @@ static void print_report(const bench *b, const char *path, FILE *out)
     }
     /* Each accelerator against the first embree row with the same threads. */
     int header = 0;
-    for (size_t i = 0; i < b->row_count_done; i++) {
+    for (size_t i = 0; i < b->accel_count * b->thread_count; i++) {
         const bench_row *r = &b->rows[i], *e = NULL;
-        if (strcmp(r->accel->plugin->name, "embree") == 0)
+        if (!r->done || strcmp(r->accel->plugin->name, "embree") == 0)
             continue;
-        for (size_t j = 0; j < b->row_count_done && !e; j++)
-            if (strcmp(b->rows[j].accel->plugin->name, "embree") == 0 && b->rows[j].threads == r->threads)
+        for (size_t j = 0; j < b->accel_count * b->thread_count && !e; j++)
+            if (b->rows[j].done && strcmp(b->rows[j].accel->plugin->name, "embree") == 0 &&
+                b->rows[j].threads == r->threads)
                 e = &b->rows[j];
         if (!e)
             continue;
@@ -949,11 +1078,8 @@ static void print_report(const bench *b, const char *path, FILE *out)
     }
 }
 
-static rtk_status write_csv(const bench *b, const char *path)
+static void write_csv(const bench *b, const char *path, FILE *f)
 {
-    FILE *f = fopen(b->opt.csv, "w");
-    if (!f)
-        return rtk_error(RTK_ERR_IO, "bench: cannot write %s: %s", b->opt.csv, strerror(errno));
     fprintf(f, "mesh,accelerator,threads,width,height,triangles,build_ms,primary_ms,ao_ms,primary_mrays,ao_mrays,"
                "primary_hits,ao_rays,ao_unoccluded,mean_ao,primary_ray_hash,nodes,leaves,depth,sah_cost,"
                "memory_bytes,wide_memory_bytes,traversal,total_ms,build_cpu_ms,primary_cpu_ms,ao_cpu_ms,"
@@ -961,8 +1087,10 @@ static rtk_status write_csv(const bench *b, const char *path)
     const char *base = strrchr(path, '/');
     base = base ? base + 1 : path;
     uint64_t pixels = (uint64_t)b->width * b->height;
-    for (size_t i = 0; i < b->row_count_done; i++) {
+    for (size_t i = 0; i < b->accel_count * b->thread_count; i++) {
         const bench_row *r = &b->rows[i];
+        if (!r->done)
+            continue;
         fprintf(f, "%s,%s,%u,%u,%u,%u,%.4f,%.4f,%.4f,%.4f,%.4f,%llu,%llu,%llu,%.6f,0x%016llx,", base, r->accel->label,
                 r->threads, b->width, b->height, b->scene->triangle_count, r->build_ms, r->primary_ms, r->ao_ms,
                 mrays(pixels, r->primary_ms), mrays(r->ao_rays, r->ao_ms), (unsigned long long)r->primary_hits,
@@ -978,10 +1106,6 @@ static rtk_status write_csv(const bench *b, const char *path)
                 r->build_cpu_ms, r->primary_cpu_ms, r->ao_cpu_ms, mrays(pixels, r->primary_cpu_ms),
                 mrays(r->ao_rays, r->ao_cpu_ms));
     }
-    int bad = ferror(f);
-    if (fclose(f) != 0 || bad)
-        return rtk_error(RTK_ERR_IO, "bench: error writing %s", b->opt.csv);
-    return RTK_OK;
 }
 
 RTK_API rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk_bench_options *options, FILE *out)
@@ -995,18 +1119,26 @@ RTK_API rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk
         b.opt.runs = 5;
     if (b.opt.runs > 1000)
         return rtk_error(RTK_ERR_INVALID, "bench: %u runs is more than 1000", b.opt.runs);
-    rtk_status st = load_scene(&b, path, registry);
+    /* The CSV goes through a temporary file opened now, so that a path
+     * that cannot be written fails before minutes of measuring, and an
+     * interrupted run leaves no half a table under its name. */
+    rtk_out_file csv = {0};
+    rtk_status st = b.opt.csv ? rtk_out_open(&csv, b.opt.csv) : RTK_OK;
+    if (st == RTK_OK)
+        st = load_scene(&b, path, registry);
     if (st == RTK_OK)
         st = choose_accels(&b, registry);
     if (st == RTK_OK)
         st = choose_threads(&b);
     if (st != RTK_OK) {
+        rtk_out_close(&csv, 0);
         bench_free(&b);
         return st;
     }
     b.width = b.opt.width ? b.opt.width : b.config ? b.config->width : 1024;
     b.height = b.opt.height ? b.opt.height : b.config ? b.config->height : 768;
     if (b.width > 16384 || b.height > 16384 || (!b.opt.width) != (!b.opt.height)) {
+        rtk_out_close(&csv, 0);
         bench_free(&b);
         return rtk_error(RTK_ERR_INVALID, "bench: image %ux%u: give both width and height, at most 16384 each",
                          b.width, b.height);
@@ -1017,20 +1149,19 @@ RTK_API rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk
     if (st == RTK_OK) {
         b.primary = rtk_alloc(sizeof *b.primary * pixels);
         b.hits = rtk_alloc(sizeof *b.hits * pixels);
-        b.ao = rtk_alloc(sizeof *b.ao * pixels * BENCH_AO_RAYS);
         b.primary_rows = rtk_alloc(sizeof *b.primary_rows * (b.height + 1));
-        b.ao_rows = rtk_alloc(sizeof *b.ao_rows * (b.height + 1));
         b.row_count = rtk_alloc(sizeof *b.row_count * b.height);
-        b.times = rtk_alloc(sizeof *b.times * b.opt.runs);
-        b.cpu_times = rtk_alloc(sizeof *b.cpu_times * b.opt.runs);
+        b.times = rtk_alloc(sizeof *b.times * b.opt.runs * b.accel_count);
+        b.cpu_times = rtk_alloc(sizeof *b.cpu_times * b.opt.runs * b.accel_count);
         b.rows = rtk_calloc(b.accel_count * b.thread_count, sizeof *b.rows);
         b.build_times = rtk_alloc(sizeof *b.build_times * b.opt.runs * b.accel_count * b.thread_count);
         b.build_cpu = rtk_alloc(sizeof *b.build_cpu * b.opt.runs * b.accel_count * b.thread_count);
-        if (!b.primary || !b.hits || !b.ao || !b.primary_rows || !b.ao_rows || !b.row_count || !b.times || !b.cpu_times ||
+        if (!b.primary || !b.hits || !b.primary_rows || !b.row_count || !b.times || !b.cpu_times ||
             !b.rows || !b.build_times || !b.build_cpu)
             st = RTK_ERR_NOMEM;
     }
     if (st != RTK_OK) {
+        rtk_out_close(&csv, 0);
         bench_free(&b);
         return st;
     }
@@ -1046,12 +1177,10 @@ RTK_API rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk
     }
     size_t failed = 0;
     st = measure_builds(&b, &failed);
-    for (size_t r = 0; r < rows && st == RTK_OK; r++) {
-        failed = r;
-        st = measure_traces(&b, &b.rows[r]);
-        if (st == RTK_OK)
-            b.row_count_done++;
-    }
+    for (size_t t = 0; t < b.thread_count && st == RTK_OK; t++)
+        st = measure_traces(&b, t, &failed);
+    for (size_t r = 0; r < rows; r++)
+        b.rows_done += b.rows[r].done;
     if (b.opt.progress)
         fprintf(stderr, "\r\033[K");
     if (st != RTK_OK) {
@@ -1059,13 +1188,13 @@ RTK_API rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk
         snprintf(msg, sizeof msg, "%s", rtk_error_message());
         st = rtk_error(st, "bench: %s: %s", b.rows[failed].accel->label, msg);
     }
-    if (b.row_count_done > 0)
+    if (b.rows_done > 0)
         print_report(&b, path, out);
-    if (b.row_count_done > 0 && b.opt.csv) {
-        rtk_status cst = write_csv(&b, path);
-        if (st == RTK_OK)
-            st = cst;
-    }
+    if (b.rows_done > 0 && csv.f)
+        write_csv(&b, path, csv.f);
+    rtk_status cst = rtk_out_close(&csv, b.rows_done > 0);
+    if (st == RTK_OK)
+        st = cst;
     bench_free(&b);
     return st;
 }

@@ -734,6 +734,55 @@ void rtk_bvh_release(rtk_scene *s)
     s->own_state = NULL;
 }
 
+/* Exchanges scene s's tree with slot's. */
+static void swap_tree(rtk_scene *s, rtk_tree_slot *slot)
+{
+    const rtk_tree_slot mine = {s->nodes, s->node_count, s->bvh_depth, s->prim_ids, s->own_traversal, s->own_state,
+                                s->wide};
+    s->nodes = slot->nodes, s->node_count = slot->node_count, s->bvh_depth = slot->bvh_depth;
+    s->prim_ids = slot->prim_ids;
+    s->own_traversal = slot->own_traversal, s->own_state = slot->own_state;
+    s->wide = slot->wide;
+    *slot = mine;
+}
+
+rtk_status rtk_accel_set_init(rtk_accel_set *set, const rtk_scene *s)
+{
+    memset(set, 0, sizeof *set);
+    set->trees = rtk_calloc((size_t)s->mesh_count + 1, sizeof *set->trees);
+    if (!set->trees)
+        return RTK_ERR_NOMEM;
+    set->tree_count = s->mesh_count + 1;
+    return RTK_OK;
+}
+
+void rtk_accel_swap(rtk_scene *s, rtk_accel_set *set)
+{
+    for (uint32_t i = 0; i < set->tree_count && i <= s->mesh_count; i++)
+        swap_tree(i == 0 ? s : s->meshes[i - 1], &set->trees[i]);
+    rtk_bvh_node *nodes = s->tlas_nodes;
+    uint32_t count = s->tlas_node_count, depth = s->tlas_depth, *order = s->tlas_order;
+    s->tlas_nodes = set->tlas_nodes, s->tlas_node_count = set->tlas_node_count, s->tlas_depth = set->tlas_depth;
+    s->tlas_order = set->tlas_order;
+    set->tlas_nodes = nodes, set->tlas_node_count = count, set->tlas_depth = depth, set->tlas_order = order;
+}
+
+void rtk_accel_set_free(rtk_accel_set *set)
+{
+    for (uint32_t i = 0; i < set->tree_count; i++) {
+        rtk_tree_slot *t = &set->trees[i];
+        rtk_wide_destroy(t->wide);
+        if (t->own_traversal && t->own_state)
+            t->own_traversal->destroy(t->own_state);
+        free(t->nodes);
+        free(t->prim_ids);
+    }
+    free(set->trees);
+    free(set->tlas_nodes);
+    free(set->tlas_order);
+    memset(set, 0, sizeof *set);
+}
+
 /* The plugin's own traversal functions, if its table is new enough to
  * have them and sets both. */
 static const rtk_accelerator_fns *own_traversal(const rtk_accelerator_fns *fns)

@@ -657,13 +657,18 @@ static uint32_t collapse(collapser *c, uint32_t bin, uint32_t depth)
     return node;
 }
 
+void rtk_wide_destroy(rtk_wide_bvh *w)
+{
+    if (!w)
+        return;
+    free(w->mem[0]);
+    free(w->mem[1]);
+    free(w);
+}
+
 void rtk_wide_free(rtk_scene *s)
 {
-    if (!s->wide)
-        return;
-    free(s->wide->mem[0]);
-    free(s->wide->mem[1]);
-    free(s->wide);
+    rtk_wide_destroy(s->wide);
     s->wide = NULL;
 }
 

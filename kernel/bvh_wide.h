@@ -99,6 +99,8 @@ typedef struct rtk_wide_bvh {
 rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes, int validate);
 /* Frees s->wide and sets it to NULL. */
 void rtk_wide_free(rtk_scene *s);
+/* Frees a wide tree taken out of its scene (NULL: nothing). */
+void rtk_wide_destroy(rtk_wide_bvh *w);
 
 /* The best path this CPU supports. */
 rtk_simd_path rtk_simd_best(void);

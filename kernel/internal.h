@@ -8,6 +8,7 @@
 #include <rtk/rtk.h>
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 RTK_EXTERN_C_BEGIN
@@ -36,6 +37,19 @@ void rtk_release_tail(void *block, size_t used, size_t size);
  * returns when all are done. Ranges below min_chunk items are not cut. */
 typedef void (*rtk_range_fn)(void *ctx, uint32_t begin, uint32_t end);
 void rtk_parallel_ranges(uint32_t n, uint32_t threads, uint32_t min_chunk, rtk_range_fn fn, void *ctx);
+/* A file written through a temporary sibling (name.tmp.ext) and renamed
+ * over path only when complete, so that a failed or interrupted write
+ * never leaves a half-written file under path. */
+typedef struct rtk_out_file {
+    FILE *f;          /* write here between open and close */
+    char *tmp;
+    const char *path; /* borrowed: must outlive the file */
+} rtk_out_file;
+/* Opens the temporary file (error set, naming it, on failure). */
+rtk_status rtk_out_open(rtk_out_file *out, const char *path);
+/* Closes; when ok and every write succeeded renames it over path, else
+ * removes it. RTK_ERR_IO (naming path) when ok but writing failed. */
+rtk_status rtk_out_close(rtk_out_file *out, int ok);
 /* strdup that returns NULL on NULL. [caller frees] */
 char *rtk_strdup(const char *s);
 /* Joins dir and a relative path; absolute paths are returned as they are. [caller frees] */
@@ -469,6 +483,40 @@ rtk_status rtk_bvh_build(rtk_scene *scene, const rtk_plugin *accelerator, const 
                          uint32_t threads);
 /* Destroys an accelerator instance that traverses itself, if any. */
 void rtk_bvh_release(rtk_scene *scene);
+
+/* One scene's tree, moved out of it: the binary nodes and leaf order, the
+ * wide tree, an own-traversal accelerator's state. */
+typedef struct rtk_tree_slot {
+    rtk_bvh_node *nodes;
+    uint32_t node_count, bvh_depth;
+    uint32_t *prim_ids;
+    const rtk_accelerator_fns *own_traversal;
+    void *own_state;
+    struct rtk_wide_bvh *wide;
+} rtk_tree_slot;
+
+/* Everything an accelerator built for a scene (its tree, its instanced
+ * meshes' trees, the top level), held outside the scene so that another
+ * accelerator can build there and either can be swapped in again to
+ * trace: `rtk bench` keeps every accelerator's trees at once and
+ * alternates their passes. A set is made for one scene (room for its
+ * meshes' trees), swapped only with that scene, and freed before it (an
+ * own-traversal accelerator may share the scene's arrays). */
+typedef struct rtk_accel_set {
+    rtk_tree_slot *trees; /* the scene's, then each instanced mesh's */
+    uint32_t tree_count;
+    rtk_bvh_node *tlas_nodes;
+    uint32_t tlas_node_count, tlas_depth;
+    uint32_t *tlas_order;
+} rtk_accel_set;
+
+/* An empty set with room for scene's trees (RTK_ERR_NOMEM). */
+rtk_status rtk_accel_set_init(rtk_accel_set *set, const rtk_scene *scene);
+/* Exchanges scene's trees with set's: a scene without trees and a full set
+ * trade places, and the other way round. */
+void rtk_accel_swap(rtk_scene *scene, rtk_accel_set *set);
+/* Frees set's trees and room; set is left empty. */
+void rtk_accel_set_free(rtk_accel_set *set);
 /* Structural check of a builder's output against args: every primitive in
  * exactly one leaf, indices in range, every node reached once from the
  * root, inner bounds enclosing their children, and with leaf_bounds set,

@@ -244,60 +244,6 @@ static rtk_status read_text(const char *path, char **text, size_t *len)
     return RTK_OK;
 }
 
-/* A file written through a temporary sibling (name.tmp.ext) and a rename. */
-typedef struct atomic_file {
-    FILE *f;
-    char *tmp;
-    const char *path;
-} atomic_file;
-
-static rtk_status atomic_open(atomic_file *af, const char *path)
-{
-    af->path = path;
-    af->f = NULL;
-    const char *dot = strrchr(path, '.');
-    const char *slash = strrchr(path, '/');
-    if (!dot || (slash && dot < slash))
-        dot = path + strlen(path);
-    af->tmp = format("%.*s.tmp%s", (int)(dot - path), path, dot);
-    if (!af->tmp)
-        return RTK_ERR_NOMEM;
-    af->f = fopen(af->tmp, "w");
-    if (!af->f) {
-        rtk_status st = rtk_error(RTK_ERR_IO, "cannot write %s: %s", af->tmp, strerror(errno));
-        free(af->tmp);
-        af->tmp = NULL;
-        return st;
-    }
-    return RTK_OK;
-}
-
-/* Closes and renames when ok and every write succeeded; else removes. */
-static rtk_status atomic_close(atomic_file *af, int ok)
-{
-    if (!af->f)
-        return RTK_OK;
-    int bad = ferror(af->f);
-    int err = bad ? EIO : 0;
-    if (fclose(af->f) != 0 && !bad) {
-        bad = 1;
-        err = errno;
-    }
-    af->f = NULL;
-    rtk_status st = RTK_OK;
-    if (ok && !bad && rename(af->tmp, af->path) != 0) {
-        bad = 1;
-        err = errno;
-    }
-    if (ok && bad)
-        st = rtk_error(RTK_ERR_IO, "cannot write %s: %s", af->path, strerror(err));
-    if (!ok || bad)
-        remove(af->tmp);
-    free(af->tmp);
-    af->tmp = NULL;
-    return st;
-}
-
 /* 1 when key starts with prefix followed by '.'. */
 static int under(const char *key, const char *group)
 {
@@ -739,8 +685,8 @@ static void csv_field(FILE *f, const char *v)
 /* sweep.csv: one row per run (columns in README.md). */
 static rtk_status write_csv(sweep *s, const char *path)
 {
-    atomic_file af;
-    rtk_status st = atomic_open(&af, path);
+    rtk_out_file af;
+    rtk_status st = rtk_out_open(&af, path);
     if (st != RTK_OK)
         return st;
     FILE *f = af.f;
@@ -762,7 +708,7 @@ static rtk_status write_csv(sweep *s, const char *path)
         csv_field(f, cb->label);
         fputc('\n', f);
     }
-    return atomic_close(&af, 1);
+    return rtk_out_close(&af, 1);
 }
 
 /* The time to the target as the table shows it. */
@@ -839,8 +785,8 @@ static void gp_string(FILE *f, const char *v)
 /* sweep.dat: per combination a block of means per spp, for gnuplot. */
 static rtk_status write_data(const sweep *s, const char *path)
 {
-    atomic_file af;
-    rtk_status st = atomic_open(&af, path);
+    rtk_out_file af;
+    rtk_status st = rtk_out_open(&af, path);
     if (st != RTK_OK)
         return st;
     FILE *f = af.f;
@@ -854,7 +800,7 @@ static rtk_status write_data(const sweep *s, const char *path)
             fprintf(f, "%g %.9g %.9g %.9g %.9g %.9g\n", p->spp, p->render_s, p->build_s, p->rmse, p->relmse, p->mape);
         }
     }
-    return atomic_close(&af, 1);
+    return rtk_out_close(&af, 1);
 }
 
 /* One plot command over every combination: columns x:y of sweep.dat. */
@@ -873,8 +819,8 @@ static void gp_plot(const sweep *s, FILE *f, int x, int y)
 /* sweep.gp: both panels, run from the output directory. */
 static rtk_status write_script(const sweep *s, const char *path)
 {
-    atomic_file af;
-    rtk_status st = atomic_open(&af, path);
+    rtk_out_file af;
+    rtk_status st = rtk_out_open(&af, path);
     if (st != RTK_OK)
         return st;
     FILE *f = af.f;
@@ -909,7 +855,7 @@ static rtk_status write_script(const sweep *s, const char *path)
         fprintf(f, ", \\\n     %.9g * (x / %g) ** (%g) with lines lc 'gray50' dt %d title 'slope %s'", p0->rmse,
                 p0->spp, slopes[g], g + 2, names[g]);
     fputs("\nunset multiplot\n", f);
-    return atomic_close(&af, 1);
+    return rtk_out_close(&af, 1);
 }
 
 /* Runs gnuplot on the script; *missing = 1 when it is not installed. */
@@ -971,10 +917,10 @@ static rtk_status write_outputs(sweep *s, FILE *out)
     rtk_status st = csv && txt && dat && gp && png ? RTK_OK : RTK_ERR_NOMEM;
     if (st == RTK_OK)
         st = write_csv(s, csv);
-    atomic_file af;
-    if (st == RTK_OK && (st = atomic_open(&af, txt)) == RTK_OK) {
+    rtk_out_file af;
+    if (st == RTK_OK && (st = rtk_out_open(&af, txt)) == RTK_OK) {
         write_table(s, af.f);
-        st = atomic_close(&af, 1);
+        st = rtk_out_close(&af, 1);
     }
     if (st == RTK_OK)
         st = write_data(s, dat);

@@ -4,6 +4,7 @@
 #include <errno.h>
 #include <limits.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
@@ -92,6 +93,55 @@ int rtk_grow_array(void **array, uint32_t *cap, uint32_t count, size_t size)
     *array = grown;
     *cap = want;
     return 1;
+}
+
+rtk_status rtk_out_open(rtk_out_file *out, const char *path)
+{
+    out->path = path;
+    out->f = NULL;
+    const char *dot = strrchr(path, '.');
+    const char *slash = strrchr(path, '/');
+    if (!dot || (slash && dot < slash))
+        dot = path + strlen(path);
+    const size_t stem = (size_t)(dot - path), size = strlen(path) + sizeof ".tmp";
+    out->tmp = rtk_alloc(size);
+    if (!out->tmp)
+        return RTK_ERR_NOMEM;
+    snprintf(out->tmp, size, "%.*s.tmp%s", (int)stem, path, dot);
+    out->f = fopen(out->tmp, "w");
+    if (!out->f) {
+        rtk_status st = rtk_error(RTK_ERR_IO, "cannot write %s: cannot create its temporary file %s: %s", path,
+                                  out->tmp, strerror(errno));
+        free(out->tmp);
+        out->tmp = NULL;
+        return st;
+    }
+    return RTK_OK;
+}
+
+rtk_status rtk_out_close(rtk_out_file *out, int ok)
+{
+    if (!out->f)
+        return RTK_OK;
+    int bad = ferror(out->f);
+    int err = bad ? EIO : 0;
+    if (fclose(out->f) != 0 && !bad) {
+        bad = 1;
+        err = errno;
+    }
+    out->f = NULL;
+    rtk_status st = RTK_OK;
+    if (ok && !bad && rename(out->tmp, out->path) != 0) {
+        bad = 1;
+        err = errno;
+    }
+    if (ok && bad)
+        st = rtk_error(RTK_ERR_IO, "cannot write %s: %s", out->path, strerror(err));
+    if (!ok || bad)
+        remove(out->tmp);
+    free(out->tmp);
+    out->tmp = NULL;
+    return st;
 }
 
 char *rtk_strdup(const char *s)

@@ -13,8 +13,11 @@
  *   the hit on it is the pdf of the sample;
  * - glTF: a mesh used by three nodes is loaded once and instanced, and
  *   traces as the same file with three copies of the mesh;
- * - config: instances entries are checked with file and line. */
+ * - config: instances entries are checked with file and line;
+ * - several accelerators' trees held at once (rtk_accel_set, as `rtk
+ *   bench` holds them): swapped out and back in, each traces as built. */
 #include "bvh_cache.h"
+#include "bvh_wide.h"
 #include "lights.h"
 
 #include <float.h>
@@ -556,6 +559,126 @@ static void test_lights(const rtk_plugin *builder)
 
 /* ---- glTF ---- */
 
+/* ---- several accelerators' trees held at once (rtk_accel_set) ---- */
+
+enum { SET_RAYS = 3000 };
+
+/* Closest hits and any-hit answers of rays through the middle of s, and
+ * the work of each (nodes and triangles visited: how the builders' trees
+ * differ, where the answers agree by design). */
+static void trace_set(const rtk_scene *s, rtk_hit *hits, int *any, uint64_t *work)
+{
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 77, 1);
+    for (int i = 0; i < SET_RAYS; i++) {
+        rtk_ray r = {{(float)frand(&rng, -30, 30), (float)frand(&rng, -30, 30), (float)frand(&rng, -30, 30)}, 0.0f,
+                     {0, 0, 0}, INFINITY};
+        r.dir = rtk_vec3_make((float)frand(&rng, -3, 3) - r.org.x, (float)frand(&rng, -3, 3) - r.org.y,
+                              (float)frand(&rng, -3, 3) - r.org.z);
+        if (i % 3 == 0)
+            r.tmax = (float)frand(&rng, 0.1, 1.0); /* short: some occluded, some not */
+        rtk_trace_work wc = {0, 0}, wa = {0, 0};
+        rtk_bvh_closest_measure(s, &r, &hits[i], &wc);
+        any[i] = rtk_bvh_any_measure(s, &r, &wa);
+        work[i] = (uint64_t)wc.nodes << 48 | (uint64_t)wc.triangles << 32 | (uint64_t)wa.nodes << 16 | wa.triangles;
+    }
+}
+
+typedef struct set_trace {
+    rtk_hit hits[SET_RAYS];
+    int any[SET_RAYS];
+    uint64_t work[SET_RAYS];
+} set_trace;
+
+static int same_trace(const set_trace *a, const set_trace *b)
+{
+    for (int i = 0; i < SET_RAYS; i++)
+        if (a->hits[i].prim != b->hits[i].prim || a->hits[i].inst != b->hits[i].inst ||
+            memcmp(&a->hits[i].t, &b->hits[i].t, sizeof a->hits[i].t) != 0 || a->any[i] != b->any[i] ||
+            a->work[i] != b->work[i])
+            return 0;
+    return 1;
+}
+
+static int same_work(const set_trace *a, const set_trace *b)
+{
+    return memcmp(a->work, b->work, sizeof a->work) == 0;
+}
+
+/* Whether s holds no tree at all (its meshes' and top level included). */
+static int treeless(const rtk_scene *s)
+{
+    int none = !s->nodes && !s->prim_ids && !s->wide && !s->own_state && !s->tlas_nodes && !s->tlas_order;
+    for (uint32_t i = 0; i < s->mesh_count; i++)
+        none &= !s->meshes[i]->nodes && !s->meshes[i]->wide;
+    return none;
+}
+
+/* A builds, its trees go aside into a set; b builds in the scene; the set
+ * and the scene trade places twice: each time the scene traces exactly as
+ * the accelerator whose trees it holds did right after its build. Freed
+ * in the end with one accelerator in the set, the other in the scene
+ * (ASan and valgrind: nothing leaked, nothing freed twice). */
+static void test_accel_set(rtk_scene *s, const char *what, const rtk_plugin *a, const rtk_plugin *b)
+{
+    set_trace *tr = calloc(3, sizeof *tr);
+    rtk_params *pa = rtk_params_defaults(a), *pb = rtk_params_defaults(b);
+    rtk_bvh_cache_use use;
+    rtk_accel_set set;
+    rtk_status st = rtk_accel_set_init(&set, s);
+    if (st == RTK_OK)
+        st = rtk_bvh_build_cached(s, a, pa, 1, NULL, &use);
+    if (st == RTK_OK) {
+        trace_set(s, tr[0].hits, tr[0].any, tr[0].work);
+        rtk_accel_swap(s, &set);
+        check(treeless(s), "%s: %s's trees moved aside leave the scene without a tree", what, a->name);
+        st = rtk_bvh_build_cached(s, b, pb, 2, NULL, &use);
+    }
+    if (st == RTK_OK) {
+        trace_set(s, tr[1].hits, tr[1].any, tr[1].work);
+        check(!same_work(&tr[0], &tr[1]), "%s: %s and %s visit different nodes (the check below can tell them apart)",
+              what, a->name, b->name);
+        rtk_accel_swap(s, &set);
+        trace_set(s, tr[2].hits, tr[2].any, tr[2].work);
+        check(same_trace(&tr[0], &tr[2]), "%s: %s swapped back in traces as it did when built: the same hits and work",
+              what, a->name);
+        rtk_accel_swap(s, &set);
+        trace_set(s, tr[2].hits, tr[2].any, tr[2].work);
+        check(same_trace(&tr[1], &tr[2]), "%s: %s swapped back in traces as it did when built: the same hits and work",
+              what, b->name);
+    }
+    check(st == RTK_OK, "%s: %s and %s built: %s", what, a->name, b->name, st == RTK_OK ? "yes" : rtk_error_message());
+    rtk_accel_set_free(&set);
+    check(set.trees == NULL && set.tree_count == 0 && set.tlas_nodes == NULL, "%s: a freed set is empty", what);
+    rtk_params_destroy(pa);
+    rtk_params_destroy(pb);
+    free(tr);
+}
+
+static void test_accel_sets(rtk_registry *reg)
+{
+    const rtk_plugin *sah = NULL, *median = NULL, *embree = NULL;
+    if (rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "sah", &sah) != RTK_OK ||
+        rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "median", &median) != RTK_OK) {
+        check(0, "accelerator sets: sah and median found: %s", rtk_error_message());
+        return;
+    }
+    pair pr;
+    make_pair(&pr, RTK_NEED_NORMALS | RTK_NEED_UVS);
+    test_accel_set(pr.inst, "two-level scene", sah, median);
+    test_accel_set(pr.flat, "flat scene", median, sah);
+    if (rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "embree", &embree) == RTK_OK) {
+        /* An own traversal's state moves with its trees. */
+        test_accel_set(pr.flat, "flat scene", embree, sah);
+        test_accel_set(pr.flat, "flat scene", sah, embree);
+    } else {
+        printf("skip  accelerator sets with embree: plugin not built\n");
+    }
+    rtk_scene_free(pr.inst);
+    rtk_scene_free(pr.flat);
+    free(pr.from);
+}
+
 static char tmpdir[256];
 
 /* A glTF with a box mesh (12 triangles) on three nodes, one mirrored;
@@ -758,6 +881,7 @@ int main(void)
         printf("skip  embree plugin not built\n");
     }
     test_config(reg);
+    test_accel_sets(reg);
     rtk_registry_destroy(reg);
     char cmd[600];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
