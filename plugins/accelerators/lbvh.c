@@ -32,8 +32,12 @@
  * and each subtree fills the start of its region densely in that order;
  * then each subtree's inner nodes are renumbered for the slots its region
  * leaves unused before it (on the threads), and its block and the pairs
- * above it move down by as much (memmove, in slot order), which leaves
- * the same slots as one thread.
+ * above it move down by as much, which leaves the same slots as one
+ * thread. The moves run on the threads too, taken in slot order, each
+ * once the moves whose slots it overwrites are done: their destinations
+ * are mostly pages touched for the first time, which made one thread's
+ * 12-15 ms of a 130 ms build of the showroom on two threads (7 ms on
+ * both).
  */
 #include <rtk/rtk.h>
 
@@ -44,6 +48,9 @@
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
+#define PAUSE() _mm_pause()
+#else
+#define PAUSE() ((void)0)
 #endif
 
 /* Subtrees at most this large are built by one thread; larger ones are
@@ -73,6 +80,13 @@ typedef struct task {
     uint32_t filled, shift;
 } task;
 
+/* A run of slots that closing the gaps moves down, [src, src + len) to
+ * dst, once the moves before it that read the slots it overwrites are
+ * done: all of the first `after`. */
+typedef struct move {
+    uint32_t src, dst, len, after;
+} move;
+
 /* One build, shared by its threads. */
 typedef struct build {
     const lbvh *opt;
@@ -87,6 +101,10 @@ typedef struct build {
     atomic_uint next_task, next_fix;
     task *tops;                    /* inner nodes above the subtrees, parents first (slot order) */
     uint32_t top_count;
+    move *moves;                   /* closing the gaps, in slot order */
+    uint32_t move_count;
+    atomic_uint next_move, moved;  /* the next move to take; the moves all done before it */
+    atomic_uchar *move_done;       /* per move */
 } build;
 
 static rtk_status lbvh_create(const rtk_params *params, void **state)
@@ -443,6 +461,86 @@ static void plan(build *b, uint32_t grain)
     }
 }
 
+/* Plans closing the gaps the subtrees left (run renumbered their nodes):
+ * the nodes above them get their bounds and children, then the children
+ * pairs above the subtrees and the subtrees' blocks are to move down in
+ * slot order, each by the unused slots before it (run_moves). Sets
+ * node_count. */
+static void plan_moves(build *b)
+{
+    rtk_bvh_node *nodes = b->a->nodes;
+    uint32_t k = 0;
+    for (uint32_t i = b->top_count; i-- > 0;) { /* children before parents, all in place */
+        const task *t = &b->tops[i];
+        node_union(&nodes[t->slot], &nodes[t->region], &nodes[t->region + 1]);
+        nodes[t->slot].count = 0;
+    }
+    for (uint32_t i = 0; i < b->top_count; i++) {
+        /* A pair moves by the unused slots of the subtrees before it. */
+        task *t = &b->tops[i];
+        while (k < b->task_count && b->tasks[k].region < t->region)
+            k++;
+        t->shift = k < b->task_count ? b->tasks[k].shift : b->gap_total;
+        nodes[t->slot].offset = t->region - t->shift;
+    }
+    uint32_t count = 1;
+    b->move_count = 0;
+    k = 0;
+    for (uint32_t i = 0; i <= b->top_count; i++) {
+        const uint32_t below = i < b->top_count ? b->tops[i].region : UINT32_MAX;
+        for (; k < b->task_count && b->tasks[k].region < below; k++) {
+            const task *x = &b->tasks[k];
+            if (x->shift && x->filled > x->region)
+                b->moves[b->move_count++] = (move){x->region, x->region - x->shift, x->filled - x->region, 0};
+            count += x->filled - x->region;
+        }
+        if (i == b->top_count)
+            break;
+        const task *t = &b->tops[i];
+        if (t->shift)
+            b->moves[b->move_count++] = (move){t->region, t->region - t->shift, 2, 0};
+        count += 2;
+    }
+    b->a->node_count = count;
+    /* Sources and destinations both ascend: the moves whose sources
+     * start below a destination's end are a prefix, and a move waits for
+     * those of them before it. */
+    uint32_t reads = 0;
+    for (uint32_t m = 0; m < b->move_count; m++) {
+        move *mv = &b->moves[m];
+        while (reads < b->move_count && b->moves[reads].src < mv->dst + mv->len)
+            reads++;
+        mv->after = reads < m ? reads : m;
+        atomic_init(&b->move_done[m], 0);
+    }
+    atomic_init(&b->next_move, 0);
+    atomic_init(&b->moved, 0);
+}
+
+/* A member's share of the moves plan_moves planned: each taken in slot
+ * order, made once the moves it overwrites have read their slots. The
+ * destination's pages are mostly touched for the first time here, which
+ * is most of the cost, now on every member. */
+static void run_moves(build *b)
+{
+    rtk_bvh_node *nodes = b->a->nodes;
+    for (;;) {
+        uint32_t k = atomic_fetch_add(&b->next_move, 1);
+        if (k >= b->move_count)
+            break;
+        const move *mv = &b->moves[k];
+        while (atomic_load(&b->moved) < mv->after)
+            PAUSE();
+        memmove(nodes + mv->dst, nodes + mv->src, sizeof *nodes * mv->len);
+        atomic_store_explicit(&b->move_done[k], 1, memory_order_release);
+        /* Moves done in a row from the first: advance the count. */
+        uint32_t p = atomic_load(&b->moved);
+        while (p < b->move_count && atomic_load_explicit(&b->move_done[p], memory_order_acquire))
+            if (atomic_compare_exchange_weak(&b->moved, &p, p + 1))
+                p++;
+    }
+}
+
 /* Member t's share of the whole build (rtk_team_fn). */
 static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
 {
@@ -489,47 +587,11 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
             if (nodes[i].count == 0)
                 nodes[i].offset -= x->shift;
     }
-}
-
-/* Closes the gaps the subtrees left (run renumbered their nodes): the
- * nodes above them get their bounds and children, then the children
- * pairs above the subtrees and the subtrees' blocks move down in slot
- * order, each by the unused slots before it. Sets node_count. */
-static void close_gaps(build *b)
-{
-    rtk_bvh_node *nodes = b->a->nodes;
-    uint32_t k = 0;
-    for (uint32_t i = b->top_count; i-- > 0;) { /* children before parents, all in place */
-        const task *t = &b->tops[i];
-        node_union(&nodes[t->slot], &nodes[t->region], &nodes[t->region + 1]);
-        nodes[t->slot].count = 0;
-    }
-    for (uint32_t i = 0; i < b->top_count; i++) {
-        /* A pair moves by the unused slots of the subtrees before it. */
-        task *t = &b->tops[i];
-        while (k < b->task_count && b->tasks[k].region < t->region)
-            k++;
-        t->shift = k < b->task_count ? b->tasks[k].shift : b->gap_total;
-        nodes[t->slot].offset = t->region - t->shift;
-    }
-    uint32_t count = 1;
-    k = 0;
-    for (uint32_t i = 0; i <= b->top_count; i++) {
-        const uint32_t below = i < b->top_count ? b->tops[i].region : UINT32_MAX;
-        for (; k < b->task_count && b->tasks[k].region < below; k++) {
-            const task *x = &b->tasks[k];
-            if (x->shift)
-                memmove(nodes + x->region - x->shift, nodes + x->region, sizeof *nodes * (x->filled - x->region));
-            count += x->filled - x->region;
-        }
-        if (i == b->top_count)
-            break;
-        const task *t = &b->tops[i];
-        if (t->shift)
-            memmove(nodes + t->region - t->shift, nodes + t->region, sizeof *nodes * 2);
-        count += 2;
-    }
-    b->a->node_count = count;
+    rtk_team_sync(team);
+    if (t == 0)
+        plan_moves(b);
+    rtk_team_sync(team);
+    run_moves(b);
 }
 
 static rtk_status lbvh_build(void *state, rtk_build_args *a)
@@ -562,15 +624,17 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
     }
     b.tasks = malloc(sizeof *b.tasks * plan_cap);
     b.tops = malloc(sizeof *b.tops * plan_cap);
+    b.moves = malloc(sizeof *b.moves * 2 * plan_cap);
+    b.move_done = malloc(sizeof *b.move_done * 2 * plan_cap);
     atomic_init(&b.next_task, 0);
     atomic_init(&b.next_fix, 0);
     rtk_status st = RTK_OK;
-    if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp || !b.tasks || !b.tops) {
+    if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp || !b.tasks || !b.tops || !b.moves ||
+        !b.move_done) {
         st = rtk_error(RTK_ERR_NOMEM, "lbvh: out of memory");
         goto done;
     }
     rtk_team_run(threads, run, &b);
-    close_gaps(&b);
 done:
     free(b.cbounds);
     free(b.hist);
@@ -581,6 +645,8 @@ done:
     }
     free(b.tasks);
     free(b.tops);
+    free(b.moves);
+    free((void *)b.move_done);
     return st;
 }
 
