@@ -482,6 +482,100 @@ static void check_builder_threads(const rtk_plugin *p, const char *key, const ch
         rtk_scene_free(first);
 }
 
+/* Morton code of centroid c, recomputed here bit by bit: quantised in
+ * [lo, lo + 2^per_axis / scale) as lbvh does (NaN and below to 0, above
+ * to the last cell), then x, y, z interleaved from the top. */
+static uint64_t morton_ref(rtk_vec3 c, const float lo[3], const float scale[3], uint32_t per_axis)
+{
+    const float last = (float)(1u << per_axis) - 1.0f, v[3] = {c.x, c.y, c.z};
+    uint64_t q[3], code = 0;
+    for (int k = 0; k < 3; k++) {
+        float f = (v[k] - lo[k]) * scale[k];
+        q[k] = f >= last ? (uint64_t)last : f > 0.0f ? (uint64_t)f : 0;
+    }
+    for (uint32_t b = 0; b < per_axis; b++)
+        for (int k = 0; k < 3; k++)
+            code |= (q[k] >> b & 1) << (3 * b + 2 - k);
+    return code;
+}
+
+/* Slots of s's leaf order whose codes run backwards, or tie out of
+ * index order (lbvh's order is a stable sort of the Morton codes). */
+static uint32_t morton_disorder(const rtk_scene *s, uint32_t bits)
+{
+    const uint32_t n = s->triangle_count, per_axis = bits / 3;
+    rtk_bounds *bounds = malloc(sizeof *bounds * n);
+    rtk_vec3 *cent = malloc(sizeof *cent * n);
+    uint64_t *code = malloc(sizeof *code * n);
+    if (!bounds || !cent || !code) {
+        free(bounds), free(cent), free(code);
+        return UINT32_MAX;
+    }
+    rtk_bvh_prepare_inputs(s, 1, bounds, cent, NULL);
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY}, scale[3];
+    for (uint32_t i = 0; i < n; i++) {
+        const float v[3] = {cent[i].x, cent[i].y, cent[i].z};
+        for (int k = 0; k < 3; k++)
+            lo[k] = v[k] < lo[k] ? v[k] : lo[k], hi[k] = v[k] > hi[k] ? v[k] : hi[k];
+    }
+    for (int k = 0; k < 3; k++)
+        scale[k] = hi[k] - lo[k] > 0.0f ? (float)(1u << per_axis) / (hi[k] - lo[k]) : 0.0f;
+    for (uint32_t i = 0; i < n; i++)
+        code[i] = morton_ref(cent[i], lo, scale, per_axis);
+    uint32_t bad = 0;
+    for (uint32_t i = 0; i + 1 < n; i++) {
+        const uint32_t a = s->prim_ids[i], b = s->prim_ids[i + 1];
+        bad += !(code[a] < code[b] || (code[a] == code[b] && a < b));
+    }
+    free(bounds), free(cent), free(code);
+    return bad;
+}
+
+/* lbvh's leaf order against codes recomputed here, on both sides of its
+ * sort's switch to a first pass by the top digit (2^17 primitives), on
+ * random triangles and on copies of a few (equal codes: index order),
+ * with 30- and 63-bit codes, on 1 and 2 threads. */
+static void check_lbvh_order(const rtk_plugin *p)
+{
+    for (int kind = 0; kind < 3; kind++) {
+        for (uint32_t bits = 30; bits <= 63; bits += 33) {
+            for (uint32_t t = 1; t <= 2; t++) {
+                rtk_pcg32 rng;
+                rtk_pcg32_seed(&rng, 17u + (uint32_t)kind, 3u);
+                rtk_scene *s = rtk_scene_new("morton", 0);
+                const int count = kind == 1 ? 20000 : 150000;
+                if (kind == 2) {
+                    /* 30,000 triangles, each 5 times on average, in random
+                     * order: equal codes in buckets of every size. */
+                    rtk_scene *few = rtk_scene_new("few", 0);
+                    add_soup(few, &rng, 30000, .02f);
+                    for (int i = 0; i < count; i++) {
+                        const uint32_t *idx = few->indices + 3 * (size_t)(rtk_pcg32_next(&rng) % 30000u);
+                        rtk_vec3 v[3];
+                        for (int k = 0; k < 3; k++)
+                            v[k] = rtk_vec3_make(few->positions[3 * idx[k]], few->positions[3 * idx[k] + 1],
+                                                 few->positions[3 * idx[k] + 2]);
+                        add_tri(s, v[0], v[1], v[2]);
+                    }
+                    rtk_scene_free(few);
+                } else {
+                    add_soup(s, &rng, count, .02f);
+                }
+                set_bounds(s);
+                rtk_params *params = rtk_params_defaults(p);
+                rtk_params_set_text(params, "morton", bits == 63 ? "63" : "30");
+                rtk_status st = rtk_bvh_build(s, p, params, t);
+                uint32_t bad = st == RTK_OK ? morton_disorder(s, bits) : UINT32_MAX;
+                check(bad == 0, "lbvh morton=%u, %u thread%s, %d %s: the leaf order is the codes' stable sort "
+                      "(%u slots out of order)", bits, t, t == 1 ? "" : "s", count,
+                      kind == 2 ? "copies of 30,000 triangles" : "random triangles", bad);
+                rtk_params_destroy(params);
+                rtk_scene_free(s);
+            }
+        }
+    }
+}
+
 static void check_measure_service(rtk_scene *s)
 {
     rtk_ctx ctx;
@@ -577,6 +671,8 @@ int main(void)
         check_builder_threads(builders[bi], NULL, NULL);
         if (strcmp(builders[bi]->name, "sah") == 0) /* the gap closing serves both modes */
             check_builder_threads(builders[bi], "mode", "sweep");
+        if (strcmp(builders[bi]->name, "lbvh") == 0)
+            check_lbvh_order(builders[bi]);
     }
     rtk_registry_destroy(reg);
     printf("%d passed, %d failed\n", passed, failed);
