@@ -295,6 +295,52 @@ static void morton_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
     rtk_team_sync(team);
 }
 
+/* Moves (ks, is)[from, to) to (kd, id), each element to the slot
+ * next[digit]++ of its digit (key >> shift) & mask: in order, so stably. */
+static inline __attribute__((always_inline)) void scatter(const void *ks, const uint32_t *is, void *kd, uint32_t *id,
+                                                          uint32_t from, uint32_t to, uint32_t shift, uint32_t mask,
+                                                          uint32_t *next, int wide)
+{
+    for (uint32_t i = from; i < to; i++) {
+        const uint64_t key = code_at(ks, wide, i);
+        const uint32_t at = next[key >> shift & mask]++;
+        code_set(kd, wide, at, key);
+        id[at] = is[i];
+    }
+}
+
+/* Counts the digits (key >> shift) & (2^LBVH_DIGIT - 1) of thread t's
+ * part [begin, end) of ks, waits for every thread's counts, and gives
+ * thread t's first slot for each digit in offset (all smaller digits,
+ * then this digit in the threads before) and, with start, each digit's
+ * first slot of all. Returns the largest count of one digit. */
+static inline __attribute__((always_inline)) uint32_t digit_offsets(build *b, rtk_team *team, uint32_t t,
+                                                                    uint32_t size, const void *ks, uint32_t begin,
+                                                                    uint32_t end, uint32_t shift, uint32_t *offset,
+                                                                    uint32_t *start, int wide)
+{
+    const uint32_t digits = 1u << LBVH_DIGIT;
+    uint32_t *hist = b->hist[t];
+    memset(hist, 0, sizeof b->hist[0]);
+    for (uint32_t i = begin; i < end; i++)
+        hist[code_at(ks, wide, i) >> shift & (digits - 1)]++;
+    rtk_team_sync(team);
+    uint32_t sum = 0, most = 0;
+    for (uint32_t d = 0; d < digits; d++) {
+        uint32_t total = 0;
+        for (uint32_t u = 0; u < size; u++) {
+            if (u == t)
+                offset[d] = sum + total;
+            total += b->hist[u][d];
+        }
+        if (start)
+            start[d] = sum;
+        most = total > most ? total : most;
+        sum += total;
+    }
+    return most;
+}
+
 /* Stable LSD radix sort of (code, id) by code; every thread scatters its
  * own part, after the others' digit counts. The result ends in codes and
  * prim_order. */
@@ -308,32 +354,9 @@ static inline __attribute__((always_inline)) void sort_codes_width(build *b, rtk
     void *ks = b->codes, *kd = b->codes_tmp;
     uint32_t *is = b->a->prim_order, *id = b->ids_tmp;
     for (uint32_t shift = 0; shift < b->opt->bits; shift += LBVH_DIGIT) {
-        uint32_t *hist = b->hist[t];
-        memset(hist, 0, sizeof b->hist[0]);
-        for (uint32_t i = begin; i < end; i++)
-            hist[code_at(ks, wide, i) >> shift & (digits - 1)]++;
-        rtk_team_sync(team);
-        /* This thread's first slot for each digit: all smaller digits,
-         * then this digit in the threads before. */
-        uint32_t offset[1 << LBVH_DIGIT], sum = 0;
-        int one_digit = 0;
-        for (uint32_t d = 0; d < digits; d++) {
-            uint32_t total = 0;
-            for (uint32_t u = 0; u < size; u++) {
-                if (u == t)
-                    offset[d] = sum + total;
-                total += b->hist[u][d];
-            }
-            one_digit |= total == n;
-            sum += total;
-        }
-        if (!one_digit) {
-            for (uint32_t i = begin; i < end; i++) {
-                const uint64_t key = code_at(ks, wide, i);
-                uint32_t at = offset[key >> shift & (digits - 1)]++;
-                code_set(kd, wide, at, key);
-                id[at] = is[i];
-            }
+        uint32_t offset[1 << LBVH_DIGIT];
+        if (digit_offsets(b, team, t, size, ks, begin, end, shift, offset, NULL, wide) < n) {
+            scatter(ks, is, kd, id, begin, end, shift, digits - 1, offset, wide);
             void *tk = ks;
             ks = kd, kd = tk;
             uint32_t *ti = is;
@@ -388,12 +411,7 @@ static inline __attribute__((always_inline)) void sort_bucket(void *ks, uint32_t
             count[d] = sum;
             sum += c;
         }
-        for (uint32_t i = lo; i < hi; i++) {
-            const uint64_t key = code_at(src_k, wide, i);
-            const uint32_t at = count[key >> shift & (digits - 1)]++;
-            code_set(dst_k, wide, at, key);
-            dst_i[at] = src_i[i];
-        }
+        scatter(src_k, src_i, dst_k, dst_i, lo, hi, shift, digits - 1, count, wide);
         void *tk = src_k;
         src_k = dst_k, dst_k = tk;
         uint32_t *ti = src_i;
@@ -415,29 +433,10 @@ static inline __attribute__((always_inline)) void sort_codes_msd(build *b, rtk_t
     part(n, t, size, &begin, &end);
     void *ks = b->codes, *kt = b->codes_tmp;
     uint32_t *is = b->a->prim_order, *it = b->ids_tmp;
-    uint32_t *hist = b->hist[t];
-    memset(hist, 0, sizeof b->hist[0]);
-    for (uint32_t i = begin; i < end; i++)
-        hist[code_at(ks, wide, i) >> low]++;
-    rtk_team_sync(team);
-    uint32_t offset[1 << LBVH_DIGIT], start[(1 << LBVH_DIGIT) + 1], sum = 0;
-    for (uint32_t d = 0; d < digits; d++) {
-        uint32_t total = 0;
-        for (uint32_t u = 0; u < size; u++) {
-            if (u == t)
-                offset[d] = sum + total;
-            total += b->hist[u][d];
-        }
-        start[d] = sum;
-        sum += total;
-    }
+    uint32_t offset[1 << LBVH_DIGIT], start[(1 << LBVH_DIGIT) + 1];
+    digit_offsets(b, team, t, size, ks, begin, end, low, offset, start, wide);
     start[digits] = n;
-    for (uint32_t i = begin; i < end; i++) {
-        const uint64_t key = code_at(ks, wide, i);
-        const uint32_t at = offset[key >> low]++;
-        code_set(kt, wide, at, key);
-        it[at] = is[i];
-    }
+    scatter(ks, is, kt, it, begin, end, low, digits - 1, offset, wide);
     rtk_team_sync(team);
     for (;;) {
         const uint32_t first = atomic_fetch_add(&b->next_bucket, LBVH_BUCKET_GRAB);
