@@ -962,12 +962,13 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
      * tree is written there, in memory already faulted in rather than in
      * a fresh array (first touches are costly). Only what the builder
      * reads is computed (RTK_BUILD_NO_*: the block keeps its size, for the
-     * wide tree), and there is no block when it reads none of it. */
+     * wide tree); a builder that reads none of it gets the whole block as
+     * scratch, and an accelerator that traverses itself no block at all. */
     const rtk_accelerator_fns *fns = plugin->functions;
     const uint32_t flags = rtk_accelerator_build_flags(plugin);
     const int want_bounds = !(flags & RTK_BUILD_NO_BOUNDS), want_vertices = !(flags & RTK_BUILD_NO_VERTICES);
     const size_t input_bytes = (sizeof(rtk_bounds) + sizeof(rtk_vec3) * 4) * (size_t)n;
-    char *inputs = want_bounds || want_vertices ? rtk_alloc_large(input_bytes) : NULL;
+    char *inputs = want_bounds || want_vertices || !own_traversal(fns) ? rtk_alloc_large(input_bytes) : NULL;
     rtk_bounds *bounds = inputs && want_bounds ? (rtk_bounds *)(void *)inputs : NULL;
     rtk_vec3 *centroids = bounds ? (rtk_vec3 *)(void *)(inputs + sizeof(rtk_bounds) * (size_t)n) : NULL;
     rtk_vec3 *vertices =
@@ -981,13 +982,12 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     a.prim_order = rtk_alloc(sizeof *a.prim_order * (size_t)n);
     rtk_status st = RTK_OK;
     void *state = NULL;
-    if ((!inputs && (want_bounds || want_vertices)) || !a.nodes || !a.prim_order) {
+    if ((!inputs && (want_bounds || want_vertices || !own_traversal(fns))) || !a.nodes || !a.prim_order) {
         st = RTK_ERR_NOMEM;
         goto fail;
     }
-    if (inputs) {
+    if (bounds || vertices)
         rtk_bvh_prepare_inputs(s, a.thread_count, bounds, centroids, vertices);
-    }
     a.prim_bounds = bounds;
     double t1 = rtk_now();
     a.centroids = centroids;
@@ -996,9 +996,9 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     a.positions = s->positions;
     a.vertex_count = s->vertex_count;
     if (inputs && !vertices) {
-        /* The corners' part of the block, unused: the builder's scratch,
-         * faulted in once for it and the wide tree after. */
-        const size_t at = ((sizeof(rtk_bounds) + sizeof(rtk_vec3)) * (size_t)n + 63) / 64 * 64;
+        /* The block's unused part (the corners', or all of it): the
+         * builder's scratch, faulted in once for it and the wide tree after. */
+        const size_t at = bounds ? ((sizeof(rtk_bounds) + sizeof(rtk_vec3)) * (size_t)n + 63) / 64 * 64 : 0;
         if (at < input_bytes)
             a.scratch = inputs + at, a.scratch_bytes = input_bytes - at;
     }

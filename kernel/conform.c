@@ -447,7 +447,7 @@ static void mesh_triangle(mesh *m, uint32_t a, uint32_t b, uint32_t c)
 static int mesh_build(runner *r, mesh *m, const rtk_plugin *p, const rtk_params *params, uint32_t threads,
                       const char *what)
 {
-    char name[320];
+    char name[448];
     snprintf(name, sizeof name, "build %s", what);
     if (!m->ok) {
         check(r, 0, name, "out of memory for the test scene");

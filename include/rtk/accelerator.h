@@ -51,7 +51,9 @@ typedef struct rtk_build_args {
      * 64-byte boundary; NULL and 0 when there is none): the kernel's, in
      * pages it writes anyway afterwards, so that a builder's scratch
      * arrays cost no first touch of their own. For builders that declare
-     * RTK_BUILD_NO_VERTICES it is 36 bytes a primitive, less 64. */
+     * RTK_BUILD_NO_VERTICES it is 36 bytes a primitive, less 64; with
+     * RTK_BUILD_NO_BOUNDS too, 72 bytes a primitive, unless the
+     * accelerator traverses itself (then there is none). */
     void *scratch;
     size_t scratch_bytes;
 } rtk_build_args;
@@ -72,7 +74,9 @@ enum {
     RTK_BUILD_NO_VERTICES = 1u,
     /* build reads neither args->prim_bounds nor args->centroids: the
      * kernel passes NULL for both and does not compute them (a builder
-     * that reads the triangles from indices and positions). */
+     * that reads the triangles from indices and positions). The
+     * instances of a top level (indices NULL) come with both all the
+     * same: their boxes are all there is. */
     RTK_BUILD_NO_BOUNDS = 2u
 };
 

@@ -162,6 +162,7 @@ typedef struct build {
     const sah *opt;
     rtk_build_args *a;
     ref *refs;        /* binned: primitives in slot order */
+    const rtk_bounds *bounds; /* sweep: the primitives' boxes */
     uint32_t *ord[3]; /* sweep: primitives sorted by centroid, per axis */
     uint32_t *tmp;    /* sweep: partition scratch */
     float *area;      /* sweep: areas of suffix bounds */
@@ -222,6 +223,25 @@ static v4 bounds_upper(const rtk_bounds *b)
 {
     const float f[4] = {b->upper.x, b->upper.y, b->upper.z, 0.0f};
     return v4_load(f);
+}
+
+/* Primitive i's box (lane 3 undefined): the kernel's when it gives boxes
+ * (the instances of a top level), else its triangle's, from the corners
+ * with the kernel's operations (rtk_bvh_prepare_inputs), so the same
+ * floats either way. A corner is one 4-float load: a float more follows
+ * the last vertex. */
+static inline void prim_box(const rtk_build_args *a, uint32_t i, v4 *lo, v4 *hi)
+{
+    if (a->prim_bounds) {
+        *lo = bounds_lower(&a->prim_bounds[i]);
+        *hi = bounds_upper(&a->prim_bounds[i]);
+        return;
+    }
+    const uint32_t *t = a->indices + 3 * (size_t)i;
+    const v4 p = v4_load(a->positions + 3 * (size_t)t[0]), q = v4_load(a->positions + 3 * (size_t)t[1]),
+             r = v4_load(a->positions + 3 * (size_t)t[2]);
+    *lo = v4_min(r, v4_min(q, p));
+    *hi = v4_max(r, v4_max(q, p));
 }
 
 /* Bins of a doubled centroid c on each axis: (c - lo) * scale clamped to
@@ -602,7 +622,7 @@ static void bounds_of_ids(const build *b, const uint32_t *ids, uint32_t begin, u
 {
     box_empty(geom);
     for (uint32_t i = begin; i < end; i++) {
-        const rtk_bounds *pb = &b->a->prim_bounds[ids[i]];
+        const rtk_bounds *pb = &b->bounds[ids[i]];
         box_grow(geom, bounds_lower(pb), bounds_upper(pb));
     }
 }
@@ -621,13 +641,13 @@ static void find_sweep(const build *b, const job *j, split *s)
         vbox acc;
         box_empty(&acc);
         for (uint32_t i = end - 1; i > begin; i--) {
-            const rtk_bounds *pb = &b->a->prim_bounds[ids[i]];
+            const rtk_bounds *pb = &b->bounds[ids[i]];
             box_grow(&acc, bounds_lower(pb), bounds_upper(pb));
             b->area[i] = half_area(&acc);
         }
         box_empty(&acc);
         for (uint32_t i = begin + 1; i < end; i++) {
-            const rtk_bounds *pb = &b->a->prim_bounds[ids[i - 1]];
+            const rtk_bounds *pb = &b->bounds[ids[i - 1]];
             box_grow(&acc, bounds_lower(pb), bounds_upper(pb));
             float cost = split_cost(o, half_area(&acc) * (float)(i - begin) + b->area[i] * (float)(end - i), parent, count);
             uint32_t skew = 2 * i > begin + end ? 2 * i - begin - end : begin + end - 2 * i;
@@ -995,12 +1015,15 @@ typedef struct fill_part {
 
 static void fill_refs(fill_part *f)
 {
-    const rtk_bounds *pb = f->b->a->prim_bounds;
+    const rtk_build_args *a = f->b->a;
     ref *refs = f->b->refs;
     box_empty(&f->bounds.geom), box_empty(&f->bounds.cent);
     for (uint32_t i = f->begin; i < f->end; i++) {
-        refs[i] = (ref){{pb[i].lower.x, pb[i].lower.y, pb[i].lower.z}, i,
-                        {pb[i].upper.x, pb[i].upper.y, pb[i].upper.z}, 0};
+        v4 lo, hi;
+        prim_box(a, i, &lo, &hi);
+        float l[4], h[4];
+        v4_store(l, lo), v4_store(h, hi);
+        refs[i] = (ref){{l[0], l[1], l[2]}, i, {h[0], h[1], h[2]}, 0};
         ref_grow(&f->bounds, &refs[i]);
     }
 }
@@ -1069,14 +1092,24 @@ static rtk_status build_sweep(build *b, job *root)
     b->area = malloc(sizeof(float) * n);
     b->left = malloc(n);
     uint32_t *keys = malloc(sizeof(uint32_t) * n), *tmp_keys = malloc(sizeof(uint32_t) * n);
+    /* The triangles' boxes when the kernel gives none (NO_BOUNDS). */
+    rtk_bounds *own = a->prim_bounds ? NULL : malloc(sizeof *own * n);
+    b->bounds = a->prim_bounds ? a->prim_bounds : own;
     rtk_status st = RTK_OK;
-    if (!b->ord[1] || !b->ord[2] || !b->tmp || !b->area || !b->left || !keys || !tmp_keys) {
+    if (!b->ord[1] || !b->ord[2] || !b->tmp || !b->area || !b->left || !keys || !tmp_keys || !b->bounds) {
         st = rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
         goto done;
     }
+    for (uint32_t i = 0; own && i < n; i++) {
+        v4 lo, hi;
+        prim_box(a, i, &lo, &hi);
+        float l[4], h[4];
+        v4_store(l, lo), v4_store(h, hi);
+        own[i] = (rtk_bounds){{l[0], l[1], l[2]}, {h[0], h[1], h[2]}};
+    }
     for (int k = 0; k < 3; k++) {
         for (uint32_t i = 0; i < n; i++) {
-            const rtk_bounds *pb = &a->prim_bounds[i];
+            const rtk_bounds *pb = &b->bounds[i];
             float c = k == 0 ? pb->lower.x + pb->upper.x : k == 1 ? pb->lower.y + pb->upper.y : pb->lower.z + pb->upper.z;
             keys[i] = float_key(c);
             b->ord[k][i] = i;
@@ -1092,6 +1125,7 @@ done:
     free(b->left);
     free(keys);
     free(tmp_keys);
+    free(own);
     return st;
 }
 
@@ -1148,7 +1182,7 @@ static const rtk_accelerator_fns sah_fns = {
     .create = sah_create,
     .build = sah_build,
     .destroy = sah_destroy,
-    .build_flags = RTK_BUILD_NO_VERTICES,
+    .build_flags = RTK_BUILD_NO_VERTICES | RTK_BUILD_NO_BOUNDS,
 };
 
 static const rtk_plugin sah_plugin = {

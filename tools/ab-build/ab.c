@@ -4,9 +4,12 @@
  * checks a plugin; each gets its defaults (and AB_SET's parameter). The
  * inputs are the kernel's for the mesh (rtk_bvh_prepare_inputs): each
  * triangle's bounds and centroid, its corners for a builder that reads
- * them, and for one that
- * does not (RTK_BUILD_NO_VERTICES) the 36 bytes a triangle of scratch the
- * kernel hands it, touched once beforehand as the kernel's are. Round 0
+ * them, and for one that does not (RTK_BUILD_NO_VERTICES) the scratch the
+ * kernel hands it (36 bytes a triangle; 72 with RTK_BUILD_NO_BOUNDS too),
+ * touched once beforehand as the kernel's are. A build's time includes
+ * the kernel's preparation of what it reads, as rtk_bvh_build's does
+ * (its inputs and builder phases), so that builders reading different
+ * inputs compare fairly. Round 0
  * builds with both and compares the trees (node count, nodes, primitive
  * order) byte for byte: they must match unless AB_DIFFERENT=1. Each
  * later round times one build of each, in alternating order, on the same
@@ -122,7 +125,8 @@ int main(int argc, char **argv)
     rtk_bounds *bounds = malloc(sizeof *bounds * n);
     rtk_vec3 *centroids = malloc(sizeof *centroids * n), *corners = malloc(sizeof *corners * 3 * (size_t)n);
     const size_t scratch_bytes = (sizeof(rtk_vec3) * 3 * (size_t)n - 64) / 64 * 64 + 64;
-    void *scratch = aligned_alloc(64, scratch_bytes);
+    const size_t whole_bytes = (sizeof(rtk_bounds) + sizeof(rtk_vec3) * 4) * (size_t)n / 64 * 64;
+    void *scratch = aligned_alloc(64, whole_bytes);
     for (int v = 0; v < 2; v++) {
         sides[v].nodes = malloc(sizeof *sides[v].nodes * (2 * (size_t)n - 1));
         sides[v].prim_order = malloc(sizeof *sides[v].prim_order * n);
@@ -133,7 +137,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "ab: out of memory\n");
         return 2;
     }
-    memset(scratch, 0, scratch_bytes);
+    memset(scratch, 0, whole_bytes);
     rtk_bvh_prepare_inputs(scene, (uint32_t)threads, bounds, centroids, corners);
     double total[2] = {0.0, 0.0};
     for (int round = 0; round <= rounds; round++) {
@@ -141,6 +145,7 @@ int main(int argc, char **argv)
         for (int q = 0; q < 2; q++) {
             side *s = &sides[(round & 1) ? 1 - q : q];
             const int no_vertices = (s->flags & RTK_BUILD_NO_VERTICES) != 0;
+            const int no_bounds = (s->flags & RTK_BUILD_NO_BOUNDS) != 0;
             rtk_build_args a = {.size = sizeof a,
                                 .prim_count = n,
                                 .prim_bounds = (s->flags & RTK_BUILD_NO_BOUNDS) ? NULL : bounds,
@@ -154,8 +159,11 @@ int main(int argc, char **argv)
                                 .positions = scene->positions,
                                 .vertex_count = scene->vertex_count,
                                 .scratch = no_vertices ? scratch : NULL,
-                                .scratch_bytes = no_vertices ? scratch_bytes : 0};
+                                .scratch_bytes = no_vertices ? (no_bounds ? whole_bytes : scratch_bytes) : 0};
             const double t0 = rtk_now();
+            if (!no_bounds || !no_vertices)
+                rtk_bvh_prepare_inputs(scene, (uint32_t)threads, no_bounds ? NULL : bounds,
+                                       no_bounds ? NULL : centroids, no_vertices ? NULL : corners);
             if (s->fns->build(s->state, &a) != RTK_OK) {
                 fprintf(stderr, "ab: %s failed: %s\n", s->path, rtk_error_message());
                 return 2;
