@@ -28,6 +28,10 @@ int rtk_grow_array(void **array, uint32_t *cap, uint32_t count, size_t size);
  * transparent huge pages, which cuts the cost of first touching it and
  * keeps traversal out of TLB misses. Freed with free(). */
 void *rtk_alloc_large(size_t size);
+/* glibc's largest threshold for giving an allocation a mapping of its
+ * own (DEFAULT_MMAP_THRESHOLD_MAX on 64 bits): arrays above it are fresh
+ * memory, first touched page by page, every time they are allocated. */
+#define RTK_FRESH_ALLOC_BYTES ((size_t)32 << 20)
 /* Gives the whole pages of block[used, size) back to the system (they
  * read as zeros if touched again); the block stays allocated. */
 void rtk_release_tail(void *block, size_t used, size_t size);
