@@ -981,11 +981,16 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     /* Node arrays over 32 MiB, glibc's largest threshold for mapping an
      * allocation of its own, are fresh memory every build: in huge pages
      * (rtk_alloc_large), they fault 512 times less often (the showroom's
-     * 141 MB: 16,000 faults a build, 1.6 us each on a virtual machine).
-     * Smaller arrays come back from the heap already faulted in, and
-     * aligned there they faulted more (bunny, elephant). */
+     * 141 MB: 16,000 faults a build, 1.6 us each on a virtual machine),
+     * unless the builder on threads leaves most of them unwritten
+     * (RTK_BUILD_SPARSE_NODES: lbvh writes a fifth of each subtree's
+     * region, and all 141 MB would be faulted in). Smaller arrays come
+     * back from the heap already faulted in, and aligned there they
+     * faulted more (bunny, elephant). */
     const size_t node_bytes = sizeof *a.nodes * (size_t)a.max_nodes;
-    a.nodes = node_bytes >= RTK_FRESH_ALLOC_BYTES ? rtk_alloc_large(node_bytes) : rtk_alloc(node_bytes);
+    const int huge_nodes =
+        node_bytes >= RTK_FRESH_ALLOC_BYTES && (a.thread_count == 1 || !(flags & RTK_BUILD_SPARSE_NODES));
+    a.nodes = huge_nodes ? rtk_alloc_large(node_bytes) : rtk_alloc(node_bytes);
     a.prim_order = rtk_alloc(sizeof *a.prim_order * (size_t)n);
     rtk_status st = RTK_OK;
     void *state = NULL;
@@ -1051,7 +1056,7 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     if (st == RTK_OK) {
         /* The capacity past the tree, in huge pages a builder on threads
          * may have touched (its gaps, closed): back to the system. */
-        if (node_bytes >= RTK_FRESH_ALLOC_BYTES)
+        if (huge_nodes)
             rtk_release_tail(a.nodes, sizeof *a.nodes * (size_t)a.node_count, node_bytes);
         s->nodes = a.nodes;
         s->node_count = a.node_count;

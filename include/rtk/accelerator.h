@@ -77,7 +77,14 @@ enum {
      * that reads the triangles from indices and positions). The
      * instances of a top level (indices NULL) come with both all the
      * same: their boxes are all there is. */
-    RTK_BUILD_NO_BOUNDS = 2u
+    RTK_BUILD_NO_BOUNDS = 2u,
+    /* On more than one thread, build writes args->nodes sparsely: in
+     * regions of which it fills a small part (a fifth or less) before it
+     * closes the gaps. The kernel then keeps a large node array in 4 KiB
+     * pages, where huge pages would be faulted in whole for the few
+     * nodes in each (ABI 3.2 kernels from 2026-11-26 on; others ignore
+     * it). */
+    RTK_BUILD_SPARSE_NODES = 4u
 };
 
 /* Function table of an accelerator. */

@@ -17,8 +17,10 @@ RTK_EXTERN_C_BEGIN
  * (the exact-test profile of an integrator).
  * 3.2: teams of threads on the kernel's workers (rtk_team_run,
  * rtk_team_sync; rtk/parallel.h); rtk_accelerator_fns.build_flags
- * (RTK_BUILD_NO_VERTICES, RTK_BUILD_NO_BOUNDS); rtk_build_args.indices,
- * positions, vertex_count, scratch and scratch_bytes. */
+ * (RTK_BUILD_NO_VERTICES, RTK_BUILD_NO_BOUNDS, and later
+ * RTK_BUILD_SPARSE_NODES, a hint older 3.2 kernels ignore);
+ * rtk_build_args.indices, positions, vertex_count, scratch and
+ * scratch_bytes. */
 #define RTK_ABI_MAJOR 3
 #define RTK_ABI_MINOR 2
 
