@@ -1006,7 +1006,8 @@ static void radix_sort(uint32_t *keys, uint32_t *ids, uint32_t *tmp_keys, uint32
         memcpy(ids, is, sizeof *ids * n);
 }
 
-/* One thread's part of the refs: filled from the bounds, and its boxes. */
+/* One thread's part of the refs: filled from the triangles' corners (the
+ * instances' boxes for a top level), and its boxes. */
 typedef struct fill_part {
     build *b;
     uint32_t begin, end;
