@@ -968,7 +968,8 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     const uint32_t flags = rtk_accelerator_build_flags(plugin);
     const int want_bounds = !(flags & RTK_BUILD_NO_BOUNDS), want_vertices = !(flags & RTK_BUILD_NO_VERTICES);
     const size_t input_bytes = (sizeof(rtk_bounds) + sizeof(rtk_vec3) * 4) * (size_t)n;
-    char *inputs = want_bounds || want_vertices || !own_traversal(fns) ? rtk_alloc_large(input_bytes) : NULL;
+    const int want_block = want_bounds || want_vertices || !own_traversal(fns);
+    char *inputs = want_block ? rtk_alloc_large(input_bytes) : NULL;
     rtk_bounds *bounds = inputs && want_bounds ? (rtk_bounds *)(void *)inputs : NULL;
     rtk_vec3 *centroids = bounds ? (rtk_vec3 *)(void *)(inputs + sizeof(rtk_bounds) * (size_t)n) : NULL;
     rtk_vec3 *vertices =
@@ -994,7 +995,7 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
     a.prim_order = rtk_alloc(sizeof *a.prim_order * (size_t)n);
     rtk_status st = RTK_OK;
     void *state = NULL;
-    if ((!inputs && (want_bounds || want_vertices || !own_traversal(fns))) || !a.nodes || !a.prim_order) {
+    if ((want_block && !inputs) || !a.nodes || !a.prim_order) {
         st = RTK_ERR_NOMEM;
         goto fail;
     }

@@ -225,23 +225,21 @@ static v4 bounds_upper(const rtk_bounds *b)
     return v4_load(f);
 }
 
-/* Primitive i's box (lane 3 undefined): the kernel's when it gives boxes
- * (the instances of a top level), else its triangle's, from the corners
- * with the kernel's operations (rtk_bvh_prepare_inputs), so the same
- * floats either way. A corner is one 4-float load: a float more follows
- * the last vertex. */
-static inline void prim_box(const rtk_build_args *a, uint32_t i, v4 *lo, v4 *hi)
+/* Primitive i's box: the kernel's when it gives boxes (the instances of
+ * a top level), else its triangle's, from the corners with the kernel's
+ * operations (rtk_bvh_prepare_inputs), so the same floats either way. A
+ * corner is one 4-float load: a float more follows the last vertex. */
+static inline rtk_bounds prim_box(const rtk_build_args *a, uint32_t i)
 {
-    if (a->prim_bounds) {
-        *lo = bounds_lower(&a->prim_bounds[i]);
-        *hi = bounds_upper(&a->prim_bounds[i]);
-        return;
-    }
+    if (a->prim_bounds)
+        return a->prim_bounds[i];
     const uint32_t *t = a->indices + 3 * (size_t)i;
     const v4 p = v4_load(a->positions + 3 * (size_t)t[0]), q = v4_load(a->positions + 3 * (size_t)t[1]),
              r = v4_load(a->positions + 3 * (size_t)t[2]);
-    *lo = v4_min(r, v4_min(q, p));
-    *hi = v4_max(r, v4_max(q, p));
+    float lo[4], hi[4];
+    v4_store(lo, v4_min(r, v4_min(q, p)));
+    v4_store(hi, v4_max(r, v4_max(q, p)));
+    return (rtk_bounds){{lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}};
 }
 
 /* Bins of a doubled centroid c on each axis: (c - lo) * scale clamped to
@@ -1020,11 +1018,8 @@ static void fill_refs(fill_part *f)
     ref *refs = f->b->refs;
     box_empty(&f->bounds.geom), box_empty(&f->bounds.cent);
     for (uint32_t i = f->begin; i < f->end; i++) {
-        v4 lo, hi;
-        prim_box(a, i, &lo, &hi);
-        float l[4], h[4];
-        v4_store(l, lo), v4_store(h, hi);
-        refs[i] = (ref){{l[0], l[1], l[2]}, i, {h[0], h[1], h[2]}, 0};
+        const rtk_bounds pb = prim_box(a, i);
+        refs[i] = (ref){{pb.lower.x, pb.lower.y, pb.lower.z}, i, {pb.upper.x, pb.upper.y, pb.upper.z}, 0};
         ref_grow(&f->bounds, &refs[i]);
     }
 }
@@ -1101,13 +1096,8 @@ static rtk_status build_sweep(build *b, job *root)
         st = rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
         goto done;
     }
-    for (uint32_t i = 0; own && i < n; i++) {
-        v4 lo, hi;
-        prim_box(a, i, &lo, &hi);
-        float l[4], h[4];
-        v4_store(l, lo), v4_store(h, hi);
-        own[i] = (rtk_bounds){{l[0], l[1], l[2]}, {h[0], h[1], h[2]}};
-    }
+    for (uint32_t i = 0; own && i < n; i++)
+        own[i] = prim_box(a, i);
     for (int k = 0; k < 3; k++) {
         for (uint32_t i = 0; i < n; i++) {
             const rtk_bounds *pb = &b->bounds[i];
