@@ -10,10 +10,13 @@
 # parameter of ACCEL for the variant's tree, with AB_REBUILD), AB_BUILD=1
 # (time the wide builds, one thread, instead of the tracing; the trees
 # must be the same unless AB_DIFFERENT=1), AB_WRAP=COMMAND (run the
-# program under it: perf record, valgrind). Prints the median and
-# quartiles over ROUNDS (default 400) of B's time over A's.
+# program under it: perf record, valgrind), AB_CFLAGS (more flags for
+# the variant's compilation, after the kernel's), AB_AO_SCALE=F (AO
+# rays' tfar times F), AB_REPEAT=K (each ray traced K times in a row);
+# AB_DIFFERENT=1 also times tracers that answer differently. Prints the
+# median and quartiles over ROUNDS (default 400) of B's time over A's.
 set -euo pipefail
-[ $# -ge 3 ] || { sed -n '2,15p' "$0" >&2; exit 2; }
+[ $# -ge 3 ] || { sed -n '2,18p' "$0" >&2; exit 2; }
 . "$(dirname "$0")/../ab-harness.sh"
 variant=$3
 [ "$variant" = embree ] && variant=$src/kernel/bvh_wide.c
@@ -21,7 +24,7 @@ variant=$3
 # the variant must read its own loop, not the kernel's.
 cp "$variant" "$out/bvh_wide.c"
 cc "${inc[@]}" -fvisibility=hidden -D_FILE_OFFSET_BITS=64 -std=c11 -O2 -g -D_GNU_SOURCE -fPIC -pthread \
-   -ffp-contract=off -fno-semantic-interposition -DRTK_BUILDING_KERNEL -c "$out/bvh_wide.c" -o "$out/variant.o"
+   -ffp-contract=off -fno-semantic-interposition -DRTK_BUILDING_KERNEL ${AB_CFLAGS:-} -c "$out/bvh_wide.c" -o "$out/variant.o"
 renames=()
 for sym in $(nm "$out/variant.o" | awk '$2 ~ /^[TDBR]$/ && $3 ~ /^rtk_/ {print $3}'); do
     renames+=(--redefine-sym "$sym=B_${sym#rtk_}")
