@@ -41,6 +41,8 @@
  * leaves at most RTK_WIDE - 1 entries on the stack. */
 #define RTK_WIDE_STACK ((RTK_WIDE - 1) * (RTK_WIDE_MAX_DEPTH + 1) + 1)
 
+uint32_t rtk_wide_node_limit = RTK_WIDE_MAX_NODES;
+
 /* 1 + 2 gamma(3), as in bvh.c. */
 static const float slab_slack = 1.0f + 2.0f * (3.0f * 0.5f * FLT_EPSILON) / (1.0f - 3.0f * 0.5f * FLT_EPSILON);
 
@@ -88,6 +90,8 @@ static uint32_t new_node(collapser *c)
     return c->node_count++;
 }
 
+/* Child i of node: the box and the reference, an inner node as its byte
+ * offset (RTK_WIDE_MAX_NODES). */
 static void set_child(collapser *c, uint32_t node, int i, const float lo[3], const float hi[3], uint32_t ref)
 {
     rtk_wide_node *n = &c->nodes[node];
@@ -95,7 +99,7 @@ static void set_child(collapser *c, uint32_t node, int i, const float lo[3], con
         n->bounds[2 * k][i] = lo[k];
         n->bounds[2 * k + 1][i] = hi[k];
     }
-    n->child[i] = ref;
+    n->child[i] = ref & RTK_WIDE_LEAF ? ref : ref * (uint32_t)sizeof(rtk_wide_node);
 }
 
 /* Bounds of the n triangles whose corners are v[0, 9n). */
@@ -955,6 +959,7 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
     void *mem[2] = {NULL, NULL};
     uint32_t bad_leaf = UINT32_MAX;
     uint32_t workers = 1;
+    uint32_t too_many = 0; /* nodes, when more than rtk_wide_node_limit */
     item_job job;
     memset(&job, 0, sizeof job);
     atomic_init(&job.next, 0u);
@@ -993,6 +998,8 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
             rtk_parallel_ranges(workers, workers, 1, count_worker, &job);
             c.failed = !number_nodes(&c, &pl);
         }
+        if (!c.failed && c.node_cap > rtk_wide_node_limit)
+            too_many = c.node_cap, c.failed = 1;
         times[2] = rtk_now();
     }
     if (!c.failed) {
@@ -1071,6 +1078,9 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
     if (c.failed) {
         free(mem[0]);
         free(mem[1]);
+        if (too_many)
+            return rtk_error(RTK_ERR_NOMEM, "wide BVH: %u nodes, more than the %u its references address", too_many,
+                             rtk_wide_node_limit);
         return rtk_error(RTK_ERR_NOMEM, "wide BVH: out of memory or tree too deep");
     }
     s->wide = w;
@@ -1186,6 +1196,15 @@ RTK_INLINE void wide_prepare(const rtk_ray *r, wide_ray *p)
 RTK_INLINE float widen(float tmax)
 {
     return rtk_cull_distance(tmax);
+}
+
+/* The node an inner reference names: its byte offset from the first
+ * node, so that the node loop adds it to the base without a shift (AO
+ * rays 1% faster on dragon and 1.4% on bunny than with the index
+ * shifted, tools/ab-trace run both ways). */
+RTK_INLINE const rtk_wide_node *wide_node_at(const rtk_wide_node *nodes, uint32_t ref)
+{
+    return (const rtk_wide_node *)(const void *)((const char *)nodes + ref);
 }
 
 /* A pending subtree and its entry distance. */
@@ -1356,7 +1375,7 @@ RTK_INLINE int scalar_traverse(const rtk_scene *s, const rtk_ray *ray_in, rtk_hi
     uint32_t cur = 0;
     for (;;) {
         while (!(cur & RTK_WIDE_LEAF)) {
-            const rtk_wide_node *n = &w->nodes[cur];
+            const rtk_wide_node *n = wide_node_at(w->nodes, cur);
             if (work)
                 work->nodes++;
             float dist[RTK_WIDE];
@@ -1642,7 +1661,7 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
     uint32_t cur = 0;
     for (;;) {
         while (!(cur & RTK_WIDE_LEAF)) {
-            const rtk_wide_node *n = &w->nodes[cur];
+            const rtk_wide_node *n = wide_node_at(w->nodes, cur);
             if (work)
                 work->nodes++;
             int m0, m1;
@@ -1916,7 +1935,7 @@ RTK_INLINE RTK_TARGET_AVX int RTK_AVX(traverse)(const rtk_scene *s, const rtk_ra
     uint32_t cur = 0;
     for (;;) {
         while (!(cur & RTK_WIDE_LEAF)) {
-            const rtk_wide_node *n = &nodes[cur];
+            const rtk_wide_node *n = wide_node_at(nodes, cur);
             const float *bb = &n->bounds[0][0];
             if (work)
                 work->nodes++;
@@ -1965,7 +1984,7 @@ RTK_INLINE RTK_TARGET_AVX int RTK_AVX(traverse)(const rtk_scene *s, const rtk_ra
                 /* The next pop, while the nearer child is traversed. */
                 uint32_t next = stack[top - 1].ref;
                 if (!(next & RTK_WIDE_LEAF)) {
-                    const char *pf = (const char *)&nodes[next];
+                    const char *pf = (const char *)wide_node_at(nodes, next);
                     _mm_prefetch(pf, _MM_HINT_T0);
                     _mm_prefetch(pf + 64, _MM_HINT_T0);
                     _mm_prefetch(pf + 128, _MM_HINT_T0);

@@ -51,11 +51,19 @@ typedef enum rtk_simd_path {
 } rtk_simd_path;
 #define RTK_SIMD_PATHS 5
 
-/* A child reference: an inner node's index, or with RTK_WIDE_LEAF set a
- * leaf: first block << RTK_WIDE_LEAF_SHIFT | (block count - 1). */
+/* A child reference: an inner node's byte offset from the first node
+ * (its index times 256), or with RTK_WIDE_LEAF set a leaf: first block <<
+ * RTK_WIDE_LEAF_SHIFT | (block count - 1). Offsets below 2^31 leave room
+ * for RTK_WIDE_MAX_NODES nodes (2 GiB of them, the tree of about 125
+ * million triangles); a larger tree is not built and the scene keeps the
+ * binary traversal. */
 #define RTK_WIDE_LEAF 0x80000000u
 #define RTK_WIDE_LEAF_SHIFT 4
 #define RTK_WIDE_LEAF_BLOCKS 16
+#define RTK_WIDE_MAX_NODES (RTK_WIDE_LEAF / 256u)
+/* The most nodes rtk_wide_build makes: RTK_WIDE_MAX_NODES, lowered only
+ * by tests (tests/wide) to reach the refusal on a small scene. */
+extern uint32_t rtk_wide_node_limit;
 
 /* One node, 256 bytes on a 64-byte boundary. bounds[2k] holds the lower
  * and bounds[2k+1] the upper coordinate on axis k of each child; an empty
@@ -65,6 +73,7 @@ typedef struct rtk_wide_node {
     uint32_t child[RTK_WIDE];
     uint32_t pad[RTK_WIDE];
 } rtk_wide_node;
+_Static_assert(sizeof(rtk_wide_node) == 256, "RTK_WIDE_MAX_NODES assumes 256-byte nodes");
 
 /* Four triangles, structure of arrays: v[3 * corner + axis][lane]. Unused
  * lanes have prim RTK_INVALID_ID and are never reported. */

@@ -416,6 +416,56 @@ static void check_threads_same(rtk_scene *s, const char *mesh, const char *build
           builder, made->node_count, made->tri_block_count);
 }
 
+/* A tree with more nodes than references address is refused with a
+ * message naming both numbers, and the scene then traces its binary tree
+ * with the same answers (the limit lowered to reach it on bunny). */
+static void check_node_limit(rtk_scene *s, const char *mesh, const char *builder, const rtk_plugin *p,
+                             const rtk_params *params)
+{
+    if (!s->wide || s->wide->node_count < 3)
+        return;
+    enum { RAYS = 2000 };
+    static rtk_hit wide_hits[RAYS];
+    static int wide_any[RAYS];
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 17u, 3u);
+    for (int i = 0; i < RAYS; i++) {
+        rtk_ray ray = make_ray(s, &rng, i);
+        wide_hits[i].prim = RTK_INVALID_ID;
+        if (rtk_ray_valid(&ray))
+            (void)rtk_bvh_closest(s, &ray, &wide_hits[i]), wide_any[i] = rtk_bvh_any(s, &ray);
+    }
+    const uint32_t nodes = s->wide->node_count;
+    rtk_wide_node_limit = nodes - 1;
+    rtk_wide_bvh *made = s->wide;
+    s->wide = NULL;
+    rtk_status st = rtk_wide_build(s, 2, NULL, 0, 0);
+    char want[96];
+    snprintf(want, sizeof want, "%u nodes, more than the %u", nodes, nodes - 1);
+    check(st == RTK_ERR_NOMEM && !s->wide && strstr(rtk_error_message(), want),
+          "%s / %s: a wide tree of more nodes than the limit is refused: \"%s\"", mesh, builder,
+          rtk_error_message());
+    rtk_wide_free(s);
+    s->wide = made;
+    st = rtk_bvh_build(s, p, params, 2);
+    int bad = 0;
+    rtk_pcg32_seed(&rng, 17u, 3u);
+    for (int i = 0; i < RAYS && st == RTK_OK; i++) {
+        rtk_ray ray = make_ray(s, &rng, i);
+        if (!rtk_ray_valid(&ray))
+            continue;
+        rtk_hit h;
+        int hit = rtk_bvh_closest(s, &ray, &h);
+        bad += hit != (wide_hits[i].prim != RTK_INVALID_ID) || (hit && (h.prim != wide_hits[i].prim ||
+                                                                       h.t != wide_hits[i].t)) ||
+               rtk_bvh_any(s, &ray) != wide_any[i];
+    }
+    check(st == RTK_OK && !s->wide && bad == 0,
+          "%s / %s: over the limit the build keeps the binary tree, whose answers are the wide tree's: %d differ",
+          mesh, builder, bad);
+    rtk_wide_node_limit = RTK_WIDE_MAX_NODES;
+}
+
 /* The scene's bounds from its vertices (raw scenes skip rtk_scene_finish). */
 static void set_bounds(rtk_scene *s)
 {
@@ -658,6 +708,8 @@ int main(void)
                     n /= 4;
                 compare_paths(s, mesh, builders[bi]->name, n);
                 check_threads_same(s, mesh, builders[bi]->name);
+                if (m == MESH_BUNNY && !own)
+                    check_node_limit(s, mesh, builders[bi]->name, builders[bi], params);
                 if (!measured++)
                     check_measure_service(s);
             }
