@@ -42,6 +42,9 @@
 #define RTK_WIDE_STACK ((RTK_WIDE - 1) * (RTK_WIDE_MAX_DEPTH + 1) + 1)
 
 uint32_t rtk_wide_node_limit = RTK_WIDE_MAX_NODES;
+/* Blocks a leaf reference addresses: the first block's index takes the
+ * bits above RTK_WIDE_LEAF_SHIFT. */
+#define WIDE_MAX_BLOCKS (1u << (31 - RTK_WIDE_LEAF_SHIFT))
 
 /* 1 + 2 gamma(3), as in bvh.c. */
 static const float slab_slack = 1.0f + 2.0f * (3.0f * 0.5f * FLT_EPSILON) / (1.0f - 3.0f * 0.5f * FLT_EPSILON);
@@ -959,7 +962,7 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
     void *mem[2] = {NULL, NULL};
     uint32_t bad_leaf = UINT32_MAX;
     uint32_t workers = 1;
-    uint32_t too_many = 0; /* nodes, when more than rtk_wide_node_limit */
+    int too_large = 0; /* more nodes or blocks than references address */
     item_job job;
     memset(&job, 0, sizeof job);
     atomic_init(&job.next, 0u);
@@ -998,8 +1001,10 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
             rtk_parallel_ranges(workers, workers, 1, count_worker, &job);
             c.failed = !number_nodes(&c, &pl);
         }
-        if (!c.failed && c.node_cap > rtk_wide_node_limit)
-            too_many = c.node_cap, c.failed = 1;
+        /* Before anything is written: references address at most
+         * rtk_wide_node_limit nodes and 2^27 blocks. */
+        if (!c.failed && (c.node_cap > rtk_wide_node_limit || c.tri_cap >= WIDE_MAX_BLOCKS))
+            too_large = 1, c.failed = 1;
         times[2] = rtk_now();
     }
     if (!c.failed) {
@@ -1058,8 +1063,6 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
         free(mem[1]);
         return rtk_bvh_leaf_error(s, bad_leaf);
     }
-    if (!c.failed && c.tri_count >= 1u << (31 - RTK_WIDE_LEAF_SHIFT))
-        c.failed = 1;
     if (!c.failed) {
         w = rtk_calloc(1, sizeof *w);
         if (!w) {
@@ -1078,9 +1081,11 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
     if (c.failed) {
         free(mem[0]);
         free(mem[1]);
-        if (too_many)
-            return rtk_error(RTK_ERR_NOMEM, "wide BVH: %u nodes, more than the %u its references address", too_many,
-                             rtk_wide_node_limit);
+        if (too_large)
+            return rtk_error(RTK_ERR_NOMEM,
+                             "wide BVH: %u nodes and %u blocks, more than its references address (%u nodes, %u "
+                             "blocks)",
+                             c.node_cap, c.tri_cap, rtk_wide_node_limit, WIDE_MAX_BLOCKS - 1);
         return rtk_error(RTK_ERR_NOMEM, "wide BVH: out of memory or tree too deep");
     }
     s->wide = w;

@@ -55,8 +55,9 @@ typedef enum rtk_simd_path {
  * (its index times 256), or with RTK_WIDE_LEAF set a leaf: first block <<
  * RTK_WIDE_LEAF_SHIFT | (block count - 1). Offsets below 2^31 leave room
  * for RTK_WIDE_MAX_NODES nodes (2 GiB of them, the tree of about 125
- * million triangles); a larger tree is not built and the scene keeps the
- * binary traversal. */
+ * million triangles), the leaf's field for 2^27 blocks; a larger tree is
+ * not built (rtk_wide_build says which numbers it exceeds) and the scene
+ * keeps the binary traversal. */
 #define RTK_WIDE_LEAF 0x80000000u
 #define RTK_WIDE_LEAF_SHIFT 4
 #define RTK_WIDE_LEAF_BLOCKS 16

@@ -441,7 +441,8 @@ static void check_node_limit(rtk_scene *s, const char *mesh, const char *builder
     s->wide = NULL;
     rtk_status st = rtk_wide_build(s, 2, NULL, 0, 0);
     char want[96];
-    snprintf(want, sizeof want, "%u nodes, more than the %u", nodes, nodes - 1);
+    snprintf(want, sizeof want, "%u nodes and %u blocks, more than its references address (%u nodes,", nodes,
+             made->tri_block_count, nodes - 1);
     check(st == RTK_ERR_NOMEM && !s->wide && strstr(rtk_error_message(), want),
           "%s / %s: a wide tree of more nodes than the limit is refused: \"%s\"", mesh, builder,
           rtk_error_message());
