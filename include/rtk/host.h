@@ -61,6 +61,7 @@ typedef struct rtk_config_options {
     int allow_config_plugins;     /* honour plugin_path and plugins given as paths */
     const char *const *overrides; /* "integrator.rays=64" ... */
     size_t override_count;
+    int allow_outside_files;      /* let the scene read files outside its and the config's folders */
 } rtk_config_options;
 
 /* Parses path, applies overrides, resolves the plugins through registry
