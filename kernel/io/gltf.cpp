@@ -9,7 +9,11 @@
 
 #include <tiny_gltf.h>
 
+#include <sys/stat.h>
+
+#include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
@@ -32,6 +36,9 @@ const int max_depth = 256;
 const size_t max_node_visits = size_t(1) << 20;
 /* At most this many tinygltf warnings are printed per file. */
 const size_t max_messages = 20;
+/* Deepest JSON nesting accepted: tinygltf's parser recurses per level
+ * (15,000 levels overflow the stack); glTF's own structure needs 7. */
+const int max_json_depth = 100;
 
 const double pi = 3.14159265358979323846;
 
@@ -321,6 +328,22 @@ float clamp01(float v) { return v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v; }
 const char *const supported_required[] = {"KHR_materials_emissive_strength", "KHR_materials_ior",
                                           "KHR_materials_transmission", "KHR_lights_punctual"};
 
+bool supported_extension(const std::string &name)
+{
+    for (const char *s : supported_required)
+        if (name == s)
+            return true;
+    return false;
+}
+
+rtk_status refuse_extension(const char *path, const std::string &name)
+{
+    return rtk_error(RTK_ERR_UNSUPPORTED,
+                     "%s: the file requires the glTF extension %s, which rtk does not support; "
+                     "export the scene without it",
+                     path, name.c_str());
+}
+
 class Loader {
   public:
     Loader(const char *path, rtk_scene *scene, const tinygltf::Model &model)
@@ -433,16 +456,9 @@ rtk_status Loader::view(int index, const Where &where, const std::vector<int> &c
 
 rtk_status Loader::check_extensions()
 {
-    for (const std::string &ext : model_.extensionsRequired) {
-        bool ok = false;
-        for (const char *s : supported_required)
-            ok = ok || ext == s;
-        if (!ok)
-            return rtk_error(RTK_ERR_UNSUPPORTED,
-                             "%s: the file requires the glTF extension %s, which rtk does not support; "
-                             "export the scene without it",
-                             path_, ext.c_str());
-    }
+    for (const std::string &ext : model_.extensionsRequired)
+        if (!supported_extension(ext))
+            return refuse_extension(path_, ext);
     return RTK_OK;
 }
 
@@ -1012,10 +1028,142 @@ rtk_status Loader::run()
     return RTK_OK;
 }
 
+/* What rtk reads of the JSON text before tinygltf parses it. */
+struct Prescan {
+    std::vector<std::string> required; /* extensionsRequired */
+    std::string version;               /* asset.version */
+};
+
+/* The JSON string whose opening quote is t[*i]; *i is left past its
+ * closing quote. Escapes other than \" \\ \/ are kept as written. */
+std::string json_string(const char *t, size_t n, size_t *i)
+{
+    std::string out;
+    size_t k = *i + 1;
+    while (k < n && t[k] != '"') {
+        if (t[k] == '\\' && k + 1 < n) {
+            const char c = t[k + 1];
+            if (c != '"' && c != '\\' && c != '/')
+                out += '\\';
+            out += c;
+            k += 2;
+        } else {
+            out += t[k++];
+        }
+    }
+    *i = k < n ? k + 1 : n;
+    return out;
+}
+
+/* Scans the JSON text (strings skipped as such) for its nesting depth,
+ * refused past max_json_depth since tinygltf's parser recurses once per
+ * level, and for the required extensions and the version. Malformed JSON
+ * is left to tinygltf to report. */
+rtk_status prescan_json(const char *path, const char *t, size_t n, Prescan *out)
+{
+    std::vector<char> open;        /* '{' or '[' per open level */
+    std::vector<std::string> keys; /* the last key read at each level */
+    size_t i = 0;
+    while (i < n) {
+        const char c = t[i];
+        if (c == '"') {
+            std::string str = json_string(t, n, &i);
+            size_t j = i;
+            while (j < n && (t[j] == ' ' || t[j] == '\t' || t[j] == '\r' || t[j] == '\n'))
+                j++;
+            const size_t d = open.size();
+            if (d > 0 && open[d - 1] == '{' && j < n && t[j] == ':') {
+                keys[d - 1] = str;
+                i = j + 1;
+            } else if (d == 2 && open[1] == '[' && keys[0] == "extensionsRequired") {
+                out->required.push_back(str);
+            } else if (d == 2 && open[1] == '{' && keys[0] == "asset" && keys[1] == "version") {
+                out->version = str;
+            }
+            continue;
+        }
+        if (c == '{' || c == '[') {
+            if (open.size() >= size_t(max_json_depth))
+                return rtk_error(RTK_ERR_PARSE, "%s: line %zu: the JSON is nested more than %d levels deep, "
+                                 "rtk's limit (tinygltf's parser could not read it safely)",
+                                 path, size_t(std::count(t, t + i, '\n')) + 1, max_json_depth);
+            open.push_back(c);
+            keys.emplace_back();
+        } else if ((c == '}' || c == ']') && !open.empty()) {
+            open.pop_back();
+            keys.pop_back();
+        }
+        i++;
+    }
+    return RTK_OK;
+}
+
+rtk_status refuse_version(const char *path, const std::string &version)
+{
+    return rtk_error(RTK_ERR_UNSUPPORTED, "%s: the file is glTF %s; rtk reads glTF 2.0", path,
+                     version.empty() ? "of unknown version" : version.c_str());
+}
+
 bool has_extension(const char *path, const char *ext)
 {
     size_t n = std::strlen(path), e = std::strlen(ext);
     return n >= e && strcasecmp(path + n - e, ext) == 0;
+}
+
+uint32_t read_u32le(const unsigned char *p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24; }
+
+/* The whole file; only a regular file of less than 4 GiB (tinygltf takes
+ * 32-bit lengths). */
+rtk_status read_whole(const char *path, std::vector<unsigned char> *out)
+{
+    FILE *f = std::fopen(path, "rb");
+    if (!f)
+        return rtk_error(RTK_ERR_IO, "%s: cannot open: %s", path, std::strerror(errno));
+    struct stat st;
+    rtk_status status = RTK_OK;
+    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode))
+        status = rtk_error(RTK_ERR_IO, "%s: not a regular file", path);
+    else if (uint64_t(st.st_size) >= (uint64_t(1) << 32))
+        status = rtk_error(RTK_ERR_UNSUPPORTED, "%s: %lld bytes; rtk reads glTF files of less than 4 GiB", path,
+                           (long long)st.st_size);
+    if (status == RTK_OK) {
+        out->resize(size_t(st.st_size));
+        if (!out->empty() && std::fread(out->data(), 1, out->size(), f) != out->size())
+            status = rtk_error(RTK_ERR_IO, "%s: read failed", path);
+    }
+    std::fclose(f);
+    return status;
+}
+
+/* Checks the file before tinygltf parses it: glTF 1.0 binaries, JSON
+ * nesting, the version and required extensions (refused with rtk's own
+ * message rather than tinygltf's failure on the data they change). */
+rtk_status prescan(const char *path, const std::vector<unsigned char> &bytes, bool *binary)
+{
+    const unsigned char *b = bytes.data();
+    const size_t n = bytes.size();
+    *binary = has_extension(path, ".glb") || (n >= 4 && std::memcmp(b, "glTF", 4) == 0);
+    const char *json = reinterpret_cast<const char *>(b);
+    size_t json_size = n;
+    if (*binary) {
+        if (n >= 8 && std::memcmp(b, "glTF", 4) == 0 && read_u32le(b + 4) == 1)
+            return refuse_version(path, "1.0 (binary version 1)");
+        /* A version 2 header, then the JSON chunk: length and "JSON". */
+        if (n < 20 || read_u32le(b + 16) != 0x4E4F534Au || read_u32le(b + 12) > n - 20)
+            return RTK_OK; /* tinygltf says what is wrong */
+        json += 20;
+        json_size = read_u32le(b + 12);
+    }
+    Prescan scan;
+    rtk_status status = prescan_json(path, json, json_size, &scan);
+    if (status != RTK_OK)
+        return status;
+    if (!scan.version.empty() && !starts_with(scan.version, "2."))
+        return refuse_version(path, scan.version);
+    for (const std::string &ext : scan.required)
+        if (!supported_extension(ext))
+            return refuse_extension(path, ext);
+    return RTK_OK;
 }
 
 rtk_status load(const char *path, rtk_scene *scene)
@@ -1024,8 +1172,15 @@ rtk_status load(const char *path, rtk_scene *scene)
     gltf.SetImageLoader(keep_image, NULL);
     tinygltf::Model model;
     std::string err, warn;
-    bool ok = has_extension(path, ".glb") ? gltf.LoadBinaryFromFile(&model, &err, &warn, path)
-                                          : gltf.LoadASCIIFromFile(&model, &err, &warn, path);
+    std::vector<unsigned char> bytes;
+    bool binary;
+    rtk_status status = read_whole(path, &bytes);
+    if (status != RTK_OK || (status = prescan(path, bytes, &binary)) != RTK_OK)
+        return status;
+    const std::string base = take(rtk_path_dirname(path));
+    bool ok = binary ? gltf.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), base)
+                     : gltf.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char *>(bytes.data()),
+                                                unsigned(bytes.size()), base);
     log_warnings(path, warn);
     if (!ok)
         return rtk_error(RTK_ERR_PARSE, "%s: %s", path, one_line(err).c_str());
