@@ -267,6 +267,8 @@ size_t component_count(int type)
     case TINYGLTF_TYPE_SCALAR: return 1;
     case TINYGLTF_TYPE_VEC2: return 2;
     case TINYGLTF_TYPE_VEC3: return 3;
+    case TINYGLTF_TYPE_VEC4: return 4;
+    case TINYGLTF_TYPE_MAT4: return 16;
     default: return 0;
     }
 }
@@ -278,36 +280,33 @@ float read_float(const unsigned char *p)
     return f;
 }
 
-/* Component k of element i as a float (normalized integers in [0, 1]). */
-float read_component(const View &v, size_t i, size_t k)
+/* Component k of element i; normalized integers map to [0, 1] (unsigned)
+ * or [-1, 1] (signed), as glTF and KHR_mesh_quantization define them. */
+double read_component(const View &v, size_t i, size_t k)
 {
     const unsigned char *p = v.data + i * v.stride + k * component_size(v.component);
     switch (v.component) {
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return float(p[0]) / 255.0f;
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        const double c = double(int8_t(p[0]));
+        return v.normalized ? std::max(c / 127.0, -1.0) : c;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return v.normalized ? p[0] / 255.0 : p[0];
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        int16_t c;
+        std::memcpy(&c, p, sizeof c);
+        return v.normalized ? std::max(c / 32767.0, -1.0) : c;
+    }
     case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
         uint16_t u;
         std::memcpy(&u, p, sizeof u);
-        return float(u) / 65535.0f;
+        return v.normalized ? u / 65535.0 : u;
     }
-    default: return read_float(p);
-    }
-}
-
-uint32_t read_index(const View &v, size_t i)
-{
-    const unsigned char *p = v.data + i * v.stride;
-    switch (v.component) {
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return p[0];
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-        uint16_t u;
-        std::memcpy(&u, p, sizeof u);
-        return u;
-    }
-    default: {
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
         uint32_t u;
         std::memcpy(&u, p, sizeof u);
         return u;
     }
+    default: return read_float(p);
     }
 }
 
@@ -323,10 +322,17 @@ float clean(double v, float fallback) { return std::isfinite(v) ? float(v) : fal
 
 float clamp01(float v) { return v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v; }
 
+/* Component types of vertex attributes: float, and the integer types of
+ * KHR_mesh_quantization (normalized or not). */
+const std::vector<int> vertex_components = {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE,
+                                            TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT,
+                                            TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT};
+
 /* Extensions whose "required" use rtk honours; any other required
  * extension changes the meaning of the data, so the file is refused. */
 const char *const supported_required[] = {"KHR_materials_emissive_strength", "KHR_materials_ior",
-                                          "KHR_materials_transmission", "KHR_lights_punctual"};
+                                          "KHR_materials_transmission", "KHR_lights_punctual",
+                                          "KHR_mesh_quantization"};
 
 bool supported_extension(const std::string &name)
 {
@@ -388,7 +394,14 @@ class Loader {
     rtk_status take_light(int index, const Mat4 &world);
     rtk_status add_primitive(int mesh, int primitive, const Mat4 &world, rtk_scene *dst);
     rtk_status add_instance(int node, int mesh, const Mat4 &world);
-    rtk_status view(int accessor, const Where &where, const std::vector<int> &components, int type, View *out);
+    /* Validates count elements of elem bytes from offset in buffer view
+     * index (its stride unless packed) for accessor; part prefixes messages. */
+    rtk_status locate(const Where &where, int accessor, const char *part, int index, size_t offset, size_t count,
+                      size_t elem, bool packed, View *out);
+    /* Accessor index's elements, components in a row, normalized
+     * integers mapped to floats and sparse values applied. */
+    rtk_status read(int accessor, const Where &where, const std::vector<int> &components, int type,
+                    std::vector<double> *out);
     rtk_status fail(const Where &where, int accessor, const char *fmt, ...) RTK_PRINTF(4, 5);
     std::string node_label(int index) const { return label("node", size_t(index), model_.nodes[size_t(index)].name); }
     std::string mesh_label(int index) const { return label("mesh", size_t(index), model_.meshes[size_t(index)].name); }
@@ -405,13 +418,42 @@ rtk_status Loader::fail(const Where &where, int accessor, const char *fmt, ...)
                      where.primitive, where.what, accessor, problem);
 }
 
-rtk_status Loader::view(int index, const Where &where, const std::vector<int> &components, int type, View *out)
+rtk_status Loader::locate(const Where &where, int accessor, const char *part, int index, size_t offset, size_t count,
+                          size_t elem, bool packed, View *out)
+{
+    if (index < 0 || size_t(index) >= model_.bufferViews.size())
+        return fail(where, accessor, "%sbuffer view %d does not exist (the file has %zu)", part, index,
+                    model_.bufferViews.size());
+    const tinygltf::BufferView &bv = model_.bufferViews[size_t(index)];
+    if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size())
+        return fail(where, accessor, "%sbuffer view %d uses buffer %d, which does not exist (the file has %zu)", part,
+                    index, bv.buffer, model_.buffers.size());
+    const size_t buffer_size = model_.buffers[size_t(bv.buffer)].data.size();
+    if (bv.byteOffset > buffer_size || bv.byteLength > buffer_size - bv.byteOffset)
+        return fail(where, accessor, "%sbuffer view %d (%zu bytes from offset %zu) does not fit in buffer %d (%zu bytes)",
+                    part, index, bv.byteLength, bv.byteOffset, bv.buffer, buffer_size);
+    const size_t stride = bv.byteStride && !packed ? bv.byteStride : elem;
+    if (stride < elem)
+        return fail(where, accessor, "%sbyte stride %zu is smaller than one element (%zu bytes)", part, stride, elem);
+    out->data = NULL;
+    if (count) {
+        const size_t last = count - 1;
+        if (last > (SIZE_MAX - elem) / stride || offset > bv.byteLength || last * stride + elem > bv.byteLength - offset)
+            return fail(where, accessor, "%s%zu elements of %zu bytes, %zu apart, from offset %zu do not fit in buffer "
+                        "view %d (%zu bytes)", part, count, elem, stride, offset, index, bv.byteLength);
+        out->data = model_.buffers[size_t(bv.buffer)].data.data() + bv.byteOffset + offset;
+    }
+    out->count = count;
+    out->stride = stride;
+    return RTK_OK;
+}
+
+rtk_status Loader::read(int index, const Where &where, const std::vector<int> &components, int type,
+                        std::vector<double> *out)
 {
     if (index < 0 || size_t(index) >= model_.accessors.size())
         return fail(where, index, "no such accessor (the file has %zu)", model_.accessors.size());
     const tinygltf::Accessor &acc = model_.accessors[size_t(index)];
-    if (acc.sparse.isSparse)
-        return fail(where, index, "sparse accessors are not supported");
     bool known = false;
     std::string expected;
     for (int c : components) {
@@ -423,34 +465,51 @@ rtk_status Loader::view(int index, const Where &where, const std::vector<int> &c
                     acc.componentType, expected.c_str());
     if (acc.type != type)
         return fail(where, index, "type %s, expected %s", type_name(acc.type), type_name(type));
-    if (acc.bufferView < 0 || size_t(acc.bufferView) >= model_.bufferViews.size())
-        return fail(where, index, "buffer view %d does not exist (the file has %zu)", acc.bufferView,
-                    model_.bufferViews.size());
-    const tinygltf::BufferView &bv = model_.bufferViews[size_t(acc.bufferView)];
-    if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size())
-        return fail(where, index, "buffer view %d uses buffer %d, which does not exist (the file has %zu)",
-                    acc.bufferView, bv.buffer, model_.buffers.size());
-    const size_t buffer_size = model_.buffers[size_t(bv.buffer)].data.size();
-    if (bv.byteOffset > buffer_size || bv.byteLength > buffer_size - bv.byteOffset)
-        return fail(where, index, "buffer view %d (%zu bytes from offset %zu) does not fit in buffer %d (%zu bytes)",
-                    acc.bufferView, bv.byteLength, bv.byteOffset, bv.buffer, buffer_size);
-    const size_t elem = component_size(acc.componentType) * component_count(type);
-    const size_t stride = bv.byteStride ? bv.byteStride : elem;
-    if (stride < elem)
-        return fail(where, index, "byte stride %zu is smaller than one element (%zu bytes)", stride, elem);
-    if (acc.count) {
-        const size_t last = acc.count - 1;
-        if (last > (SIZE_MAX - elem) / stride || acc.byteOffset > bv.byteLength ||
-            last * stride + elem > bv.byteLength - acc.byteOffset)
-            return fail(where, index, "%zu elements of %zu bytes, %zu apart, from offset %zu do not fit in buffer "
-                        "view %d (%zu bytes)", acc.count, elem, stride, acc.byteOffset, acc.bufferView,
-                        bv.byteLength);
-        out->data = model_.buffers[size_t(bv.buffer)].data.data() + bv.byteOffset + acc.byteOffset;
+    const size_t n = component_count(type), elem = component_size(acc.componentType) * n;
+    if (acc.count > (SIZE_MAX / sizeof(double)) / n)
+        return fail(where, index, "%zu elements is more than rtk can hold", acc.count);
+    View v;
+    v.component = acc.componentType;
+    v.normalized = acc.normalized;
+    /* A sparse accessor without a buffer view starts as zeros. */
+    if (acc.bufferView >= 0 || !acc.sparse.isSparse) {
+        rtk_status status = locate(where, index, "", acc.bufferView, acc.byteOffset, acc.count, elem, false, &v);
+        if (status != RTK_OK)
+            return status;
     }
-    out->count = acc.count;
-    out->stride = stride;
-    out->component = acc.componentType;
-    out->normalized = acc.normalized;
+    out->assign(acc.count * n, 0.0);
+    for (size_t i = 0; v.data && i < acc.count; i++)
+        for (size_t k = 0; k < n; k++)
+            (*out)[i * n + k] = read_component(v, i, k);
+    if (!acc.sparse.isSparse)
+        return RTK_OK;
+    /* Sparse: count (index, value) pairs replace elements of the base. */
+    const int sc = acc.sparse.count, ic = acc.sparse.indices.componentType;
+    if (sc < 1 || size_t(sc) > acc.count)
+        return fail(where, index, "sparse count %d, expected 1 to the accessor's %zu", sc, acc.count);
+    if (ic != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && ic != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+        ic != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        return fail(where, index, "sparse indices of component type %s (%d), expected UNSIGNED_BYTE, UNSIGNED_SHORT or "
+                    "UNSIGNED_INT", component_name(ic), ic);
+    if (acc.sparse.indices.byteOffset < 0 || acc.sparse.values.byteOffset < 0)
+        return fail(where, index, "negative sparse byte offset");
+    View iv, vv;
+    iv.component = ic;
+    vv.component = acc.componentType;
+    vv.normalized = acc.normalized;
+    rtk_status status = locate(where, index, "sparse indices: ", acc.sparse.indices.bufferView,
+                               size_t(acc.sparse.indices.byteOffset), size_t(sc), component_size(ic), true, &iv);
+    if (status != RTK_OK || (status = locate(where, index, "sparse values: ", acc.sparse.values.bufferView,
+                                             size_t(acc.sparse.values.byteOffset), size_t(sc), elem, true, &vv)) != RTK_OK)
+        return status;
+    for (size_t j = 0; j < size_t(sc); j++) {
+        const double target = read_component(iv, j, 0);
+        if (target >= double(acc.count))
+            return fail(where, index, "sparse index %zu is %.0f, but the accessor has %zu elements", j, target,
+                        acc.count);
+        for (size_t k = 0; k < n; k++)
+            (*out)[size_t(target) * n + k] = read_component(vv, j, k);
+    }
     return RTK_OK;
 }
 
@@ -784,48 +843,42 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, rtk_sce
         return rtk_error(RTK_ERR_PARSE, "%s: %s primitive %d has no POSITION attribute", path_,
                          mesh_label(mesh).c_str(), index);
     Where where = {mesh, index, "POSITION"};
-    View pos;
-    rtk_status status = view(attr->second, where, {TINYGLTF_COMPONENT_TYPE_FLOAT}, TINYGLTF_TYPE_VEC3, &pos);
+    std::vector<double> pos, nrm, tex;
+    rtk_status status = read(attr->second, where, vertex_components, TINYGLTF_TYPE_VEC3, &pos);
     if (status != RTK_OK)
         return status;
     const int pos_accessor = attr->second;
-    const size_t nverts = pos.count;
+    const size_t nverts = pos.size() / 3;
     if (nverts >= size_t(RTK_INVALID_ID) - dst->vertex_count)
         return rtk_error(RTK_ERR_NOMEM, "%s: more vertices than rtk can index", path_);
 
-    View nrm, tex;
     if (want_normals_ && (attr = prim.attributes.find("NORMAL")) != prim.attributes.end()) {
         where.what = "NORMAL";
-        if ((status = view(attr->second, where, {TINYGLTF_COMPONENT_TYPE_FLOAT}, TINYGLTF_TYPE_VEC3, &nrm)) != RTK_OK)
+        if ((status = read(attr->second, where, vertex_components, TINYGLTF_TYPE_VEC3, &nrm)) != RTK_OK)
             return status;
-        if (nrm.count != nverts)
-            return fail(where, attr->second, "%zu normals for %zu positions", nrm.count, nverts);
+        if (nrm.size() != pos.size())
+            return fail(where, attr->second, "%zu normals for %zu positions", nrm.size() / 3, nverts);
     }
     /* Texture coordinates also serve the alpha of cutout materials. */
     if ((want_uvs_ || dst->cutout_materials) && (attr = prim.attributes.find("TEXCOORD_0")) != prim.attributes.end()) {
         where.what = "TEXCOORD_0";
-        if ((status = view(attr->second, where,
-                           {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
-                            TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
-                           TINYGLTF_TYPE_VEC2, &tex)) != RTK_OK)
+        if ((status = read(attr->second, where, vertex_components, TINYGLTF_TYPE_VEC2, &tex)) != RTK_OK)
             return status;
-        if (tex.component != TINYGLTF_COMPONENT_TYPE_FLOAT && !tex.normalized)
-            return fail(where, attr->second, "integer texture coordinates must be normalized");
-        if (tex.count != nverts)
-            return fail(where, attr->second, "%zu texture coordinates for %zu positions", tex.count, nverts);
+        if (tex.size() / 2 != nverts)
+            return fail(where, attr->second, "%zu texture coordinates for %zu positions", tex.size() / 2, nverts);
     }
     std::vector<uint32_t> indices;
     if (prim.indices >= 0) {
         where.what = "indices";
-        View iv;
-        if ((status = view(prim.indices, where,
+        std::vector<double> iv;
+        if ((status = read(prim.indices, where,
                            {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
                             TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT},
                            TINYGLTF_TYPE_SCALAR, &iv)) != RTK_OK)
             return status;
-        indices.resize(iv.count);
-        for (size_t i = 0; i < iv.count; i++) {
-            indices[i] = read_index(iv, i);
+        indices.resize(iv.size());
+        for (size_t i = 0; i < iv.size(); i++) {
+            indices[i] = uint32_t(iv[i]);
             if (indices[i] >= nverts)
                 return fail(where, prim.indices, "index %zu is %u, but POSITION has %zu vertices", i, indices[i],
                             nverts);
@@ -837,8 +890,7 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, rtk_sce
 
     const uint32_t base = dst->vertex_count;
     for (size_t i = 0; i < nverts; i++) {
-        const unsigned char *p = pos.data + i * pos.stride;
-        double v[3] = {read_float(p), read_float(p + 4), read_float(p + 8)};
+        const double *v = &pos[i * 3];
         if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
             return fail({mesh, index, "POSITION"}, pos_accessor, "element %zu is not finite (%g, %g, %g)", i, v[0],
                         v[1], v[2]);
@@ -850,10 +902,9 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, rtk_sce
 
     double det;
     const std::array<double, 9> nm = normal_matrix(world, &det);
-    std::vector<float> normals(nrm.count * 3);
-    for (size_t i = 0; i < nrm.count; i++) {
-        const unsigned char *p = nrm.data + i * nrm.stride;
-        const double v[3] = {read_float(p), read_float(p + 4), read_float(p + 8)};
+    std::vector<float> normals(nrm.size());
+    for (size_t i = 0; i < nrm.size() / 3; i++) {
+        const double *v = &nrm[i * 3];
         double w[3];
         for (int r = 0; r < 3; r++)
             w[r] = nm[size_t(r * 3)] * v[0] + nm[size_t(r * 3 + 1)] * v[1] + nm[size_t(r * 3 + 2)] * v[2];
@@ -863,12 +914,8 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, rtk_sce
         for (int r = 0; r < 3; r++)
             normals[i * 3 + size_t(r)] = len > 0.0 ? float(w[r] / len) : 0.0f;
     }
-    std::vector<float> uvs(tex.count * 2);
-    for (size_t i = 0; i < tex.count; i++) {
-        /* glTF's convention (v = 0 at the top row) is the texture service's. */
-        uvs[i * 2] = read_component(tex, i, 0);
-        uvs[i * 2 + 1] = read_component(tex, i, 1);
-    }
+    /* glTF's convention (v = 0 at the top row) is the texture service's. */
+    std::vector<float> uvs(tex.begin(), tex.end());
 
     size_t triangles;
     if (mode == TINYGLTF_MODE_TRIANGLES) {

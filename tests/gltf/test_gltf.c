@@ -248,6 +248,97 @@ static void test_refusals(void)
     free(g);
 }
 
+/* ---- KHR_mesh_quantization and sparse accessors ---- */
+
+static int near(double a, double b, double tol) { return fabs(a - b) <= tol; }
+
+/* Corner c of triangle t of s: position, normal, uv. */
+static const float *corner_pos(const rtk_scene *s, uint32_t t, int c) { return s->positions + 3 * (size_t)s->indices[3 * t + c]; }
+
+static void test_quantization(void)
+{
+    printf("KHR_mesh_quantization\n");
+    gbuf *g = calloc(1, sizeof *g);
+    /* SHORT positions as integers, BYTE normals normalized, UNSIGNED_BYTE
+     * texture coordinates normalized and UNSIGNED_SHORT not (a quantized
+     * file scales them back with KHR_texture_transform or node scale). */
+    const int16_t pos[12] = {0, 0, 0, 4, 0, 0, 0, -4, 0, 0, 0, 0};
+    const int8_t nrm[12] = {0, 0, 127, 0, 0, -128, 0, 90, 90, 0, 0, 0};
+    const uint8_t uv[8] = {0, 255, 51, 0, 102, 0, 0, 0};
+    triangle_data(g); /* accessors 0, 1 */
+    gaccessor(g, pos, 6 * 3, 5122, 3, "VEC3", ",\"min\":[0,-4,0],\"max\":[4,0,0]");
+    gaccessor(g, nrm, 12, 5120, 3, "VEC3", ",\"normalized\":true");
+    gaccessor(g, uv, 6, 5121, 3, "VEC2", ",\"normalized\":true");
+    const char *body = "\"extensionsUsed\":[\"KHR_mesh_quantization\"],"
+                       "\"extensionsRequired\":[\"KHR_mesh_quantization\"],"
+                       "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0,\"scale\":[0.25,0.25,0.25]}],"
+                       "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":2,\"NORMAL\":3,"
+                       "\"TEXCOORD_0\":4},\"indices\":1}]}]";
+    rtk_scene *s = load(write_gltf("quantized.gltf", g, body), ALL_NEEDS);
+    if (s) {
+        const float *b = corner_pos(s, 0, 1), *c = corner_pos(s, 0, 2);
+        check(s->triangle_count == 1 && b[0] == 1.0f && c[1] == -1.0f, "SHORT positions scaled by the node: (%g %g %g)",
+              b[0], c[1], c[2]);
+        const float *n = s->normals;
+        check(n && n[2] == 1.0f && n[5] == -1.0f && near(n[7], sqrt(0.5), 1e-6) && near(n[8], sqrt(0.5), 1e-6),
+              "BYTE normalized normals: +z, -z (-128 is -1), diagonal");
+        const float *t = s->uvs;
+        check(t && t[0] == 0.0f && t[1] == 1.0f && near(t[2], 0.2, 1e-7) && near(t[4], 0.4, 1e-7),
+              "UNSIGNED_BYTE normalized texture coordinates");
+    }
+    rtk_scene_free(s);
+    free(g);
+}
+
+static void test_sparse(void)
+{
+    printf("sparse accessors\n");
+    gbuf *g = calloc(1, sizeof *g);
+    triangle_data(g);
+    /* Vertex 2 of the triangle moved by a sparse accessor over accessor 0's
+     * view, and a sparse accessor with no buffer view (zeros) that sets
+     * vertices 1 and 2 of another triangle. */
+    const uint8_t which[2] = {2, 0};
+    const float moved[3] = {0, 5, 0};
+    const uint16_t which2[2] = {1, 2};
+    const float set[6] = {3, 0, 0, 0, 3, 0};
+    int iv = gview(g, which, 1), vv = gview(g, moved, sizeof moved);
+    int iv2 = gview(g, which2, 4), vv2 = gview(g, set, sizeof set);
+    char members[512];
+    snprintf(members, sizeof members,
+             "\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"sparse\":{\"count\":1,"
+             "\"indices\":{\"bufferView\":%d,\"componentType\":5121},\"values\":{\"bufferView\":%d}}",
+             iv, vv);
+    gaccessor_json(g, members); /* 2 */
+    snprintf(members, sizeof members,
+             "\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"sparse\":{\"count\":2,"
+             "\"indices\":{\"bufferView\":%d,\"componentType\":5123},\"values\":{\"bufferView\":%d}}",
+             iv2, vv2);
+    gaccessor_json(g, members); /* 3 */
+    snprintf(members, sizeof members,
+             "\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"sparse\":{\"count\":1,"
+             "\"indices\":{\"bufferView\":%d,\"componentType\":5121},"
+             "\"values\":{\"bufferView\":%d,\"byteOffset\":4}}", iv, vv);
+    gaccessor_json(g, members); /* 4: values past their view's end */
+    const char *body = "\"scenes\":[{\"nodes\":[0,1]}],\"nodes\":[{\"mesh\":0},{\"mesh\":1}],"
+                       "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":2},\"indices\":1}]},"
+                       "{\"primitives\":[{\"attributes\":{\"POSITION\":3},\"indices\":1}]}]";
+    rtk_scene *s = load(write_gltf("sparse.gltf", g, body), 0);
+    if (s) {
+        check(s->triangle_count == 2, "two triangles");
+        const float *a = corner_pos(s, 0, 0), *b = corner_pos(s, 0, 1), *c = corner_pos(s, 0, 2);
+        check(a[0] == 0 && b[0] == 1 && c[1] == 5, "sparse value replaces vertex 2 of the base view");
+        a = corner_pos(s, 1, 0), b = corner_pos(s, 1, 1), c = corner_pos(s, 1, 2);
+        check(a[0] == 0 && a[1] == 0 && b[0] == 3 && c[1] == 3, "sparse over zeros (no buffer view)");
+    }
+    rtk_scene_free(s);
+    const char *bad = "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+                      "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":4},\"indices\":1}]}]";
+    expect_refused("sparse values past their view", write_gltf("sparse_bad.gltf", g, bad), RTK_ERR_PARSE,
+                   "sparse values", "accessor 4", NULL);
+    free(g);
+}
+
 static int exists(const char *path)
 {
     struct stat st;
@@ -271,6 +362,8 @@ int main(void)
     builder_params = rtk_params_defaults(builder);
     rtk_log_set_level(RTK_LOG_ERROR);
     test_refusals();
+    test_quantization();
+    test_sparse();
     (void)load_built;
     (void)exists;
     rtk_params_destroy(builder_params);
