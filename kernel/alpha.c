@@ -48,12 +48,8 @@ int rtk_alpha_opaque(const rtk_scene *s, uint32_t prim, float u, float v)
     float cutoff;
     if (!rtk_material_cutout(m, &cutoff))
         return 1;
-    float tu = 0.0f, tv = 0.0f;
-    if (s->uvs) {
-        const float *t = s->uvs + 6 * (size_t)prim;
-        float w = 1.0f - u - v;
-        tu = w * t[0] + u * t[2] + v * t[4];
-        tv = w * t[1] + u * t[3] + v * t[5];
-    }
-    return rtk_material_alpha(s, m, tu, tv) >= cutoff;
+    rtk_vec2 uv = rtk_tex_map_uv(s, &m->alpha_uv, prim, u, v);
+    float vc[4];
+    rtk_vertex_color(s, prim, u, v, vc);
+    return rtk_material_alpha(s, m, uv.x, uv.y) * vc[3] >= cutoff;
 }

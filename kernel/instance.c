@@ -529,6 +529,10 @@ static size_t own_geometry_bytes(const rtk_scene *s)
         bytes += t * 9 * sizeof(float);
     if (s->uvs)
         bytes += t * 6 * sizeof(float);
+    if (s->uvs1)
+        bytes += t * 6 * sizeof(float);
+    if (s->colors)
+        bytes += t * 12 * sizeof(float);
     if (s->tri_material)
         bytes += t * sizeof(uint32_t);
     return bytes;

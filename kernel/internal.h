@@ -240,6 +240,16 @@ rtk_status rtk_image_write(const char *path, int width, int height, int nchannel
 
 /* ---- scene (scene_build.c, scene.c, io/obj.cpp, io/gltf.cpp) ---- */
 
+/* How a texture use reads a triangle's texture coordinates: from uv set
+ * set (0: the scene's uvs, glTF TEXCOORD_0; 1: uvs1, TEXCOORD_1), then,
+ * when transformed, through the affine map u' = m[0] u + m[1] v + m[2],
+ * v' = m[3] u + m[4] v + m[5] (glTF KHR_texture_transform). Zeroed = the
+ * uvs as they are. */
+typedef struct rtk_tex_map {
+    uint8_t set, transformed;
+    float m[6];
+} rtk_tex_map;
+
 /* Alpha handling of a material. */
 typedef enum rtk_alpha_mode { RTK_ALPHA_OPAQUE = 0, RTK_ALPHA_MASK = 1, RTK_ALPHA_BLEND = 2 } rtk_alpha_mode;
 
@@ -262,7 +272,16 @@ typedef struct rtk_material {
     /* Wrap modes per texture slot: a glTF sampler or MTL -clamp belongs to
      * the use, not the image, so one decoded image serves every use. */
     rtk_tex_wrap base_wrap, alpha_wrap, normal_wrap, emission_wrap;
+    /* Texture coordinates per slot, like the wrap modes. */
+    rtk_tex_map base_uv, alpha_uv, normal_uv, emission_uv;
 } rtk_material;
+
+/* The texture coordinates map reads on triangle prim of s at barycentrics
+ * (u, v) of its corners 1 and 2; (0, 0) when s keeps no uvs. (scene.c) */
+rtk_vec2 rtk_tex_map_uv(const struct rtk_scene *s, const rtk_tex_map *map, uint32_t prim, float u, float v);
+/* The base colour and alpha triangle prim's vertex colours (glTF COLOR_0)
+ * give at barycentrics (u, v): white and 1 without them. (scene.c) */
+void rtk_vertex_color(const struct rtk_scene *s, uint32_t prim, float u, float v, float rgba[4]);
 
 /* Material defaults: white diffuse, alpha 1, ior 1.5, no textures. */
 rtk_material rtk_material_default(void);
@@ -273,9 +292,11 @@ rtk_material rtk_material_default(void);
  * a grey image is a height map, warned about and not used. */
 int rtk_normal_map_usable(rtk_texture *tex);
 /* Bends the shading normal ns (unit, on the triangle's authored side) by
- * m's normal map at texture coordinates uv, in the tangent frame derived
- * from triangle prim's positions and uvs; returns 1 when it did. */
-int rtk_apply_normal_map(const struct rtk_scene *s, const rtk_material *m, uint32_t prim, rtk_vec2 uv, rtk_vec3 *ns);
+ * m's normal map at barycentrics (u, v) of triangle prim, in the tangent
+ * frame derived from its positions and the normal map's texture
+ * coordinates (m->normal_uv); returns 1 when it did. */
+int rtk_apply_normal_map(const struct rtk_scene *s, const rtk_material *m, uint32_t prim, float u, float v,
+                         rtk_vec3 *ns);
 
 /* ---- alpha cutouts (alpha.c) ---- */
 
@@ -323,6 +344,8 @@ struct rtk_scene {
     uint32_t *indices;           /* 3 per triangle */
     float *normals;              /* 9 per triangle (3 corners) or NULL */
     float *uvs;                  /* 6 per triangle or NULL */
+    float *uvs1;                 /* 6 per triangle, a second set (glTF TEXCOORD_1), or NULL */
+    float *colors;               /* 12 per triangle, RGBA per corner (glTF COLOR_0), or NULL */
     uint32_t *tri_material;      /* per triangle, RTK_INVALID_ID = default; NULL without materials */
     rtk_material *materials;
     uint32_t material_count, material_cap;
@@ -412,6 +435,12 @@ rtk_status rtk_scene_add_vertex(rtk_scene *scene, double x, double y, double z, 
  * ignored when the scene does not need them. */
 rtk_status rtk_scene_add_triangle(rtk_scene *scene, uint32_t a, uint32_t b, uint32_t c,
                                   const float *normals, const float *uvs, uint32_t material);
+/* Gives the last triangle added a second uv set (6 floats) and vertex
+ * colours (12: RGBA per corner); either may be NULL. Each array is made
+ * at its first use, earlier triangles getting zero uvs and white, and
+ * only when the scene needs it (uvs1: uvs; colours: materials; both for
+ * cutouts). */
+rtk_status rtk_scene_set_corners(rtk_scene *scene, const float *uvs1, const float *colors);
 rtk_status rtk_scene_add_material(rtk_scene *scene, const rtk_material *material, uint32_t *index);
 /* Records a texture by file path or by encoded bytes (copied); returns its
  * index. The same path is recorded once. */

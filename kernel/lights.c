@@ -203,10 +203,9 @@ RTK_API int rtk_scene_sample_light(const rtk_scene *s, float u_pick, rtk_vec2 u,
     out->le = m->emission;
     if (m->emission_tex >= 0 && (uint32_t)m->emission_tex < mesh->texture_count && mesh->uvs &&
         mesh->textures[m->emission_tex].decoded) {
-        const float *t = mesh->uvs + 6 * (size_t)prim;
+        rtk_vec2 uv = rtk_tex_map_uv(mesh, &m->emission_uv, prim, b1, b2);
         float texel[4];
-        rtk_texture_lookup(&mesh->textures[m->emission_tex], b0 * t[0] + b1 * t[2] + b2 * t[4],
-                           b0 * t[1] + b1 * t[3] + b2 * t[5], texel);
+        rtk_texture_lookup(&mesh->textures[m->emission_tex], uv.x, uv.y, texel);
         out->le = rtk_rgb_mul(out->le, rtk_rgb_make(texel[0], texel[1], texel[2]));
     }
     out->pdf_area = l->pick[light] / l->area[light];

@@ -46,15 +46,21 @@ static rtk_vec3 corner(const rtk_scene *s, uint32_t prim, int k)
     return rtk_vec3_make(p[0], p[1], p[2]);
 }
 
-int rtk_apply_normal_map(const rtk_scene *s, const rtk_material *m, uint32_t prim, rtk_vec2 uv, rtk_vec3 *ns)
+int rtk_apply_normal_map(const rtk_scene *s, const rtk_material *m, uint32_t prim, float u, float v, rtk_vec3 *ns)
 {
     if (m->normal_tex < 0 || (uint32_t)m->normal_tex >= s->texture_count || !s->uvs)
         return 0;
     const rtk_texture *tex = &s->textures[m->normal_tex];
     if (!tex->decoded || tex->missing || tex->normal_map_checked <= 0)
         return 0;
-    /* dp = T du + B dv over the triangle's two edges. */
-    const float *t = s->uvs + 6 * (size_t)prim;
+    /* dp = T du + B dv over the triangle's two edges, in the normal map's
+     * own (set and transformed) texture coordinates. */
+    float t[6];
+    for (int k = 0; k < 3; k++) {
+        rtk_vec2 c = rtk_tex_map_uv(s, &m->normal_uv, prim, k == 1 ? 1.0f : 0.0f, k == 2 ? 1.0f : 0.0f);
+        t[2 * k] = c.x, t[2 * k + 1] = c.y;
+    }
+    rtk_vec2 uv = rtk_tex_map_uv(s, &m->normal_uv, prim, u, v);
     rtk_vec3 p0 = corner(s, prim, 0);
     rtk_vec3 e1 = rtk_vec3_sub(corner(s, prim, 1), p0), e2 = rtk_vec3_sub(corner(s, prim, 2), p0);
     float du1 = t[2] - t[0], dv1 = t[3] - t[1], du2 = t[4] - t[0], dv2 = t[5] - t[1];

@@ -138,15 +138,16 @@ static int bary_change(rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, const double dp[3], d
 }
 
 /* The uv footprint at p on the scene's own triangle prim, (a, b, c) with
- * normal n, for differentials d; 0 when it cannot be measured. */
-static int uv_footprint(const rtk_scene *s, uint32_t prim, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, rtk_vec3 p, rtk_vec3 n,
+ * normal n, for differentials d, in the uv set uvs (6 floats per
+ * triangle); 0 when it cannot be measured. */
+static int uv_footprint(const float *uvs, uint32_t prim, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, rtk_vec3 p, rtk_vec3 n,
                         const rtk_ray_differential *d, rtk_uv_footprint *fp)
 {
     double dpx[3], dpy[3], bx[2], by[2];
     if (!plane_offset(p, n, d->rx_org, d->rx_dir, dpx) || !plane_offset(p, n, d->ry_org, d->ry_dir, dpy) ||
         !bary_change(a, b, c, dpx, bx) || !bary_change(a, b, c, dpy, by))
         return 0;
-    const float *t = s->uvs + 6 * (size_t)prim;
+    const float *t = uvs + 6 * (size_t)prim;
     double du1 = (double)t[2] - t[0], du2 = (double)t[4] - t[0];
     double dv1 = (double)t[3] - t[1], dv2 = (double)t[5] - t[1];
     fp->dudx = (float)(bx[0] * du1 + bx[1] * du2);
@@ -156,25 +157,80 @@ static int uv_footprint(const rtk_scene *s, uint32_t prim, rtk_vec3 a, rtk_vec3 
     return isfinite(fp->dudx) && isfinite(fp->dvdx) && isfinite(fp->dudy) && isfinite(fp->dvdy);
 }
 
+/* The uv set map reads: uvs1 for set 1 when the scene has it, else uvs. */
+static const float *map_set(const rtk_scene *s, const rtk_tex_map *map)
+{
+    return map->set == 1 && s->uvs1 ? s->uvs1 : s->uvs;
+}
+
+rtk_vec2 rtk_tex_map_uv(const rtk_scene *s, const rtk_tex_map *map, uint32_t prim, float u, float v)
+{
+    const float *uvs = map_set(s, map);
+    if (!uvs)
+        return (rtk_vec2){0.0f, 0.0f};
+    const float *t = uvs + 6 * (size_t)prim;
+    float w = 1.0f - u - v;
+    float tu = w * t[0] + u * t[2] + v * t[4], tv = w * t[1] + u * t[3] + v * t[5];
+    if (!map->transformed)
+        return (rtk_vec2){tu, tv};
+    const float *m = map->m;
+    return (rtk_vec2){m[0] * tu + m[1] * tv + m[2], m[3] * tu + m[4] * tv + m[5]};
+}
+
+void rtk_vertex_color(const rtk_scene *s, uint32_t prim, float u, float v, float rgba[4])
+{
+    if (!s->colors) {
+        rgba[0] = rgba[1] = rgba[2] = rgba[3] = 1.0f;
+        return;
+    }
+    const float *c = s->colors + 12 * (size_t)prim;
+    float w = 1.0f - u - v;
+    for (int k = 0; k < 4; k++)
+        rgba[k] = w * c[k] + u * c[4 + k] + v * c[8 + k];
+}
+
 /* Whether texture slot tex of the scene is decoded, so lookups read it. */
 static int usable(const rtk_scene *s, int tex)
 {
     return tex >= 0 && (uint32_t)tex < s->texture_count && s->textures[tex].decoded;
 }
 
-/* Texture tex at uv with wrap; at the footprint's level of detail when
- * fp is not NULL and the texture is filtered trilinearly. */
-static void lookup(const rtk_scene *s, int tex, rtk_tex_wrap wrap, rtk_vec2 uv, const rtk_uv_footprint *fp,
+/* A hit's texture reads: the triangle, barycentrics, and the footprint
+ * of each uv set (NULL where it was not measured). */
+typedef struct tex_query {
+    uint32_t prim;
+    float u, v;
+    const rtk_uv_footprint *fp[2];
+} tex_query;
+
+/* Texture tex through map and wrap at the query's point; at the
+ * footprint's level of detail (through map's transform) when the texture
+ * is filtered trilinearly and the footprint was measured. */
+static void lookup(const rtk_scene *s, int tex, rtk_tex_wrap wrap, const rtk_tex_map *map, const tex_query *q,
                    float texel[4])
 {
     const rtk_texture *t = &s->textures[tex];
-    float lod = fp && t->filter == RTK_TEX_TRILINEAR ? rtk_texture_lod(t, fp) : 0.0f;
+    rtk_vec2 uv = rtk_tex_map_uv(s, map, q->prim, q->u, q->v);
+    const rtk_uv_footprint *fp = q->fp[map_set(s, map) == s->uvs1 && s->uvs1 ? 1 : 0];
+    float lod = 0.0f;
+    if (fp && t->filter == RTK_TEX_TRILINEAR) {
+        rtk_uv_footprint mapped = *fp;
+        if (map->transformed) {
+            const float *m = map->m;
+            mapped.dudx = m[0] * fp->dudx + m[1] * fp->dvdx;
+            mapped.dvdx = m[3] * fp->dudx + m[4] * fp->dvdx;
+            mapped.dudy = m[0] * fp->dudy + m[1] * fp->dvdy;
+            mapped.dvdy = m[3] * fp->dudy + m[4] * fp->dvdy;
+        }
+        lod = rtk_texture_lod(t, &mapped);
+    }
     rtk_texture_sample(t, wrap, uv.x, uv.y, lod, texel);
 }
 
-static int same_wrap(rtk_tex_wrap a, rtk_tex_wrap b)
+/* Whether two slots read the same texels: the same wrap and uv map. */
+static int same_use(rtk_tex_wrap a, rtk_tex_wrap b, const rtk_tex_map *ma, const rtk_tex_map *mb)
 {
-    return a.s == b.s && a.t == b.t;
+    return a.s == b.s && a.t == b.t && memcmp(ma, mb, sizeof *ma) == 0;
 }
 
 static void surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differential *diff, const rtk_hit *hit,
@@ -228,31 +284,39 @@ static void surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differ
     out->roughness = m.roughness;
     out->transmission = m.transmission;
     out->illum = m.illum;
+    if (materials && s->colors) {
+        float vc[4];
+        rtk_vertex_color(s, hit->prim, u, v, vc);
+        out->base_color = rtk_rgb_mul(out->base_color, rtk_rgb_make(vc[0], vc[1], vc[2]));
+        out->alpha *= vc[3];
+    }
     if (s->textures && uvs && (s->needs & RTK_NEED_TEXTURES)) {
         float texel[4];
-        rtk_uv_footprint footprint;
-        const rtk_uv_footprint *fp = NULL;
+        rtk_uv_footprint footprint[2];
+        tex_query q = {hit->prim, u, v, {NULL, NULL}};
         const int slots[3] = {m.base_tex, m.alpha_tex, m.emission_tex};
         int mip = 0;
         for (int k = 0; k < 3; k++)
             mip |= usable(s, slots[k]) && s->textures[slots[k]].filter == RTK_TEX_TRILINEAR;
-        if (diff && mip && uv_footprint(s, hit->prim, a, b, c, out->p, ng, diff, &footprint))
-            fp = &footprint;
+        if (diff && mip && uv_footprint(s->uvs, hit->prim, a, b, c, out->p, ng, diff, &footprint[0]))
+            q.fp[0] = &footprint[0];
+        if (diff && mip && s->uvs1 && uv_footprint(s->uvs1, hit->prim, a, b, c, out->p, ng, diff, &footprint[1]))
+            q.fp[1] = &footprint[1];
         int alpha_done = 0;
         if (usable(s, m.base_tex)) {
-            lookup(s, m.base_tex, m.base_wrap, out->uv, fp, texel);
+            lookup(s, m.base_tex, m.base_wrap, &m.base_uv, &q, texel);
             out->base_color = rtk_rgb_mul(out->base_color, rtk_rgb_make(texel[0], texel[1], texel[2]));
-            if (m.alpha_tex == m.base_tex && same_wrap(m.alpha_wrap, m.base_wrap)) {
+            if (m.alpha_tex == m.base_tex && same_use(m.alpha_wrap, m.base_wrap, &m.alpha_uv, &m.base_uv)) {
                 out->alpha *= texel[3];
                 alpha_done = 1;
             }
         }
         if (!alpha_done && usable(s, m.alpha_tex)) {
-            lookup(s, m.alpha_tex, m.alpha_wrap, out->uv, fp, texel);
+            lookup(s, m.alpha_tex, m.alpha_wrap, &m.alpha_uv, &q, texel);
             out->alpha *= m.alpha_tex == m.base_tex ? texel[3] : rtk_texture_coverage(&s->textures[m.alpha_tex], texel);
         }
         if (usable(s, m.emission_tex)) {
-            lookup(s, m.emission_tex, m.emission_wrap, out->uv, fp, texel);
+            lookup(s, m.emission_tex, m.emission_wrap, &m.emission_uv, &q, texel);
             out->emission = rtk_rgb_mul(out->emission, rtk_rgb_make(texel[0], texel[1], texel[2]));
         }
         /* The normal map bends the normal on the authored side (so a
@@ -260,7 +324,7 @@ static void surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differ
          * which then turns to the ray's side; a bent normal that would
          * face away from the ray is not used. */
         rtk_vec3 n = out->front_face ? out->ns : rtk_vec3_neg(out->ns);
-        if (rtk_apply_normal_map(s, &m, hit->prim, out->uv, &n)) {
+        if (rtk_apply_normal_map(s, &m, hit->prim, u, v, &n)) {
             if (!out->front_face)
                 n = rtk_vec3_neg(n);
             if (rtk_vec3_dot(n, out->ng) > 0.0f)

@@ -72,6 +72,8 @@ void rtk_scene_free(rtk_scene *scene)
     free(scene->indices);
     free(scene->normals);
     free(scene->uvs);
+    free(scene->uvs1);
+    free(scene->colors);
     free(scene->tri_material);
     if (!scene->owner) { /* a glTF mesh shares its file's materials */
         for (uint32_t i = 0; i < scene->material_count; i++)
@@ -147,6 +149,9 @@ static rtk_status grow_triangles(rtk_scene *scene)
         return RTK_ERR_NOMEM;
     if ((keeps_materials(scene) || scene->cutout_materials) && !resize(&scene->tri_material, cap, sizeof(uint32_t)))
         return RTK_ERR_NOMEM;
+    if ((scene->uvs1 && !resize(&scene->uvs1, (size_t)cap * 6, sizeof(float))) ||
+        (scene->colors && !resize(&scene->colors, (size_t)cap * 12, sizeof(float))))
+        return RTK_ERR_NOMEM;
     scene->triangle_cap = cap;
     return RTK_OK;
 }
@@ -178,7 +183,44 @@ rtk_status rtk_scene_add_triangle(rtk_scene *scene, uint32_t a, uint32_t b, uint
     }
     if (scene->tri_material)
         scene->tri_material[t] = material;
+    /* Until rtk_scene_set_corners says otherwise: no second set, white. */
+    if (scene->uvs1)
+        memset(scene->uvs1 + t * 6, 0, 6 * sizeof(float));
+    for (size_t k = 0; scene->colors && k < 12; k++)
+        scene->colors[t * 12 + k] = 1.0f;
     scene->triangle_count++;
+    return RTK_OK;
+}
+
+/* *array (per triangle, size floats each, made on first use): the
+ * capacity's worth, earlier triangles set to fill. 0 when out of memory. */
+static int corner_array(const rtk_scene *scene, float **array, size_t size, float fill)
+{
+    if (*array)
+        return 1;
+    size_t cap = scene->triangle_cap, n = (size_t)scene->triangle_count * size;
+    if (!(*array = rtk_alloc(cap * size * sizeof(float))))
+        return 0;
+    for (size_t i = 0; i < n; i++)
+        (*array)[i] = fill;
+    return 1;
+}
+
+rtk_status rtk_scene_set_corners(rtk_scene *scene, const float *uvs1, const float *colors)
+{
+    if (!scene->triangle_count)
+        return RTK_OK;
+    size_t t = scene->triangle_count - 1;
+    if (uvs1 && (keeps_uvs(scene) || scene->cutout_materials)) {
+        if (!corner_array(scene, &scene->uvs1, 6, 0.0f))
+            return RTK_ERR_NOMEM;
+        memcpy(scene->uvs1 + t * 6, uvs1, 6 * sizeof(float));
+    }
+    if (colors && (keeps_materials(scene) || scene->cutout_materials)) {
+        if (!corner_array(scene, &scene->colors, 12, 1.0f))
+            return RTK_ERR_NOMEM;
+        memcpy(scene->colors + t * 12, colors, 12 * sizeof(float));
+    }
     return RTK_OK;
 }
 
@@ -392,6 +434,8 @@ static void shrink_arrays(rtk_scene *scene)
     shrink(&scene->indices, t * 3 * sizeof(uint32_t));
     shrink(&scene->normals, t * 9 * sizeof(float));
     shrink(&scene->uvs, t * 6 * sizeof(float));
+    shrink(&scene->uvs1, t * 6 * sizeof(float));
+    shrink(&scene->colors, t * 12 * sizeof(float));
     shrink(&scene->tri_material, t * sizeof(uint32_t));
     if (scene->positions)
         scene->vertex_cap = (uint32_t)v;
@@ -472,6 +516,10 @@ rtk_status rtk_scene_finish(rtk_scene *scene)
                 memmove(scene->normals + (size_t)kept * 9, scene->normals + (size_t)t * 9, 9 * sizeof(float));
             if (scene->uvs)
                 memmove(scene->uvs + (size_t)kept * 6, scene->uvs + (size_t)t * 6, 6 * sizeof(float));
+            if (scene->uvs1)
+                memmove(scene->uvs1 + (size_t)kept * 6, scene->uvs1 + (size_t)t * 6, 6 * sizeof(float));
+            if (scene->colors)
+                memmove(scene->colors + (size_t)kept * 12, scene->colors + (size_t)t * 12, 12 * sizeof(float));
             if (scene->tri_material)
                 scene->tri_material[kept] = scene->tri_material[t];
         }
@@ -479,6 +527,8 @@ rtk_status rtk_scene_finish(rtk_scene *scene)
             fix_normals(scene->normals + (size_t)kept * 9, cross);
         if (scene->uvs)
             fix_uvs(scene->uvs + (size_t)kept * 6);
+        if (scene->uvs1)
+            fix_uvs(scene->uvs1 + (size_t)kept * 6);
         const uint32_t *kv = scene->indices + (size_t)kept * 3;
         for (int k = 0; k < 3; k++)
             grow_bounds(&bounds, scene->positions + (size_t)kv[k] * 3);

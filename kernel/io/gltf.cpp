@@ -332,7 +332,7 @@ const std::vector<int> vertex_components = {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYG
  * extension changes the meaning of the data, so the file is refused. */
 const char *const supported_required[] = {"KHR_materials_emissive_strength", "KHR_materials_ior",
                                           "KHR_materials_transmission", "KHR_lights_punctual",
-                                          "KHR_mesh_quantization"};
+                                          "KHR_mesh_quantization", "KHR_texture_transform"};
 
 bool supported_extension(const std::string &name)
 {
@@ -356,6 +356,7 @@ class Loader {
         : path_(path), scene_(scene), model_(model), dir_(take(rtk_path_dirname(path))),
           want_normals_((scene->needs & RTK_NEED_NORMALS) != 0),
           want_uvs_((scene->needs & (RTK_NEED_UVS | RTK_NEED_TEXTURES)) != 0),
+          want_colors_((scene->needs & (RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS)) != 0),
           on_path_(model.nodes.size(), 0), mesh_uses_(model.meshes.size(), 0),
           mesh_index_(model.meshes.size(), RTK_INVALID_ID)
     {
@@ -371,7 +372,7 @@ class Loader {
     rtk_scene *scene_;
     const tinygltf::Model &model_;
     std::string dir_;
-    bool want_normals_, want_uvs_;
+    bool want_normals_, want_uvs_, want_colors_;
     std::vector<char> on_path_;
     /* Nodes using each mesh: a mesh used by more than one is instanced
      * (one copy in object space, its own BVH) instead of flattened. */
@@ -381,6 +382,8 @@ class Loader {
     size_t visits_ = 0;
     size_t skipped_primitives_ = 0, ragged_primitives_ = 0;
     bool ortho_warned_ = false, other_uv_sets_ = false;
+    bool uses_uv1_ = false;   /* a texture reads TEXCOORD_1 */
+    bool alpha_uv1_ = false;  /* a cutout's alpha does */
     std::vector<uint32_t> materials_;
     std::map<std::pair<int, int>, int> textures_; /* (image, srgb) -> scene texture */
 
@@ -388,6 +391,8 @@ class Loader {
     rtk_status add_materials();
     rtk_status add_texture(size_t material, const char *slot, int index, int srgb, int *out, rtk_tex_wrap *wrap);
     rtk_tex_wrap sampler_wrap(size_t material, const char *slot, const tinygltf::Texture &tex);
+    /* A texture use's uv set (texCoord) and KHR_texture_transform. */
+    rtk_tex_map tex_map(size_t material, const char *slot, int tex_coord, const tinygltf::ExtensionMap &extensions);
     rtk_status visit(int index, const Mat4 &parent, int depth);
     rtk_status local_matrix(int index, Mat4 *out);
     void take_camera(int index, const Mat4 &world);
@@ -519,6 +524,45 @@ rtk_status Loader::check_extensions()
         if (!supported_extension(ext))
             return refuse_extension(path_, ext);
     return RTK_OK;
+}
+
+rtk_tex_map Loader::tex_map(size_t material, const char *slot, int tex_coord, const tinygltf::ExtensionMap &extensions)
+{
+    rtk_tex_map map = {};
+    int set = tex_coord;
+    tinygltf::ExtensionMap::const_iterator ext = extensions.find("KHR_texture_transform");
+    if (ext != extensions.end() && ext->second.IsObject()) {
+        const tinygltf::Value &t = ext->second;
+        double offset[2] = {0.0, 0.0}, scale[2] = {1.0, 1.0};
+        const tinygltf::Value &o = t.Get("offset"), &sc = t.Get("scale");
+        for (int k = 0; k < 2; k++) {
+            if (o.IsArray() && o.ArrayLen() == 2)
+                offset[k] = number(o.Get(k), 0.0);
+            if (sc.IsArray() && sc.ArrayLen() == 2)
+                scale[k] = number(sc.Get(k), 1.0);
+        }
+        const double r = number(t.Get("rotation"), 0.0), c = std::cos(r), s = std::sin(r);
+        if (t.Has("texCoord"))
+            set = int(number(t.Get("texCoord"), double(set)));
+        /* translation * rotation * scale; the rotation's rows are the
+         * extension's mat3(cos, sin, 0, -sin, cos, 0, ...) read row by row,
+         * as conforming viewers apply it (TextureTransformTest's marks). */
+        const double m[6] = {c * scale[0], s * scale[1], offset[0], -s * scale[0], c * scale[1], offset[1]};
+        for (int k = 0; k < 6; k++)
+            map.m[k] = float(m[k]);
+        map.transformed = 1;
+    }
+    if (set != 0 && set != 1) {
+        if (!other_uv_sets_)
+            rtk_log(RTK_LOG_WARN, "%s: %s %s reads TEXCOORD_%d; rtk reads TEXCOORD_0 and TEXCOORD_1 and uses "
+                    "TEXCOORD_0 there", path_, label("material", material, model_.materials[material].name).c_str(),
+                    slot, set);
+        other_uv_sets_ = true;
+        set = 0;
+    }
+    map.set = uint8_t(set);
+    uses_uv1_ = uses_uv1_ || set == 1;
+    return map;
 }
 
 /* One axis of a glTF sampler: 10497 REPEAT (the default), 33071
@@ -658,12 +702,9 @@ rtk_status Loader::add_materials()
             rtk_log(RTK_LOG_WARN, "%s: %s has alphaMode '%s'; treated as OPAQUE", path_,
                     label("material", i, src.name).c_str(), src.alphaMode.c_str());
         }
-        if (!other_uv_sets_ && (pbr.baseColorTexture.texCoord != 0 || src.emissiveTexture.texCoord != 0 ||
-                                src.normalTexture.texCoord != 0)) {
-            rtk_log(RTK_LOG_WARN, "%s: %s maps a texture with a TEXCOORD other than TEXCOORD_0; rtk uses "
-                    "TEXCOORD_0 for every texture", path_, label("material", i, src.name).c_str());
-            other_uv_sets_ = true;
-        }
+        m.base_uv = tex_map(i, "baseColorTexture", pbr.baseColorTexture.texCoord, pbr.baseColorTexture.extensions);
+        m.emission_uv = tex_map(i, "emissiveTexture", src.emissiveTexture.texCoord, src.emissiveTexture.extensions);
+        m.normal_uv = tex_map(i, "normalTexture", src.normalTexture.texCoord, src.normalTexture.extensions);
         rtk_status status;
         if ((status = add_texture(i, "baseColorTexture", pbr.baseColorTexture.index, 1, &m.base_tex, &m.base_wrap)) !=
                 RTK_OK ||
@@ -675,6 +716,8 @@ rtk_status Loader::add_materials()
         if (m.alpha_mode != RTK_ALPHA_OPAQUE) {
             m.alpha_tex = m.base_tex;
             m.alpha_wrap = m.base_wrap;
+            m.alpha_uv = m.base_uv;
+            alpha_uv1_ = alpha_uv1_ || m.alpha_uv.set == 1;
         }
         if ((status = rtk_scene_add_material(scene_, &m, &materials_[i])) != RTK_OK)
             return status;
@@ -867,6 +910,40 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, rtk_sce
         if (tex.size() / 2 != nverts)
             return fail(where, attr->second, "%zu texture coordinates for %zu positions", tex.size() / 2, nverts);
     }
+    /* The second set when a texture reads it; a primitive without it
+     * gives those textures TEXCOORD_0. */
+    std::vector<double> tex1;
+    if ((want_uvs_ && uses_uv1_) || (dst->cutout_materials && alpha_uv1_)) {
+        if ((attr = prim.attributes.find("TEXCOORD_1")) != prim.attributes.end()) {
+            where.what = "TEXCOORD_1";
+            if ((status = read(attr->second, where, vertex_components, TINYGLTF_TYPE_VEC2, &tex1)) != RTK_OK)
+                return status;
+            if (tex1.size() / 2 != nverts)
+                return fail(where, attr->second, "%zu texture coordinates for %zu positions", tex1.size() / 2, nverts);
+        } else {
+            tex1 = tex;
+        }
+    }
+    /* Vertex colours (RGB or RGBA) multiply the base colour and alpha. */
+    std::vector<float> colors;
+    if ((want_colors_ || dst->cutout_materials) && (attr = prim.attributes.find("COLOR_0")) != prim.attributes.end()) {
+        where.what = "COLOR_0";
+        const bool rgb = size_t(attr->second) < model_.accessors.size() &&
+                         model_.accessors[size_t(attr->second)].type == TINYGLTF_TYPE_VEC3;
+        std::vector<double> c;
+        if ((status = read(attr->second, where,
+                           {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                            TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+                           rgb ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4, &c)) != RTK_OK)
+            return status;
+        const size_t k = rgb ? 3 : 4;
+        if (c.size() / k != nverts)
+            return fail(where, attr->second, "%zu colours for %zu positions", c.size() / k, nverts);
+        colors.assign(nverts * 4, 1.0f);
+        for (size_t i = 0; i < nverts; i++)
+            for (size_t j = 0; j < k; j++)
+                colors[i * 4 + j] = std::isfinite(c[i * k + j]) ? clamp01(float(c[i * k + j])) : 1.0f;
+    }
     std::vector<uint32_t> indices;
     if (prim.indices >= 0) {
         where.what = "indices";
@@ -915,7 +992,7 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, rtk_sce
             normals[i * 3 + size_t(r)] = len > 0.0 ? float(w[r] / len) : 0.0f;
     }
     /* glTF's convention (v = 0 at the top row) is the texture service's. */
-    std::vector<float> uvs(tex.begin(), tex.end());
+    std::vector<float> uvs(tex.begin(), tex.end()), uvs1(tex1.begin(), tex1.end());
 
     size_t triangles;
     if (mode == TINYGLTF_MODE_TRIANGLES) {
@@ -939,15 +1016,21 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, rtk_sce
             v[k] = prim.indices >= 0 ? indices[c[k]] : uint32_t(c[k]);
         if (mirrored)
             std::swap(v[1], v[2]);
-        float tn[9], tuv[6];
+        float tn[9], tuv[6], tuv1[6], tc[12];
         for (int k = 0; k < 3; k++) {
             if (!normals.empty())
                 std::memcpy(tn + k * 3, &normals[size_t(v[k]) * 3], 3 * sizeof(float));
             if (!uvs.empty())
                 std::memcpy(tuv + k * 2, &uvs[size_t(v[k]) * 2], 2 * sizeof(float));
+            if (!uvs1.empty())
+                std::memcpy(tuv1 + k * 2, &uvs1[size_t(v[k]) * 2], 2 * sizeof(float));
+            if (!colors.empty())
+                std::memcpy(tc + k * 4, &colors[size_t(v[k]) * 4], 4 * sizeof(float));
         }
         status = rtk_scene_add_triangle(dst, base + v[0], base + v[1], base + v[2], normals.empty() ? NULL : tn,
                                         uvs.empty() ? NULL : tuv, material);
+        if (status == RTK_OK && (!uvs1.empty() || !colors.empty()))
+            status = rtk_scene_set_corners(dst, uvs1.empty() ? NULL : tuv1, colors.empty() ? NULL : tc);
         if (status != RTK_OK)
             return status;
     }

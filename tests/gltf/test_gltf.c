@@ -339,10 +339,224 @@ static void test_sparse(void)
     free(g);
 }
 
+/* ---- texture coordinates: KHR_texture_transform, TEXCOORD_1; COLOR_0 ---- */
+
+/* A 2x2 PNG: red, green on the top row, blue, white below; texel centres
+ * at u, v = 0.25 and 0.75. */
+static void write_quads_png(const char *name)
+{
+    const float rgba[16] = {1, 0, 0, 1, 0, 1, 0, 1, 0, 0, 1, 1, 1, 1, 1, 1};
+    const char *names[4] = {"R", "G", "B", "A"};
+    if (rtk_image_write(in_tmp(name), 2, 2, 4, names, rgba, 0) != RTK_OK)
+        check(0, "write %s: %s", name, rtk_error_message());
+}
+
+/* What the surface at barycentrics (u, v) of s's triangle prim shows. */
+static rtk_surface surface_at(const rtk_scene *s, uint32_t prim, float u, float v)
+{
+    rtk_ray ray = {{0.25f, 0.25f, 1.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, INFINITY};
+    rtk_hit hit = {1.0f, u, v, prim, RTK_INVALID_ID};
+    rtk_surface out;
+    rtk_surface_at(s, &ray, &hit, &out);
+    return out;
+}
+
+static int rgb_is(rtk_rgb c, double r, double g, double b)
+{
+    return near(c.r, r, 2e-3) && near(c.g, g, 2e-3) && near(c.b, b, 2e-3);
+}
+
+/* The unit triangle with TEXCOORD_0 = its (x, y) and TEXCOORD_1 = (x, y)
+ * / 2 + (0.5, 0.5); accessors 0, 1 (triangle_data), 2 and 3. */
+static void uv_triangle_data(gbuf *g)
+{
+    triangle_data(g);
+    const float uv0[6] = {0, 0, 1, 0, 0, 1}, uv1[6] = {0.5f, 0.5f, 1, 0.5f, 0.5f, 1};
+    gfloats(g, uv0, 3, "VEC2");
+    gfloats(g, uv1, 3, "VEC2");
+}
+
+static void test_texture_transform(void)
+{
+    printf("KHR_texture_transform and TEXCOORD_1\n");
+    write_quads_png("quads.png");
+    gbuf *g = calloc(1, sizeof *g);
+    uv_triangle_data(g);
+    /* Mesh i uses material i; the triangle's centre (u = v = 0.5) reads
+     * uv (0.5, 0.5) untransformed, on the corner of all four texels. */
+    const char *body =
+        "\"extensionsUsed\":[\"KHR_texture_transform\"],\"extensionsRequired\":[\"KHR_texture_transform\"],"
+        "\"scenes\":[{\"nodes\":[0,1,2,3]}],"
+        "\"nodes\":[{\"mesh\":0},{\"mesh\":1},{\"mesh\":2},{\"mesh\":3}],"
+        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":2,\"TEXCOORD_1\":3},"
+        "\"indices\":1,\"material\":0}]},"
+        "{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":2,\"TEXCOORD_1\":3},\"indices\":1,"
+        "\"material\":1}]},"
+        "{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":2,\"TEXCOORD_1\":3},\"indices\":1,"
+        "\"material\":2}]},"
+        "{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":2},\"indices\":1,\"material\":2}]}],"
+        "\"materials\":["
+        /* 0: offset and scale: uv' = uv / 2 + (0.5, 0): green at the centre */
+        "{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0,\"extensions\":{\"KHR_texture_transform\":"
+        "{\"offset\":[0.5,0],\"scale\":[0.5,0.5]}}}},"
+        /* emission: texCoord overridden to 1, rotated a quarter turn:
+         * uv1 (0.75, 0.75) -> (0.75 / 2 - 0.125, 1.125 - 0.75 / 2): blue */
+        "\"emissiveFactor\":[1,1,1],\"emissiveTexture\":{\"index\":0,\"extensions\":{\"KHR_texture_transform\":"
+        "{\"offset\":[-0.125,1.125],\"rotation\":1.5707963267948966,\"scale\":[0.5,0.5],\"texCoord\":1}}},"
+        "\"normalTexture\":{\"index\":0,\"extensions\":{\"KHR_texture_transform\":{\"scale\":[2,3]}}},"
+        "\"alphaMode\":\"MASK\"},"
+        /* 1: rotation alone, about the origin: uv (0.5, 0.5) -> (0.5, -0.5),
+         * wrapped to (0.5, 0.5) by repeat; a quarter of the texture
+         * shifted by the offset: (0.25, 0.25) is red */
+        "{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0,\"extensions\":{\"KHR_texture_transform\":"
+        "{\"rotation\":1.5707963267948966,\"offset\":[-0.25,0.75]}}}}},"
+        /* 2: TEXCOORD_1 without a transform: (0.75, 0.75) is white; the
+         * primitive without TEXCOORD_1 reads TEXCOORD_0 there */
+        "{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0,\"texCoord\":1}}}],"
+        "\"textures\":[{\"source\":0}],\"images\":[{\"uri\":\"quads.png\"}]";
+    rtk_scene *s = load(write_gltf("transform.gltf", g, body), ALL_NEEDS);
+    if (s && s->triangle_count == 4 && s->material_count == 3) {
+        const rtk_material *m = &s->materials[0];
+        check(m->base_uv.transformed && m->base_uv.set == 0 && m->base_uv.m[0] == 0.5f && m->base_uv.m[2] == 0.5f &&
+                  m->base_uv.m[4] == 0.5f && m->base_uv.m[5] == 0.0f,
+              "base colour: offset and scale as a matrix");
+        check(m->alpha_uv.transformed && memcmp(&m->alpha_uv, &m->base_uv, sizeof m->base_uv) == 0,
+              "a MASK cutout reads its alpha through the base colour's transform");
+        check(m->emission_uv.set == 1 && m->emission_uv.transformed, "emission: texCoord 1 from the extension");
+        check(m->normal_uv.transformed && m->normal_uv.m[0] == 2.0f && m->normal_uv.m[4] == 3.0f &&
+                  m->normal_uv.m[1] == 0.0f && m->normal_uv.m[3] == 0.0f,
+              "normal texture: its own scale");
+        check(s->uvs1 != NULL, "TEXCOORD_1 kept for the textures that read it");
+        rtk_surface c = surface_at(s, 0, 0.5f, 0.5f);
+        check(rgb_is(c.base_color, 0, 1, 0), "offset + scale: the centre shows green (%g %g %g)", c.base_color.r,
+              c.base_color.g, c.base_color.b);
+        check(rgb_is(c.emission, 0, 0, 1), "rotation + texCoord 1 on the emissive slot: blue (%g %g %g)",
+              c.emission.r, c.emission.g, c.emission.b);
+        c = surface_at(s, 1, 0.5f, 0.5f);
+        check(rgb_is(c.base_color, 1, 0, 0), "rotation counter-clockwise with offset: red (%g %g %g)", c.base_color.r,
+              c.base_color.g, c.base_color.b);
+        c = surface_at(s, 2, 0.5f, 0.5f);
+        check(rgb_is(c.base_color, 1, 1, 1), "texCoord 1 reads TEXCOORD_1: white (%g %g %g)", c.base_color.r,
+              c.base_color.g, c.base_color.b);
+        c = surface_at(s, 3, 0.25f, 0.25f);
+        check(rgb_is(c.base_color, 1, 0, 0), "texCoord 1 on a primitive without TEXCOORD_1 reads TEXCOORD_0: red");
+    } else {
+        check(0, "transform.gltf: 4 triangles and 3 materials");
+    }
+    rtk_scene_free(s);
+
+    /* The same file without texture needs keeps no second set. */
+    s = load(in_tmp("transform.gltf"), RTK_NEED_NORMALS);
+    check(s && !s->uvs1 && !s->colors, "no uvs asked for, the cutout on TEXCOORD_0: no TEXCOORD_1 kept");
+    rtk_scene_free(s);
+    free(g);
+}
+
+static void test_vertex_colors(void)
+{
+    printf("COLOR_0\n");
+    gbuf *g = calloc(1, sizeof *g);
+    triangle_data(g);
+    const uint8_t rgba[12] = {255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 0};
+    const float rgb[9] = {1, 1, 1, 0.5f, 0.5f, 0.5f, 0, 0, 0};
+    gaccessor(g, rgba, sizeof rgba, 5121, 3, "VEC4", ",\"normalized\":true"); /* 2 */
+    gfloats(g, rgb, 3, "VEC3");                                             /* 3 */
+    const char *body =
+        "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"COLOR_0\":2},\"indices\":1,\"material\":0},"
+        "{\"attributes\":{\"POSITION\":0,\"COLOR_0\":3},\"indices\":1,\"material\":1},"
+        "{\"attributes\":{\"POSITION\":0},\"indices\":1,\"material\":1}]}],"
+        "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,1,1,1]},\"alphaMode\":\"MASK\"},"
+        "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,0.5,1]}}]";
+    rtk_scene *s = load(write_gltf("colors.gltf", g, body), ALL_NEEDS);
+    if (s && s->triangle_count == 3) {
+        rtk_surface c = surface_at(s, 0, 0.0f, 0.0f);
+        check(rgb_is(c.base_color, 0.5, 0, 0) && c.alpha == 1.0f, "RGBA bytes times the factor at corner 0 (%g %g %g)",
+              c.base_color.r, c.base_color.g, c.base_color.b);
+        c = surface_at(s, 0, 0.5f, 0.25f);
+        check(rgb_is(c.base_color, 0.125, 0.5, 0.25) && near(c.alpha, 0.75, 1e-6),
+              "interpolated inside: colour and alpha (%g %g %g, %g)", c.base_color.r, c.base_color.g, c.base_color.b,
+              c.alpha);
+        check(rtk_alpha_opaque(s, 0, 0.1f, 0.1f) && !rtk_alpha_opaque(s, 0, 0.1f, 0.8f),
+              "a MASK cutout sees COLOR_0's alpha");
+        c = surface_at(s, 1, 0.5f, 0.0f);
+        check(rgb_is(c.base_color, 0.75, 0.75, 0.375), "RGB floats (%g %g %g)", c.base_color.r, c.base_color.g,
+              c.base_color.b);
+        c = surface_at(s, 2, 0.5f, 0.25f);
+        check(rgb_is(c.base_color, 1, 1, 0.5), "a primitive without COLOR_0 in a scene with it: white (%g %g %g)",
+              c.base_color.r, c.base_color.g, c.base_color.b);
+    } else {
+        check(0, "colors.gltf: 3 triangles");
+    }
+    rtk_scene_free(s);
+    s = load(in_tmp("colors.gltf"), RTK_NEED_NORMALS);
+    check(s && s->colors != NULL, "no materials asked for: colours kept for the cutout's alpha");
+    rtk_scene_free(s);
+    free(g);
+}
+
 static int exists(const char *path)
 {
     struct stat st;
     return stat(path, &st) == 0;
+}
+
+/* ---- the Khronos sample models, when ../shared/data is present ---- */
+
+static const char *sample(const char *rel)
+{
+    static char path[4][1024];
+    static int next;
+    char *p = path[next++ & 3];
+    snprintf(p, 1024, "%s/../shared/data/gltf-samples/%s", RTK_SOURCE_ROOT, rel);
+    return p;
+}
+
+/* Any material of s whose slot map (by offset in rtk_material) is transformed or reads set. */
+static int any_map(const rtk_scene *s, int transformed, int set)
+{
+    for (uint32_t i = 0; i < s->material_count; i++) {
+        const rtk_material *m = &s->materials[i];
+        const rtk_tex_map *maps[4] = {&m->base_uv, &m->alpha_uv, &m->normal_uv, &m->emission_uv};
+        for (int k = 0; k < 4; k++)
+            if ((transformed && maps[k]->transformed) || (set && maps[k]->set == set))
+                return 1;
+    }
+    return 0;
+}
+
+static void test_samples(void)
+{
+    if (!exists(sample(""))) {
+        printf("sample models: skipped, %s is absent\n", sample(""));
+        return;
+    }
+    printf("sample models\n");
+    rtk_scene *s = load(sample("TextureTransformTest/glTF/TextureTransformTest.gltf"), ALL_NEEDS);
+    check(s && any_map(s, 1, 0), "TextureTransformTest: transformed texture maps");
+    rtk_scene_free(s);
+    s = load(sample("MultiUVTest/glTF/MultiUVTest.gltf"), ALL_NEEDS);
+    check(s && s->uvs1 && any_map(s, 0, 1), "MultiUVTest: the emissive texture reads TEXCOORD_1");
+    rtk_scene_free(s);
+    s = load(sample("BoxVertexColors/glTF/BoxVertexColors.gltf"), ALL_NEEDS);
+    check(s && s->colors, "BoxVertexColors: vertex colours");
+    rtk_scene_free(s);
+    s = load(sample("VertexColorTest/glTF/VertexColorTest.gltf"), ALL_NEEDS);
+    check(s && s->colors, "VertexColorTest: vertex colours");
+    rtk_scene_free(s);
+    /* 14 vertices in the base view, 10 of them raised by the sparse values. */
+    s = load(sample("SimpleSparseAccessor/glTF/SimpleSparseAccessor.gltf"), 0);
+    float top = 0.0f;
+    for (uint32_t v = 0; s && v < s->vertex_count; v++)
+        top = fmaxf(top, s->positions[3 * v + 1]);
+    check(s && s->triangle_count == 12 && top == 4.0f, "SimpleSparseAccessor: 12 triangles, the peak at y = 4 (%g)",
+          top);
+    rtk_scene_free(s);
+    s = load(sample("AnimatedMorphCube/glTF-Quantized/AnimatedMorphCube.gltf"), ALL_NEEDS);
+    check(s && s->triangle_count == 12, "AnimatedMorphCube quantized: a cube of 12 triangles");
+    rtk_scene_free(s);
+    expect_refused("Box Draco", sample("Box/glTF-Draco/Box.gltf"), RTK_ERR_UNSUPPORTED, "KHR_draco_mesh_compression",
+                   NULL);
 }
 
 int main(void)
@@ -364,8 +578,10 @@ int main(void)
     test_refusals();
     test_quantization();
     test_sparse();
+    test_texture_transform();
+    test_vertex_colors();
+    test_samples();
     (void)load_built;
-    (void)exists;
     rtk_params_destroy(builder_params);
     rtk_registry_destroy(reg);
     char cmd[600];
