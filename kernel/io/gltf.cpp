@@ -361,9 +361,13 @@ class Loader {
           mesh_index_(model.meshes.size(), RTK_INVALID_ID)
     {
         for (const tinygltf::Node &node : model.nodes)
-            if (node.mesh >= 0 && size_t(node.mesh) < mesh_uses_.size())
+            if (node.mesh >= 0 && size_t(node.mesh) < mesh_uses_.size() && !own_shape(node))
                 mesh_uses_[size_t(node.mesh)]++;
     }
+
+    /* A node that shapes its mesh itself (morph weights of its own) gets
+     * a flattened copy; the other uses of the mesh may share one. */
+    static bool own_shape(const tinygltf::Node &node) { return !node.weights.empty(); }
 
     rtk_status run();
 
@@ -397,7 +401,13 @@ class Loader {
     rtk_status local_matrix(int index, Mat4 *out);
     void take_camera(int index, const Mat4 &world);
     rtk_status take_light(int index, const Mat4 &world);
-    rtk_status add_primitive(int mesh, int primitive, const Mat4 &world, rtk_scene *dst);
+    /* Adds a primitive placed by world, its morph targets at weights. */
+    rtk_status add_primitive(int mesh, int primitive, const Mat4 &world, const std::vector<double> &weights,
+                             rtk_scene *dst);
+    /* Adds weights[t] times morph target t's attribute what to values
+     * (3 per vertex). */
+    rtk_status morph(int mesh, int primitive, const char *what, const std::vector<double> &weights,
+                     std::vector<double> *values);
     rtk_status add_instance(int node, int mesh, const Mat4 &world);
     /* Validates count elements of elem bytes from offset in buffer view
      * index (its stride unless packed) for accessor; part prefixes messages. */
@@ -861,7 +871,32 @@ rtk_status Loader::take_light(int index, const Mat4 &world)
     return rtk_scene_add_punctual(scene_, &l);
 }
 
-rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, rtk_scene *dst)
+rtk_status Loader::morph(int mesh, int index, const char *what, const std::vector<double> &weights,
+                         std::vector<double> *values)
+{
+    const tinygltf::Primitive &prim = model_.meshes[size_t(mesh)].primitives[size_t(index)];
+    for (size_t t = 0; t < prim.targets.size() && t < weights.size(); t++) {
+        const double w = weights[t];
+        std::map<std::string, int>::const_iterator attr = prim.targets[t].find(what);
+        if (w == 0.0 || !std::isfinite(w) || attr == prim.targets[t].end())
+            continue;
+        const std::string name = "morph target " + std::to_string(t) + " " + what;
+        std::vector<double> delta;
+        rtk_status status = read(attr->second, {mesh, index, name.c_str()}, vertex_components, TINYGLTF_TYPE_VEC3,
+                                 &delta);
+        if (status != RTK_OK)
+            return status;
+        if (delta.size() != values->size())
+            return fail({mesh, index, name.c_str()}, attr->second, "%zu elements for %zu vertices", delta.size() / 3,
+                        values->size() / 3);
+        for (size_t i = 0; i < delta.size(); i++)
+            (*values)[i] += w * delta[i];
+    }
+    return RTK_OK;
+}
+
+rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, const std::vector<double> &weights,
+                                 rtk_scene *dst)
 {
     const tinygltf::Primitive &prim = model_.meshes[size_t(mesh)].primitives[size_t(index)];
     const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
@@ -892,6 +927,8 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, rtk_sce
         return status;
     const int pos_accessor = attr->second;
     const size_t nverts = pos.size() / 3;
+    if ((status = morph(mesh, index, "POSITION", weights, &pos)) != RTK_OK)
+        return status;
     if (nverts >= size_t(RTK_INVALID_ID) - dst->vertex_count)
         return rtk_error(RTK_ERR_NOMEM, "%s: more vertices than rtk can index", path_);
 
@@ -901,6 +938,8 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, rtk_sce
             return status;
         if (nrm.size() != pos.size())
             return fail(where, attr->second, "%zu normals for %zu positions", nrm.size() / 3, nverts);
+        if ((status = morph(mesh, index, "NORMAL", weights, &nrm)) != RTK_OK)
+            return status;
     }
     /* Texture coordinates also serve the alpha of cutout materials. */
     if ((want_uvs_ || dst->cutout_materials) && (attr = prim.attributes.find("TEXCOORD_0")) != prim.attributes.end()) {
@@ -1049,7 +1088,8 @@ rtk_status Loader::add_instance(int node, int mesh, const Mat4 &world)
             return status;
         rtk_scene *dst = scene_->meshes[index];
         for (size_t p = 0; p < model_.meshes[size_t(mesh)].primitives.size(); p++) {
-            if ((status = add_primitive(mesh, int(p), identity(), dst)) != RTK_OK)
+            if ((status = add_primitive(mesh, int(p), identity(), model_.meshes[size_t(mesh)].weights, dst)) !=
+                RTK_OK)
                 return status;
         }
     }
@@ -1095,12 +1135,15 @@ rtk_status Loader::visit(int index, const Mat4 &parent, int depth)
         if (size_t(node.mesh) >= model_.meshes.size())
             return rtk_error(RTK_ERR_PARSE, "%s: %s uses mesh %d, but the file has %zu meshes", path_,
                              node_label(index).c_str(), node.mesh, model_.meshes.size());
-        if (mesh_uses_[size_t(node.mesh)] > 1) {
+        const tinygltf::Mesh &mesh = model_.meshes[size_t(node.mesh)];
+        if (mesh_uses_[size_t(node.mesh)] > 1 && !own_shape(node)) {
             if ((status = add_instance(index, node.mesh, world)) != RTK_OK)
                 return status;
         } else {
-            for (size_t p = 0; p < model_.meshes[size_t(node.mesh)].primitives.size(); p++) {
-                if ((status = add_primitive(node.mesh, int(p), world, scene_)) != RTK_OK)
+            /* Morph weights: the node's, else the mesh's defaults. */
+            const std::vector<double> &weights = node.weights.empty() ? mesh.weights : node.weights;
+            for (size_t p = 0; p < mesh.primitives.size(); p++) {
+                if ((status = add_primitive(node.mesh, int(p), world, weights, scene_)) != RTK_OK)
                     return status;
             }
         }

@@ -501,6 +501,56 @@ static int exists(const char *path)
     return stat(path, &st) == 0;
 }
 
+/* ---- morph targets at their default weights ---- */
+
+/* Whether s has a vertex at (x, y, z). */
+static int has_vertex(const rtk_scene *s, float x, float y, float z)
+{
+    for (uint32_t v = 0; s && v < s->vertex_count; v++) {
+        const float *p = s->positions + 3 * (size_t)v;
+        if (near(p[0], x, 1e-6) && near(p[1], y, 1e-6) && near(p[2], z, 1e-6))
+            return 1;
+    }
+    return 0;
+}
+
+static void test_morph(void)
+{
+    printf("morph targets\n");
+    gbuf *g = calloc(1, sizeof *g);
+    triangle_data(g);
+    const float up[9] = {0, 0, 0, 0, 0, 0, 0, 2, 0}, right[9] = {0, 0, 0, 4, 0, 0, 0, 0, 0};
+    const float n[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1}, tilt[9] = {1, 0, 0, 1, 0, 0, 1, 0, 0};
+    gfloats(g, up, 3, "VEC3");    /* 2 */
+    gfloats(g, right, 3, "VEC3"); /* 3 */
+    gfloats(g, n, 3, "VEC3");     /* 4 */
+    gfloats(g, tilt, 3, "VEC3");  /* 5 */
+    /* Nodes 0 and 1 share the mesh at its default weights (0.5, 0.25):
+     * vertex 2 at y = 2, vertex 1 at x = 2, normals (0.5, 0, 1); node 2
+     * has its own weights (1, 0). */
+    const char *body =
+        "\"scenes\":[{\"nodes\":[0,1,2]}],\"nodes\":[{\"mesh\":0},{\"mesh\":0,\"translation\":[0,0,5]},"
+        "{\"mesh\":0,\"weights\":[1,0],\"translation\":[0,0,-5]}],"
+        "\"meshes\":[{\"weights\":[0.5,0.25],\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":4},"
+        "\"indices\":1,\"targets\":[{\"POSITION\":2,\"NORMAL\":5},{\"POSITION\":3}]}]}]";
+    rtk_scene *s = load(write_gltf("morph.gltf", g, body), ALL_NEEDS);
+    if (s && s->mesh_count == 1 && s->instance_count == 2) {
+        const rtk_scene *m = s->meshes[0];
+        check(has_vertex(m, 0, 2, 0) && has_vertex(m, 2, 0, 0) && has_vertex(m, 0, 0, 0),
+              "the shared mesh at the default weights: (0, 2, 0), (2, 0, 0)");
+        const float *nm = m->normals;
+        check(nm && near(nm[0], 0.5 / sqrt(1.25), 1e-6) && near(nm[2], 1 / sqrt(1.25), 1e-6),
+              "normals morphed too, then normalized (%g %g %g)", nm ? nm[0] : 0, nm ? nm[1] : 0, nm ? nm[2] : 0);
+        check(s->triangle_count == 1 && has_vertex(s, 0, 3, -5) && has_vertex(s, 1, 0, -5),
+              "a node's own weights (1, 0): its flattened copy has (0, 3), (1, 0)");
+    } else {
+        check(0, "morph.gltf: one mesh placed twice and one flattened copy (%u meshes, %u instances)",
+              s ? s->mesh_count : 0, s ? s->instance_count : 0);
+    }
+    rtk_scene_free(s);
+    free(g);
+}
+
 /* ---- the Khronos sample models, when ../shared/data is present ---- */
 
 static const char *sample(const char *rel)
@@ -555,6 +605,11 @@ static void test_samples(void)
     s = load(sample("AnimatedMorphCube/glTF-Quantized/AnimatedMorphCube.gltf"), ALL_NEEDS);
     check(s && s->triangle_count == 12, "AnimatedMorphCube quantized: a cube of 12 triangles");
     rtk_scene_free(s);
+    /* At the default weights (0.5, 0.5) the apex is at (0.5, 1.5); the
+     * screenshot shows a frame of the animation. */
+    s = load(sample("SimpleMorph/glTF/SimpleMorph.gltf"), 0);
+    check(s && has_vertex(s, 0.5f, 1.5f, 0.0f), "SimpleMorph: the apex at (0.5, 1.5, 0)");
+    rtk_scene_free(s);
     expect_refused("Box Draco", sample("Box/glTF-Draco/Box.gltf"), RTK_ERR_UNSUPPORTED, "KHR_draco_mesh_compression",
                    NULL);
 }
@@ -580,6 +635,7 @@ int main(void)
     test_sparse();
     test_texture_transform();
     test_vertex_colors();
+    test_morph();
     test_samples();
     (void)load_built;
     rtk_params_destroy(builder_params);
