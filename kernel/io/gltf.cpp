@@ -90,6 +90,31 @@ std::array<double, 9> normal_matrix(const Mat4 &m, double *det)
     return cof;
 }
 
+/* T * R * S from a translation, a rotation quaternion (x, y, z, w;
+ * normalized here) and a scale. */
+Mat4 trs(const double t[3], const double rotation[4], const double s[3])
+{
+    double q[4] = {rotation[0], rotation[1], rotation[2], rotation[3]};
+    double len = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    if (len > 0.0 && std::isfinite(len)) {
+        for (double &v : q)
+            v /= len;
+    }
+    const double x = q[0], y = q[1], z = q[2], w = q[3];
+    /* Columns of R scaled by S; T in the last column. */
+    const double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w),
+                         2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w),
+                         2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)};
+    Mat4 m = identity();
+    for (int c = 0; c < 3; c++)
+        for (int row = 0; row < 3; row++)
+            m[size_t(c * 4 + row)] = r[c * 3 + row] * s[c];
+    m[12] = t[0];
+    m[13] = t[1];
+    m[14] = t[2];
+    return m;
+}
+
 std::string trimmed(const std::string &s)
 {
     size_t b = s.find_first_not_of(" \t\r\n");
@@ -214,8 +239,8 @@ struct View {
 
 /* Where an accessor is read from, for messages. */
 struct Where {
-    int mesh, primitive;
-    const char *what; /* "POSITION", "indices" ... */
+    int mesh, primitive; /* primitive -1: mesh is a node (a node's own accessors) */
+    const char *what;    /* "POSITION", "indices" ... */
 };
 
 const char *type_name(int type)
@@ -332,7 +357,8 @@ const std::vector<int> vertex_components = {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYG
  * extension changes the meaning of the data, so the file is refused. */
 const char *const supported_required[] = {"KHR_materials_emissive_strength", "KHR_materials_ior",
                                           "KHR_materials_transmission", "KHR_lights_punctual",
-                                          "KHR_mesh_quantization", "KHR_texture_transform"};
+                                          "KHR_mesh_quantization", "KHR_texture_transform",
+                                          "EXT_mesh_gpu_instancing"};
 
 bool supported_extension(const std::string &name)
 {
@@ -409,6 +435,8 @@ class Loader {
     rtk_status morph(int mesh, int primitive, const char *what, const std::vector<double> &weights,
                      std::vector<double> *values);
     rtk_status add_instance(int node, int mesh, const Mat4 &world);
+    /* Places node's mesh once per EXT_mesh_gpu_instancing element. */
+    rtk_status add_gpu_instances(int node, const Mat4 &world, const tinygltf::Value &ext);
     /* Validates count elements of elem bytes from offset in buffer view
      * index (its stride unless packed) for accessor; part prefixes messages. */
     rtk_status locate(const Where &where, int accessor, const char *part, int index, size_t offset, size_t count,
@@ -429,6 +457,9 @@ rtk_status Loader::fail(const Where &where, int accessor, const char *fmt, ...)
     va_start(ap, fmt);
     std::vsnprintf(problem, sizeof problem, fmt, ap);
     va_end(ap);
+    if (where.primitive < 0)
+        return rtk_error(RTK_ERR_PARSE, "%s: %s, %s accessor %d: %s", path_, node_label(where.mesh).c_str(), where.what,
+                         accessor, problem);
     return rtk_error(RTK_ERR_PARSE, "%s: %s primitive %d, %s accessor %d: %s", path_, mesh_label(where.mesh).c_str(),
                      where.primitive, where.what, accessor, problem);
 }
@@ -762,22 +793,7 @@ rtk_status Loader::local_matrix(int index, Mat4 *out)
             q[k] = node.rotation[k];
         for (size_t k = 0; k < node.scale.size(); k++)
             s[k] = node.scale[k];
-        double len = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-        if (len > 0.0 && std::isfinite(len)) {
-            for (double &v : q)
-                v /= len;
-        }
-        const double x = q[0], y = q[1], z = q[2], w = q[3];
-        /* Columns of R scaled by S; T in the last column (T * R * S). */
-        const double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w),
-                             2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w),
-                             2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)};
-        for (int c = 0; c < 3; c++)
-            for (int row = 0; row < 3; row++)
-                m[size_t(c * 4 + row)] = r[c * 3 + row] * s[c];
-        m[12] = t[0];
-        m[13] = t[1];
-        m[14] = t[2];
+        m = trs(t, q, s);
     }
     for (double v : m) {
         if (!std::isfinite(v))
@@ -1107,6 +1123,58 @@ rtk_status Loader::add_instance(int node, int mesh, const Mat4 &world)
     return rtk_scene_add_instance(scene_, index, to_world, where.c_str());
 }
 
+rtk_status Loader::add_gpu_instances(int node, const Mat4 &world, const tinygltf::Value &ext)
+{
+    const char *names[3] = {"TRANSLATION", "ROTATION", "SCALE"};
+    const int types[3] = {TINYGLTF_TYPE_VEC3, TINYGLTF_TYPE_VEC4, TINYGLTF_TYPE_VEC3};
+    const std::vector<int> components[3] = {
+        {TINYGLTF_COMPONENT_TYPE_FLOAT},
+        {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT},
+        {TINYGLTF_COMPONENT_TYPE_FLOAT}};
+    const tinygltf::Value &attributes = ext.Get("attributes");
+    std::vector<double> values[3];
+    size_t count = 0;
+    bool any = false;
+    for (int a = 0; a < 3; a++) {
+        if (!attributes.IsObject() || !attributes.Has(names[a]))
+            continue;
+        const std::string what = std::string("EXT_mesh_gpu_instancing ") + names[a];
+        const tinygltf::Value &id = attributes.Get(names[a]);
+        const int accessor = id.IsNumber() ? id.GetNumberAsInt() : -1;
+        rtk_status status = read(accessor, {node, -1, what.c_str()}, components[a], types[a], &values[a]);
+        if (status != RTK_OK)
+            return status;
+        const size_t n = values[a].size() / component_count(types[a]);
+        if (any && n != count)
+            return fail({node, -1, what.c_str()}, accessor, "%zu elements, but the other attributes have %zu", n,
+                        count);
+        count = n;
+        any = true;
+    }
+    if (!any)
+        return rtk_error(RTK_ERR_PARSE, "%s: %s: EXT_mesh_gpu_instancing has no TRANSLATION, ROTATION or SCALE "
+                         "attribute", path_, node_label(node).c_str());
+    const int mesh = model_.nodes[size_t(node)].mesh;
+    for (size_t i = 0; i < count; i++) {
+        double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+        if (!values[0].empty())
+            std::memcpy(t, &values[0][i * 3], sizeof t);
+        if (!values[1].empty())
+            std::memcpy(q, &values[1][i * 4], sizeof q);
+        if (!values[2].empty())
+            std::memcpy(s, &values[2][i * 3], sizeof s);
+        const Mat4 m = mul(world, trs(t, q, s));
+        for (double v : m)
+            if (!std::isfinite(v))
+                return rtk_error(RTK_ERR_PARSE, "%s: %s: EXT_mesh_gpu_instancing element %zu has a non-finite "
+                                 "transform", path_, node_label(node).c_str(), i);
+        rtk_status status = add_instance(node, mesh, m);
+        if (status != RTK_OK)
+            return status;
+    }
+    return RTK_OK;
+}
+
 rtk_status Loader::visit(int index, const Mat4 &parent, int depth)
 {
     if (index < 0 || size_t(index) >= model_.nodes.size())
@@ -1136,7 +1204,11 @@ rtk_status Loader::visit(int index, const Mat4 &parent, int depth)
             return rtk_error(RTK_ERR_PARSE, "%s: %s uses mesh %d, but the file has %zu meshes", path_,
                              node_label(index).c_str(), node.mesh, model_.meshes.size());
         const tinygltf::Mesh &mesh = model_.meshes[size_t(node.mesh)];
-        if (mesh_uses_[size_t(node.mesh)] > 1 && !own_shape(node)) {
+        tinygltf::ExtensionMap::const_iterator gpu = node.extensions.find("EXT_mesh_gpu_instancing");
+        if (gpu != node.extensions.end()) {
+            if ((status = add_gpu_instances(index, world, gpu->second)) != RTK_OK)
+                return status;
+        } else if (mesh_uses_[size_t(node.mesh)] > 1 && !own_shape(node)) {
             if ((status = add_instance(index, node.mesh, world)) != RTK_OK)
                 return status;
         } else {

@@ -4,7 +4,7 @@
  * - refusals before tinygltf parses: JSON nested past the limit (.gltf
  *   and .glb), glTF 1.0 binaries, unsupported required extensions (Draco,
  *   EXT_meshopt_compression) named by rtk's own message. */
-#include "internal.h"
+#include "bvh_cache.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -145,7 +145,8 @@ static rtk_scene *load(const char *path, uint32_t needs)
 static rtk_scene *load_built(const char *path, uint32_t needs)
 {
     rtk_scene *s = load(path, needs);
-    if (s && rtk_bvh_build(s, builder, builder_params, 1) != RTK_OK) {
+    rtk_bvh_cache_use use;
+    if (s && rtk_bvh_build_cached(s, builder, builder_params, 1, NULL, &use) != RTK_OK) {
         check(0, "build %s: %s", path, rtk_error_message());
         rtk_scene_free(s);
         return NULL;
@@ -551,6 +552,55 @@ static void test_morph(void)
     free(g);
 }
 
+/* ---- EXT_mesh_gpu_instancing ---- */
+
+static void test_gpu_instancing(void)
+{
+    printf("EXT_mesh_gpu_instancing\n");
+    gbuf *g = calloc(1, sizeof *g);
+    triangle_data(g);
+    const float t[9] = {0, 0, 0, 10, 0, 0, 0, 10, 0}, sc[9] = {1, 1, 1, 2, 2, 2, 1, 1, 1};
+    /* A quarter turn about z as normalized shorts (sin 45 = 23170 / 32767). */
+    const int16_t q[12] = {0, 0, 0, 32767, 0, 0, 23170, 23170, 0, 0, 0, 32767};
+    gfloats(g, t, 3, "VEC3");                                              /* 2 */
+    gaccessor(g, q, sizeof q, 5122, 3, "VEC4", ",\"normalized\":true");   /* 3 */
+    gfloats(g, sc, 3, "VEC3");                                             /* 4 */
+    gfloats(g, t, 2, "VEC3");                                              /* 5: two elements */
+    const char *body =
+        "\"extensionsUsed\":[\"EXT_mesh_gpu_instancing\"],\"extensionsRequired\":[\"EXT_mesh_gpu_instancing\"],"
+        "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"translation\":[0,0,-3],\"children\":[1]},"
+        "{\"mesh\":0,\"extensions\":{\"EXT_mesh_gpu_instancing\":{\"attributes\":"
+        "{\"TRANSLATION\":2,\"ROTATION\":3,\"SCALE\":4}}}}],"
+        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1}]}]";
+    rtk_scene *s = load_built(write_gltf("gpu.gltf", g, body), ALL_NEEDS);
+    if (s && s->mesh_count == 1 && s->instance_count == 3) {
+        const double *a = s->instances[0].to_world, *b = s->instances[1].to_world, *c = s->instances[2].to_world;
+        check(s->triangle_count == 0 && s->meshes[0]->triangle_count == 1, "one mesh, no flattened copy");
+        check(a[0] == 1 && a[3] == 0 && a[11] == -3, "instance 0: the parent's translation only");
+        check(near(b[0], 0, 1e-4) && near(b[1], -2, 1e-4) && near(b[4], 2, 1e-4) && b[3] == 10 && b[11] == -3,
+              "instance 1: rotated a quarter turn (normalized shorts), scaled 2, at x = 10");
+        check(c[7] == 10 && c[11] == -3, "instance 2: at y = 10");
+        /* Traced through the top level: a ray down z inside instance 2. */
+        rtk_ctx ctx;
+        memset(&ctx, 0, sizeof ctx);
+        ctx.scene = s;
+        rtk_ray r = {{0.25f, 10.25f, 5.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, INFINITY};
+        rtk_hit h;
+        check(rtk_trace(&ctx, &r, &h) && h.inst == 2 && near(h.t, 8.0, 1e-5), "a ray finds instance 2 at z = -3");
+    } else {
+        check(0, "gpu.gltf: one mesh and three instances (%u, %u)", s ? s->mesh_count : 0,
+              s ? s->instance_count : 0);
+    }
+    rtk_scene_free(s);
+    const char *bad = "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0,\"extensions\":"
+                      "{\"EXT_mesh_gpu_instancing\":{\"attributes\":{\"TRANSLATION\":5,\"SCALE\":4}}}}],"
+                      "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1}]}]";
+    expect_refused("instancing attributes of different counts", write_gltf("gpu_bad.gltf", g, bad), RTK_ERR_PARSE,
+                   "node 0", "EXT_mesh_gpu_instancing SCALE accessor 4", "3 elements, but the other attributes have 2",
+                   NULL);
+    free(g);
+}
+
 /* ---- the Khronos sample models, when ../shared/data is present ---- */
 
 static const char *sample(const char *rel)
@@ -610,6 +660,10 @@ static void test_samples(void)
     s = load(sample("SimpleMorph/glTF/SimpleMorph.gltf"), 0);
     check(s && has_vertex(s, 0.5f, 1.5f, 0.0f), "SimpleMorph: the apex at (0.5, 1.5, 0)");
     rtk_scene_free(s);
+    s = load(sample("SimpleInstancing/glTF/SimpleInstancing.gltf"), 0);
+    check(s && s->mesh_count == 1 && s->instance_count == 125, "SimpleInstancing: one mesh placed 125 times (%u, %u)",
+          s ? s->mesh_count : 0, s ? s->instance_count : 0);
+    rtk_scene_free(s);
     expect_refused("Box Draco", sample("Box/glTF-Draco/Box.gltf"), RTK_ERR_UNSUPPORTED, "KHR_draco_mesh_compression",
                    NULL);
 }
@@ -636,8 +690,8 @@ int main(void)
     test_texture_transform();
     test_vertex_colors();
     test_morph();
+    test_gpu_instancing();
     test_samples();
-    (void)load_built;
     rtk_params_destroy(builder_params);
     rtk_registry_destroy(reg);
     char cmd[600];
