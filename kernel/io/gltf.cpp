@@ -391,9 +391,9 @@ class Loader {
                 mesh_uses_[size_t(node.mesh)]++;
     }
 
-    /* A node that shapes its mesh itself (morph weights of its own) gets
-     * a flattened copy; the other uses of the mesh may share one. */
-    static bool own_shape(const tinygltf::Node &node) { return !node.weights.empty(); }
+    /* A node that shapes its mesh itself (morph weights of its own, a
+     * skin) gets a flattened copy; the other uses of the mesh may share one. */
+    static bool own_shape(const tinygltf::Node &node) { return !node.weights.empty() || node.skin >= 0; }
 
     rtk_status run();
 
@@ -427,9 +427,22 @@ class Loader {
     rtk_status local_matrix(int index, Mat4 *out);
     void take_camera(int index, const Mat4 &world);
     rtk_status take_light(int index, const Mat4 &world);
-    /* Adds a primitive placed by world, its morph targets at weights. */
+    /* Adds a primitive placed by world, its morph targets at weights;
+     * with joints (a skin's joint matrices), each vertex placed by its
+     * joints instead (world for a vertex without weights). */
     rtk_status add_primitive(int mesh, int primitive, const Mat4 &world, const std::vector<double> &weights,
-                             rtk_scene *dst);
+                             rtk_scene *dst, const std::vector<Mat4> *joints = nullptr);
+    /* Each vertex's matrix: its JOINTS_n matrices blended by WEIGHTS_n. */
+    rtk_status skin_vertices(int mesh, int primitive, const std::vector<Mat4> &joints, const Mat4 &fallback,
+                             size_t count, std::vector<Mat4> *out);
+    /* A skin's joint matrices: each joint's world transform times its
+     * inverse bind matrix (the file's rest pose). */
+    rtk_status joint_matrices(int node, std::vector<Mat4> *out);
+    /* Node index's world transform, from its parents (memoised). */
+    rtk_status global(int index, int depth, Mat4 *out);
+    std::vector<int> parent_;    /* made on first use: each node's parent, -1 for none */
+    std::vector<Mat4> globals_;
+    std::vector<char> global_done_;
     /* Adds weights[t] times morph target t's attribute what to values
      * (3 per vertex). */
     rtk_status morph(int mesh, int primitive, const char *what, const std::vector<double> &weights,
@@ -911,8 +924,128 @@ rtk_status Loader::morph(int mesh, int index, const char *what, const std::vecto
     return RTK_OK;
 }
 
+rtk_status Loader::global(int index, int depth, Mat4 *out)
+{
+    if (parent_.empty()) {
+        parent_.assign(model_.nodes.size(), -1);
+        globals_.resize(model_.nodes.size());
+        global_done_.assign(model_.nodes.size(), 0);
+        for (size_t i = 0; i < model_.nodes.size(); i++)
+            for (int child : model_.nodes[i].children)
+                if (child >= 0 && size_t(child) < parent_.size() && parent_[size_t(child)] < 0)
+                    parent_[size_t(child)] = int(i);
+    }
+    if (global_done_[size_t(index)]) {
+        *out = globals_[size_t(index)];
+        return RTK_OK;
+    }
+    if (depth > max_depth)
+        return rtk_error(RTK_ERR_PARSE, "%s: %s has more than %d ancestors (or its parents form a cycle)", path_,
+                         node_label(index).c_str(), max_depth);
+    Mat4 local, up = identity();
+    rtk_status status = local_matrix(index, &local);
+    if (status == RTK_OK && parent_[size_t(index)] >= 0)
+        status = global(parent_[size_t(index)], depth + 1, &up);
+    if (status != RTK_OK)
+        return status;
+    *out = globals_[size_t(index)] = mul(up, local);
+    global_done_[size_t(index)] = 1;
+    return RTK_OK;
+}
+
+rtk_status Loader::joint_matrices(int node, std::vector<Mat4> *out)
+{
+    const int id = model_.nodes[size_t(node)].skin;
+    if (size_t(id) >= model_.skins.size())
+        return rtk_error(RTK_ERR_PARSE, "%s: %s uses skin %d, but the file has %zu skins", path_,
+                         node_label(node).c_str(), id, model_.skins.size());
+    const tinygltf::Skin &skin = model_.skins[size_t(id)];
+    std::vector<double> ibm;
+    if (skin.inverseBindMatrices >= 0) {
+        const std::string what = "skin " + std::to_string(id) + " inverseBindMatrices";
+        rtk_status status = read(skin.inverseBindMatrices, {node, -1, what.c_str()}, {TINYGLTF_COMPONENT_TYPE_FLOAT},
+                                 TINYGLTF_TYPE_MAT4, &ibm);
+        if (status != RTK_OK)
+            return status;
+        if (ibm.size() / 16 < skin.joints.size())
+            return fail({node, -1, what.c_str()}, skin.inverseBindMatrices, "%zu matrices for %zu joints",
+                        ibm.size() / 16, skin.joints.size());
+    }
+    out->resize(skin.joints.size());
+    for (size_t j = 0; j < skin.joints.size(); j++) {
+        const int joint = skin.joints[j];
+        if (joint < 0 || size_t(joint) >= model_.nodes.size())
+            return rtk_error(RTK_ERR_PARSE, "%s: skin %d: joint %zu is node %d, but the file has %zu nodes", path_, id,
+                             j, joint, model_.nodes.size());
+        Mat4 g, inverse_bind = identity();
+        rtk_status status = global(joint, 0, &g);
+        if (status != RTK_OK)
+            return status;
+        if (!ibm.empty())
+            std::copy(ibm.begin() + std::ptrdiff_t(j * 16), ibm.begin() + std::ptrdiff_t(j * 16 + 16),
+                      inverse_bind.begin());
+        (*out)[j] = mul(g, inverse_bind);
+    }
+    return RTK_OK;
+}
+
+rtk_status Loader::skin_vertices(int mesh, int index, const std::vector<Mat4> &joints, const Mat4 &fallback,
+                                 size_t count, std::vector<Mat4> *out)
+{
+    const tinygltf::Primitive &prim = model_.meshes[size_t(mesh)].primitives[size_t(index)];
+    out->assign(count, Mat4{});
+    std::vector<double> total(count, 0.0);
+    for (int set = 0;; set++) {
+        const std::string jname = "JOINTS_" + std::to_string(set), wname = "WEIGHTS_" + std::to_string(set);
+        std::map<std::string, int>::const_iterator ja = prim.attributes.find(jname), wa = prim.attributes.find(wname);
+        if (ja == prim.attributes.end() || wa == prim.attributes.end()) {
+            if (set == 0)
+                return rtk_error(RTK_ERR_PARSE, "%s: %s primitive %d is skinned but has no JOINTS_0 and WEIGHTS_0",
+                                 path_, mesh_label(mesh).c_str(), index);
+            break;
+        }
+        std::vector<double> j, w;
+        rtk_status status = read(ja->second, {mesh, index, jname.c_str()},
+                                 {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+                                 TINYGLTF_TYPE_VEC4, &j);
+        if (status != RTK_OK || (status = read(wa->second, {mesh, index, wname.c_str()},
+                                               {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                                                TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+                                               TINYGLTF_TYPE_VEC4, &w)) != RTK_OK)
+            return status;
+        if (j.size() != count * 4 || w.size() != count * 4)
+            return fail({mesh, index, j.size() != count * 4 ? jname.c_str() : wname.c_str()},
+                        j.size() != count * 4 ? ja->second : wa->second, "%zu elements for %zu vertices",
+                        (j.size() != count * 4 ? j.size() : w.size()) / 4, count);
+        for (size_t i = 0; i < count; i++)
+            for (size_t k = 0; k < 4; k++) {
+                const double weight = w[i * 4 + k];
+                if (weight == 0.0 || !std::isfinite(weight))
+                    continue;
+                if (j[i * 4 + k] >= double(joints.size()))
+                    return fail({mesh, index, jname.c_str()}, ja->second,
+                                "vertex %zu uses joint %.0f, but the skin has %zu joints", i, j[i * 4 + k],
+                                joints.size());
+                const Mat4 &m = joints[size_t(j[i * 4 + k])];
+                for (size_t e = 0; e < 16; e++)
+                    (*out)[i][e] += weight * m[e];
+                total[i] += weight;
+            }
+    }
+    /* Weights meant to sum to 1 are scaled to; none at all keep the node's place. */
+    for (size_t i = 0; i < count; i++) {
+        if (total[i] > 0.0) {
+            for (double &e : (*out)[i])
+                e /= total[i];
+        } else {
+            (*out)[i] = fallback;
+        }
+    }
+    return RTK_OK;
+}
+
 rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, const std::vector<double> &weights,
-                                 rtk_scene *dst)
+                                 rtk_scene *dst, const std::vector<Mat4> *joints)
 {
     const tinygltf::Primitive &prim = model_.meshes[size_t(mesh)].primitives[size_t(index)];
     const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
@@ -1020,6 +1153,10 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, const s
     if (n < 3)
         return RTK_OK;
 
+    /* Each vertex's transform: world, or its blend of joint matrices. */
+    std::vector<Mat4> skinned;
+    if (joints && (status = skin_vertices(mesh, index, *joints, world, nverts, &skinned)) != RTK_OK)
+        return status;
     const uint32_t base = dst->vertex_count;
     for (size_t i = 0; i < nverts; i++) {
         const double *v = &pos[i * 3];
@@ -1027,16 +1164,27 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, const s
             return fail({mesh, index, "POSITION"}, pos_accessor, "element %zu is not finite (%g, %g, %g)", i, v[0],
                         v[1], v[2]);
         double w[3];
-        transform(world, v[0], v[1], v[2], 1.0, w);
+        transform(skinned.empty() ? world : skinned[i], v[0], v[1], v[2], 1.0, w);
+        if (!std::isfinite(w[0]) || !std::isfinite(w[1]) || !std::isfinite(w[2]))
+            return fail({mesh, index, "POSITION"}, pos_accessor, "element %zu is not finite once placed", i);
         if ((status = rtk_scene_add_vertex(dst, w[0], w[1], w[2], NULL)) != RTK_OK)
             return status;
     }
 
     double det;
-    const std::array<double, 9> nm = normal_matrix(world, &det);
+    std::array<double, 9> nm = normal_matrix(world, &det);
+    /* Skinned: per vertex, the side its own matrix turns it to. */
+    std::vector<char> flipped(skinned.size());
+    for (size_t i = 0; i < skinned.size(); i++) {
+        double d;
+        normal_matrix(skinned[i], &d);
+        flipped[i] = d < 0.0;
+    }
     std::vector<float> normals(nrm.size());
     for (size_t i = 0; i < nrm.size() / 3; i++) {
         const double *v = &nrm[i * 3];
+        if (!skinned.empty())
+            nm = normal_matrix(skinned[i], &det);
         double w[3];
         for (int r = 0; r < 3; r++)
             w[r] = nm[size_t(r * 3)] * v[0] + nm[size_t(r * 3 + 1)] * v[1] + nm[size_t(r * 3 + 2)] * v[2];
@@ -1069,7 +1217,7 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, const s
         uint32_t v[3];
         for (int k = 0; k < 3; k++)
             v[k] = prim.indices >= 0 ? indices[c[k]] : uint32_t(c[k]);
-        if (mirrored)
+        if (skinned.empty() ? mirrored : flipped[v[0]] != 0)
             std::swap(v[1], v[2]);
         float tn[9], tuv[6], tuv1[6], tc[12];
         for (int k = 0; k < 3; k++) {
@@ -1212,10 +1360,15 @@ rtk_status Loader::visit(int index, const Mat4 &parent, int depth)
             if ((status = add_instance(index, node.mesh, world)) != RTK_OK)
                 return status;
         } else {
-            /* Morph weights: the node's, else the mesh's defaults. */
+            /* Morph weights: the node's, else the mesh's defaults. A skin
+             * places the vertices by its joints, not by the node. */
             const std::vector<double> &weights = node.weights.empty() ? mesh.weights : node.weights;
+            std::vector<Mat4> joints;
+            if (node.skin >= 0 && (status = joint_matrices(index, &joints)) != RTK_OK)
+                return status;
             for (size_t p = 0; p < mesh.primitives.size(); p++) {
-                if ((status = add_primitive(node.mesh, int(p), world, weights, scene_)) != RTK_OK)
+                if ((status = add_primitive(node.mesh, int(p), world, weights, scene_,
+                                            node.skin >= 0 ? &joints : nullptr)) != RTK_OK)
                     return status;
             }
         }

@@ -87,7 +87,7 @@ static int gaccessor(gbuf *g, const void *bytes, size_t n, int component, int co
 
 static int gfloats(gbuf *g, const float *v, int count, const char *type)
 {
-    int k = strcmp(type, "SCALAR") == 0 ? 1 : type[3] - '0';
+    int k = strcmp(type, "SCALAR") == 0 ? 1 : strcmp(type, "MAT4") == 0 ? 16 : type[3] - '0';
     return gaccessor(g, v, sizeof(float) * (size_t)(count * k), 5126, count, type, NULL);
 }
 
@@ -601,6 +601,42 @@ static void test_gpu_instancing(void)
     free(g);
 }
 
+/* ---- skins in the rest pose ---- */
+
+static void test_skin(void)
+{
+    printf("skins\n");
+    gbuf *g = calloc(1, sizeof *g);
+    triangle_data(g);
+    /* Vertex 0 on joint 0, vertex 1 on joint 1, vertex 2 half on each. */
+    const uint8_t joints[12] = {0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0};
+    const float weights[12] = {1, 0, 0, 0, 1, 0, 0, 0, 0.5f, 0.5f, 0, 0};
+    const float ibm[32] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,
+                           1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, -1, 0, 1};
+    gaccessor(g, joints, sizeof joints, 5121, 3, "VEC4", NULL); /* 2 */
+    gfloats(g, weights, 3, "VEC4");                              /* 3 */
+    gfloats(g, ibm, 2, "MAT4");                                  /* 4 */
+    const uint8_t bad_joints[12] = {0, 0, 0, 0, 7, 0, 0, 0, 0, 1, 0, 0};
+    gaccessor(g, bad_joints, sizeof bad_joints, 5121, 3, "VEC4", NULL); /* 5 */
+    /* The skinned node's own translation is ignored; joint 1 sits at
+     * y = 5 under joint 0, its inverse bind matrix a move by y = -1. */
+    const char *skin = "\"scenes\":[{\"nodes\":[0,1]}],"
+                       "\"nodes\":[{\"mesh\":0,\"skin\":0,\"translation\":[100,0,0]},{\"children\":[2]},"
+                       "{\"translation\":[0,5,0]}],\"skins\":[{\"joints\":[1,2],\"inverseBindMatrices\":4}],"
+                       "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"JOINTS_0\":%d,"
+                       "\"WEIGHTS_0\":3},\"indices\":1}]}]";
+    char body[1024];
+    snprintf(body, sizeof body, skin, 2);
+    rtk_scene *s = load(write_gltf("skin.gltf", g, body), 0);
+    check(s && s->triangle_count == 1 && has_vertex(s, 0, 0, 0) && has_vertex(s, 1, 4, 0) && has_vertex(s, 0, 3, 0),
+          "vertices placed by their joints: (0, 0, 0), (1, 4, 0), and the blend (0, 3, 0)");
+    rtk_scene_free(s);
+    snprintf(body, sizeof body, skin, 5);
+    expect_refused("a joint past the skin's", write_gltf("skin_bad.gltf", g, body), RTK_ERR_PARSE, "JOINTS_0",
+                   "uses joint 7, but the skin has 2 joints", NULL);
+    free(g);
+}
+
 /* ---- the Khronos sample models, when ../shared/data is present ---- */
 
 static const char *sample(const char *rel)
@@ -664,6 +700,13 @@ static void test_samples(void)
     check(s && s->mesh_count == 1 && s->instance_count == 125, "SimpleInstancing: one mesh placed 125 times (%u, %u)",
           s ? s->mesh_count : 0, s ? s->instance_count : 0);
     rtk_scene_free(s);
+    /* 84 skinned parts in 4 trees, each a trunk of 100 from y = 0 with
+     * branches above it (the rest pose; the screenshot is animated). */
+    s = load(sample("RecursiveSkeletons/glTF/RecursiveSkeletons.gltf"), 0);
+    check(s && s->bounds.upper.y > 120.0f && s->bounds.lower.y > -1.0f && s->bounds.upper.x - s->bounds.lower.x > 50.0f,
+          "RecursiveSkeletons: four trees 120 high over 50 across (bounds y %g..%g, x %g..%g)",
+          s ? s->bounds.lower.y : 0, s ? s->bounds.upper.y : 0, s ? s->bounds.lower.x : 0, s ? s->bounds.upper.x : 0);
+    rtk_scene_free(s);
     expect_refused("Box Draco", sample("Box/glTF-Draco/Box.gltf"), RTK_ERR_UNSUPPORTED, "KHR_draco_mesh_compression",
                    NULL);
 }
@@ -691,6 +734,7 @@ int main(void)
     test_vertex_colors();
     test_morph();
     test_gpu_instancing();
+    test_skin();
     test_samples();
     rtk_params_destroy(builder_params);
     rtk_registry_destroy(reg);
