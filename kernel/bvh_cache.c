@@ -7,6 +7,7 @@
 #include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -149,6 +150,15 @@ uint64_t rtk_bvh_cache_plugin_stamp(const rtk_plugin *plugin)
     return rtk_hash64(fields, sizeof fields, RTK_BVH_CACHE_SEED);
 }
 
+uint64_t rtk_bvh_cache_plugin_key(const rtk_plugin *plugin)
+{
+    Dl_info info;
+    char real[PATH_MAX];
+    if (!dladdr(plugin->functions, &info) || !info.dli_fname || !realpath(info.dli_fname, real))
+        return 0;
+    return hash_text(real, RTK_BVH_CACHE_SEED);
+}
+
 char *rtk_bvh_cache_default_dir(void)
 {
     /* The XDG spec ignores relative values of XDG_CACHE_HOME. */
@@ -161,10 +171,11 @@ char *rtk_bvh_cache_default_dir(void)
     return NULL;
 }
 
-char *rtk_bvh_cache_path(const char *dir, uint64_t geometry, uint64_t builder)
+char *rtk_bvh_cache_path(const char *dir, uint64_t geometry, uint64_t builder, uint64_t plugin_key)
 {
     char name[64];
-    snprintf(name, sizeof name, "%016llx-%016llx.bvh", (unsigned long long)geometry, (unsigned long long)builder);
+    snprintf(name, sizeof name, "%016llx-%016llx-%016llx.bvh", (unsigned long long)geometry,
+             (unsigned long long)builder, (unsigned long long)plugin_key);
     return rtk_path_join(dir, name);
 }
 
@@ -323,7 +334,8 @@ static int load_checked(rtk_scene *s, int fd, const char *path, uint64_t geometr
         return 0;
     }
     if (h.plugin_file != rtk_bvh_cache_plugin_stamp(plugin)) {
-        snprintf(why, why_size, "stale: built by another build of '%s' (the plugin file changed)", h.builder_text);
+        snprintf(why, why_size, "stale: built by an earlier build of '%s' (the plugin file changed since)",
+                 h.builder_text);
         return 0;
     }
     /* n <= (UINT32_MAX - 1) / 2 (checked by the caller), so 2n - 1 fits. */
@@ -508,21 +520,28 @@ rtk_status rtk_bvh_cache_save(const rtk_scene *s, const char *path, uint64_t geo
     return st;
 }
 
-/* Whether name is a tree file's, <16 hex>-<16 hex>.bvh (what
- * rtk_bvh_cache_path makes), and with tmp set, a save's temporary file
- * (that name and ".tmp" then anything). */
+/* Whether the 16 characters at s are lowercase hex digits (stops at a NUL). */
+static int hex16(const char *s)
+{
+    for (int i = 0; i < 16; i++)
+        if (!((s[i] >= '0' && s[i] <= '9') || (s[i] >= 'a' && s[i] <= 'f')))
+            return 0;
+    return 1;
+}
+
+/* Whether name is a tree file's, <16 hex>-<16 hex>-<16 hex>.bvh (what
+ * rtk_bvh_cache_path makes) or <16 hex>-<16 hex>.bvh (an older rtk's
+ * name, without the plugin key: pruned, never read), and with tmp set, a
+ * save's temporary file (that name and ".tmp" then anything). */
 static int cache_file_name(const char *name, int *tmp)
 {
-    for (int i = 0; i < 33; i++) {
-        const char c = name[i];
-        const int hex = (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f');
-        if (i == 16 ? c != '-' : !hex)
-            return 0;
-    }
-    if (strncmp(name + 33, ".bvh", 4) != 0)
+    if (!hex16(name) || name[16] != '-' || !hex16(name + 17))
         return 0;
-    *tmp = name[37] != '\0';
-    return !*tmp || strncmp(name + 37, ".tmp", 4) == 0;
+    const size_t end = name[33] == '-' && hex16(name + 34) ? 50 : 33;
+    if (strncmp(name + end, ".bvh", 4) != 0)
+        return 0;
+    *tmp = name[end + 4] != '\0';
+    return !*tmp || strncmp(name + end + 4, ".tmp", 4) == 0;
 }
 
 typedef struct cache_entry {
@@ -684,7 +703,7 @@ rtk_status rtk_bvh_build_cached_own(rtk_scene *s, const rtk_plugin *plugin, cons
         return rtk_bvh_build(s, plugin, params, threads);
     uint64_t geometry = rtk_bvh_cache_geometry_hash(s);
     uint64_t builder = rtk_bvh_cache_builder_hash(plugin, params);
-    char *path = rtk_bvh_cache_path(dir, geometry, builder);
+    char *path = rtk_bvh_cache_path(dir, geometry, builder, rtk_bvh_cache_plugin_key(plugin));
     if (!path)
         return rtk_bvh_build(s, plugin, params, threads);
     if (rtk_bvh_cache_load(s, path, geometry, builder, plugin, threads)) {

@@ -28,9 +28,12 @@
  *                   h = hash(nodes, h), h = hash(prim ids, h)
  *
  * A file's size is exactly 104 + 32 * nodes + 4 * prims + 8. The file name
- * carries the geometry and builder hashes; the plugin file stamp is only
- * in the header, so rebuilding a plugin overwrites its old trees instead
- * of leaving them behind. */
+ * carries the geometry and builder hashes and the plugin key (a hash of
+ * the plugin file's path), so that builds of one plugin at different
+ * paths (a build tree, an install) keep a tree each instead of evicting
+ * each other's. The plugin file stamp is only in the header: a plugin
+ * rebuilt at its path finds its old tree refused as stale and overwrites
+ * it, instead of leaving it behind. */
 #ifndef RTK_BVH_CACHE_H
 #define RTK_BVH_CACHE_H
 
@@ -80,11 +83,16 @@ uint64_t rtk_bvh_cache_builder_hash(const rtk_plugin *plugin, const rtk_params *
  * file is unknown. */
 uint64_t rtk_bvh_cache_plugin_stamp(const rtk_plugin *plugin);
 
+/* Hash of the real path of the file the plugin's code was loaded from:
+ * which build of the plugin this is, so that two builds' trees coexist
+ * in one cache; 0 when the file is unknown. */
+uint64_t rtk_bvh_cache_plugin_key(const rtk_plugin *plugin);
+
 /* $XDG_CACHE_HOME/rtk, else $HOME/.cache/rtk, else NULL. [caller frees] */
 char *rtk_bvh_cache_default_dir(void);
 
-/* "<dir>/<geometry hash>-<builder hash>.bvh". [caller frees] */
-char *rtk_bvh_cache_path(const char *dir, uint64_t geometry, uint64_t builder);
+/* "<dir>/<geometry hash>-<builder hash>-<plugin key>.bvh". [caller frees] */
+char *rtk_bvh_cache_path(const char *dir, uint64_t geometry, uint64_t builder, uint64_t plugin_key);
 
 /* Replaces scene's BVH with the one in path when every check passes
  * (size, magic, byte order, version, hashes, checksum, then the kernel's
@@ -103,7 +111,8 @@ rtk_status rtk_bvh_cache_save(const rtk_scene *scene, const char *path, uint64_t
                               const rtk_plugin *plugin);
 
 /* Keeps the cache in dir within limit bytes (0: no limit): removes its
- * tree files (<16 hex digits>-<16 hex digits>.bvh), least recently used
+ * tree files (<16 hex digits>-<16 hex digits>-<16 hex digits>.bvh, and
+ * <16 hex>-<16 hex>.bvh without a plugin key), least recently used
  * first (a load or a save marks a file used: its modification time), until
  * the ones left take at most limit bytes. Files used at or after since
  * (the render's own) are never removed. Temporary files of saves

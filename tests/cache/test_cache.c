@@ -7,6 +7,7 @@
 #include "internal.h"
 
 #include <dirent.h>
+#include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <ftw.h>
@@ -870,14 +871,20 @@ static void test_prune(void)
     mkdir(d, 0755);
     struct timespec now;
     clock_gettime(CLOCK_REALTIME, &now);
-    const char *a = "00000000000000a1-00000000000000b1.bvh", *b = "00000000000000a2-00000000000000b2.bvh",
-               *c = "00000000000000a3-00000000000000b3.bvh", *own = "00000000000000a4-00000000000000b4.bvh";
+    const char *a = "00000000000000a1-00000000000000b1-00000000000000c1.bvh",
+               *b = "00000000000000a2-00000000000000b2.bvh",
+               *c = "00000000000000a3-00000000000000b3-00000000000000c3.bvh",
+               *own = "00000000000000a4-00000000000000b4-00000000000000c4.bvh",
+               *keyless = "00000000000000a0-00000000000000b0.bvh";
+    make_aged(d, keyless, 500, 400, now);
     make_aged(d, a, 1000, 300, now);
     make_aged(d, b, 2000, 200, now);
     make_aged(d, c, 3000, 100, now);
     make_aged(d, own, 4000, 0, now);
     make_aged(d, "notes.txt", 5000, 1000, now);
     make_aged(d, "00000000000000A1-00000000000000B1.bvh", 5000, 1000, now); /* not a name the cache makes */
+    make_aged(d, "00000000000000a1-00000000000000b1-00000000000000C1.bvh", 5000, 1000, now); /* nor this */
+    make_aged(d, "00000000000000a1-00000000000000b1-00000000000000c1.bvh.tmp76-0", 10, 7200, now);
     make_aged(d, "00000000000000a1-00000000000000b1.bvh.tmp77-0", 10, 7200, now);
     make_aged(d, "00000000000000a2-00000000000000b2.bvh.tmp78-0", 10, 60, now);
     make_aged(d, "00000000000000a1-00000000000000b1.bvh.old", 10, 7200, now);
@@ -887,21 +894,23 @@ static void test_prune(void)
     struct timespec since = {now.tv_sec - 50, 0};
     uint64_t freed = 0;
     uint32_t removed = rtk_bvh_cache_prune(d, 0, since, &freed);
-    check(removed == 1 && freed == 10 && !exists_in(d, "00000000000000a1-00000000000000b1.bvh.tmp77-0") &&
+    check(removed == 2 && freed == 20 && !exists_in(d, "00000000000000a1-00000000000000b1.bvh.tmp77-0") &&
+              !exists_in(d, "00000000000000a1-00000000000000b1-00000000000000c1.bvh.tmp76-0") &&
               exists_in(d, "00000000000000a2-00000000000000b2.bvh.tmp78-0") && exists_in(d, a),
-          "no limit: only the hour-old temporary file goes (removed %u, %llu bytes)", removed,
+          "no limit: only the hour-old temporary files go (removed %u, %llu bytes)", removed,
           (unsigned long long)freed);
     freed = 0;
     removed = rtk_bvh_cache_prune(d, 7500, since, &freed);
-    check(removed == 2 && freed == 3000 && !exists_in(d, a) && !exists_in(d, b) && exists_in(d, c) &&
-              exists_in(d, own),
-          "7500 bytes over 10000: the two least recently used go (removed %u, %llu bytes)", removed,
-          (unsigned long long)freed);
+    check(removed == 3 && freed == 3500 && !exists_in(d, keyless) && !exists_in(d, a) && !exists_in(d, b) &&
+              exists_in(d, c) && exists_in(d, own),
+          "7500 bytes over 10500: the three least recently used go, with and without a plugin key "
+          "(removed %u, %llu bytes)", removed, (unsigned long long)freed);
     freed = 0;
     removed = rtk_bvh_cache_prune(d, 1, since, &freed);
     check(removed == 1 && freed == 3000 && !exists_in(d, c) && exists_in(d, own),
           "1 byte: all but the render's own tree go (removed %u, %llu bytes)", removed, (unsigned long long)freed);
     check(exists_in(d, "notes.txt") && exists_in(d, "00000000000000A1-00000000000000B1.bvh") &&
+              exists_in(d, "00000000000000a1-00000000000000b1-00000000000000C1.bvh") &&
               exists_in(d, "00000000000000a2-00000000000000b2.bvh.tmp78-0") &&
               exists_in(d, "00000000000000a1-00000000000000b1.bvh.old") && exists_in(d, "00000000000000a5-00000000000000b5.bvh"),
           "other files, a fresh temporary file and a directory stay");
@@ -920,6 +929,125 @@ static void test_prune(void)
     check(used && stated && age <= 5, "a load marks the file used (modified %lld s before the test)", age);
     nftw(d, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
     group_done("cache_limit: least recently used trees removed, nothing else", f0, p0);
+}
+
+/* Copies the file plugin was loaded from to path. */
+static int copy_plugin_file(const rtk_plugin *plugin, const char *path)
+{
+    Dl_info info;
+    size_t size = 0;
+    unsigned char *data = NULL;
+    if (dladdr(plugin->functions, &info) && info.dli_fname)
+        data = read_file(info.dli_fname, &size);
+    int ok = data && write_file(path, data, size);
+    free(data);
+    return ok;
+}
+
+/* One build of the probe through the cache in d: 1 loaded, 0 built, -1
+ * failed; *err gets what was printed. [caller frees *err] */
+static int build_through(const rtk_plugin *plugin, const rtk_params *p, const char *d, rtk_bvh_cache_use *use,
+                         char **err)
+{
+    capture c;
+    capture_begin(&c);
+    rtk_status st = rtk_bvh_build_cached(probe, plugin, p, 1, d, use);
+    *err = capture_end(&c);
+    return st != RTK_OK ? -1 : use->from_cache;
+}
+
+/* Two builds of one plugin in one cache, as a build tree's and an
+ * install's: copies of median's file at two paths. Each keeps a tree of
+ * its own, so they alternate without a rebuild after their first; a copy
+ * rebuilt at its path never gets its old tree; cache_limit still removes
+ * the least recently used. */
+static void test_two_builds(void)
+{
+    int f0 = failed, p0 = passed;
+    char d[512], file[2][600], tree[2][1024];
+    const rtk_plugin *copy[2] = {NULL, NULL};
+    rtk_params *p[2] = {NULL, NULL};
+    snprintf(d, sizeof d, "%s/two-builds", dir);
+    mkdir(d, 0755);
+    for (int i = 0; i < 2; i++) {
+        char sub[560];
+        snprintf(sub, sizeof sub, "%s/build-%c", dir, 'a' + i);
+        mkdir(sub, 0755);
+        snprintf(file[i], sizeof file[i], "%s/median.so", sub);
+        if (!copy_plugin_file(median, file[i]) ||
+            rtk_plugin_open(file[i], RTK_KIND_ACCELERATOR, &copy[i]) != RTK_OK) {
+            check(0, "copy %d of median: %s", i, rtk_error_message());
+            return;
+        }
+        p[i] = rtk_params_defaults(copy[i]);
+        tree[i][0] = '\0';
+    }
+    const uint64_t key0 = rtk_bvh_cache_plugin_key(copy[0]), key1 = rtk_bvh_cache_plugin_key(copy[1]);
+    check(copy[0] != copy[1] && copy[0] != median && copy[1] != median, "two copies of median: two plugins");
+    check(key0 && key1 && key0 != key1 && key0 != rtk_bvh_cache_plugin_key(median),
+          "each copy has a plugin key of its own");
+    check(rtk_bvh_cache_builder_hash(copy[0], p[0]) == rtk_bvh_cache_builder_hash(copy[1], p[1]),
+          "both copies have the same builder hash");
+    rtk_bvh_cache_use use;
+    char *err;
+    for (int i = 0; i < 2; i++) {
+        int got = build_through(copy[i], p[i], d, &use, &err);
+        check(got == 0 && err[0] == '\0' && use.file[0], "copy %d, first build: built and saved, no warning (got: %s)",
+              i, shown(err));
+        snprintf(tree[i], sizeof tree[i], "%s", use.file);
+        free(err);
+    }
+    check(strcmp(tree[0], tree[1]) != 0 && dir_count(d, ".bvh") == 2, "one tree file per copy (%s, %s)", tree[0],
+          tree[1]);
+    for (int round = 1; round <= 3; round++) {
+        for (int i = 0; i < 2; i++) {
+            int got = build_through(copy[i], p[i], d, &use, &err);
+            check(got == 1 && err[0] == '\0' && strcmp(use.file, tree[i]) == 0 && same_bvh(ref, probe),
+                  "round %d, copy %d: its own tree from the cache, no warning (got: %s)", round, i, shown(err));
+            free(err);
+        }
+    }
+    check(dir_count(d, ".bvh") == 2, "alternating builds: still two tree files");
+    /* Copy 0 rebuilt at its path: its file's time changes. */
+    struct timespec now;
+    clock_gettime(CLOCK_REALTIME, &now);
+    const struct timespec rebuilt[2] = {{now.tv_sec - 10, 0}, {now.tv_sec - 10, 0}};
+    utimensat(AT_FDCWD, file[0], rebuilt, 0);
+    int got = build_through(copy[0], p[0], d, &use, &err);
+    check(got == 0 && count_of(err, "warning") == 1 && strstr(err, tree[0]) && strstr(err, "earlier build"),
+          "copy 0 rebuilt: its old tree refused with one warning (got: %s)", shown(err));
+    check(strcmp(use.file, tree[0]) == 0 && dir_count(d, ".bvh") == 2, "copy 0 rebuilt: its tree overwritten in place");
+    free(err);
+    got = build_through(copy[0], p[0], d, &use, &err);
+    check(got == 1 && err[0] == '\0', "copy 0 rebuilt: its new tree loads next time (got: %s)", shown(err));
+    free(err);
+    got = build_through(copy[1], p[1], d, &use, &err);
+    check(got == 1 && err[0] == '\0', "copy 1 still loads its own tree (got: %s)", shown(err));
+    free(err);
+    /* cache_limit over both builds' trees: the least recently used goes. */
+    struct stat st;
+    const long long tree_bytes = stat(tree[1], &st) == 0 ? (long long)st.st_size : 0;
+    const struct timespec older[2] = {{now.tv_sec - 200, 0}, {now.tv_sec - 200, 0}};
+    const struct timespec newer[2] = {{now.tv_sec - 100, 0}, {now.tv_sec - 100, 0}};
+    utimensat(AT_FDCWD, tree[0], older, 0);
+    utimensat(AT_FDCWD, tree[1], newer, 0);
+    const struct timespec since = {now.tv_sec - 50, 0};
+    uint64_t freed = 0;
+    uint32_t removed = rtk_bvh_cache_prune(d, (uint64_t)tree_bytes, since, &freed);
+    check(tree_bytes > 0 && removed == 1 && freed == (uint64_t)tree_bytes && access(tree[0], F_OK) != 0 &&
+              access(tree[1], F_OK) == 0,
+          "a limit of one tree: the least recently used build's tree goes (removed %u, %llu bytes)", removed,
+          (unsigned long long)freed);
+    got = build_through(copy[1], p[1], d, &use, &err);
+    check(got == 1 && err[0] == '\0', "after pruning: the kept tree loads (got: %s)", shown(err));
+    free(err);
+    got = build_through(copy[0], p[0], d, &use, &err);
+    check(got == 0 && err[0] == '\0' && strcmp(use.file, tree[0]) == 0,
+          "after pruning: the removed one is built and saved again, no warning (got: %s)", shown(err));
+    free(err);
+    for (int i = 0; i < 2; i++)
+        rtk_params_destroy(p[i]);
+    group_done("two builds of a plugin share a cache: a tree each, pruned least recently used first", f0, p0);
 }
 
 int main(void)
@@ -947,7 +1075,7 @@ int main(void)
     printf("ok    sphere: %u triangles, %u nodes, depth %u\n", ref->triangle_count, ref->node_count, ref->bvh_depth);
     ghash = rtk_bvh_cache_geometry_hash(ref);
     bhash = rtk_bvh_cache_builder_hash(median, params);
-    char *p = rtk_bvh_cache_path(dir, ghash, bhash);
+    char *p = rtk_bvh_cache_path(dir, ghash, bhash, rtk_bvh_cache_plugin_key(median));
     snprintf(path, sizeof path, "%s", p);
     free(p);
 
@@ -964,6 +1092,7 @@ int main(void)
         test_stale();
         test_odd_files();
         test_prune();
+        test_two_builds();
         test_fuzz(quick ? 60 : 600);
     }
     check(dir_count(dir, ".tmp") == 0, "no temporary file left in the cache dir");
