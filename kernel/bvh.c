@@ -188,7 +188,7 @@ static inline __attribute__((always_inline)) int binary_closest(const rtk_scene 
                 if (!leaf_hit(s, slot, &ray, &t, &u, &v))
                     continue;
                 uint32_t prim = s->prim_ids[slot];
-                if (s->has_cutouts && !rtk_alpha_opaque(s, prim, u, v))
+                if (s->has_cutouts && !rtk_alpha_opaque(s, &ray, prim, u, v))
                     continue;
                 /* Equal distances go to the lowest id, whatever the tree. */
                 if (t < ray.tmax || (t == ray.tmax && prim < hit->prim)) {
@@ -249,7 +249,7 @@ static inline __attribute__((always_inline)) int binary_any(const rtk_scene *s, 
                 if (work)
                     work->triangles++;
                 if (leaf_hit(s, n->offset + i, ray, &t, &u, &v) &&
-                    (!s->has_cutouts || rtk_alpha_opaque(s, s->prim_ids[n->offset + i], u, v)))
+                    (!s->has_cutouts || rtk_alpha_opaque(s, ray, s->prim_ids[n->offset + i], u, v)))
                     return 1;
             }
         } else {

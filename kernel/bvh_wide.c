@@ -1408,7 +1408,7 @@ RTK_INLINE int scalar_traverse(const rtk_scene *s, const rtk_ray *ray_in, rtk_hi
                         continue;
                     float tt, u, v;
                     if (!scalar_lane(t, lane, &ray, &tt, &u, &v) ||
-                        (s->has_cutouts && !rtk_alpha_opaque(s, t->prim[lane], u, v)))
+                        (s->has_cutouts && !rtk_alpha_opaque(s, &ray, t->prim[lane], u, v)))
                         continue;
                     if (any)
                         return 1;
@@ -1596,7 +1596,7 @@ RTK_INLINE int blocks_test(const rtk_scene *s, const rtk_wide_tris *b, const rtk
             _mm_storeu_ps(ft, t), _mm_storeu_ps(fu, u), _mm_storeu_ps(fv, v);
             for (; mask; mask &= mask - 1) {
                 int i = __builtin_ctz((unsigned)mask);
-                if (s->has_cutouts && !rtk_alpha_opaque(s, b->prim[i], fu[i], fv[i]))
+                if (s->has_cutouts && !rtk_alpha_opaque(s, ray, b->prim[i], fu[i], fv[i]))
                     continue;
                 if (any)
                     return 1;
@@ -1607,7 +1607,7 @@ RTK_INLINE int blocks_test(const rtk_scene *s, const rtk_wide_tris *b, const rtk
             int i = __builtin_ctz((unsigned)scalar);
             float st, su, sv;
             if (!lane_scalar(b, i, ray, any ? ray->tmax : hit->t, &st, &su, &sv) ||
-                (s->has_cutouts && !rtk_alpha_opaque(s, b->prim[i], su, sv)))
+                (s->has_cutouts && !rtk_alpha_opaque(s, ray, b->prim[i], su, sv)))
                 continue;
             if (any)
                 return 1;

@@ -28,6 +28,7 @@ rtk_status rtk_scene_add_mesh(rtk_scene *scene, const char *name, uint32_t *inde
         return RTK_ERR_NOMEM;
     mesh->owner = scene;
     mesh->cutout_materials = scene->cutout_materials;
+    mesh->single_sided = scene->single_sided;
     rtk_status st = append_mesh(scene, mesh, index);
     if (st != RTK_OK)
         rtk_scene_free(mesh);
@@ -170,6 +171,8 @@ rtk_status rtk_instances_finish(rtk_scene *scene)
         rtk_status st = rtk_scene_finish(mesh);
         if (st != RTK_OK)
             return st;
+        /* Camera rays test sides when any placed mesh is single-sided. */
+        scene->single_sided |= mesh->single_sided;
     }
     uint32_t kept = 0;
     for (uint32_t i = 0; i < scene->instance_count; i++) {

@@ -274,6 +274,8 @@ typedef struct rtk_material {
     rtk_tex_wrap base_wrap, alpha_wrap, normal_wrap, emission_wrap;
     /* Texture coordinates per slot, like the wrap modes. */
     rtk_tex_map base_uv, alpha_uv, normal_uv, emission_uv;
+    int coverage;         /* glTF BLEND: alpha is the chance that a ray stops here (alpha.c) */
+    int single_sided;     /* glTF doubleSided false: camera rays pass through its back (alpha.c) */
 } rtk_material;
 
 /* The texture coordinates map reads on triangle prim of s at barycentrics
@@ -300,7 +302,9 @@ int rtk_apply_normal_map(const struct rtk_scene *s, const rtk_material *m, uint3
 
 /* ---- alpha cutouts (alpha.c) ---- */
 
-/* 1 when m cuts out (MASK; BLEND with a texture, at 0.5), with its cutoff. */
+/* 1 when m cuts out, with its cutoff: MASK; glTF BLEND (coverage) with
+ * alpha below 1 or a texture, cutoff -1 (stochastic: rtk_alpha_opaque);
+ * other BLEND with a texture, at 0.5. */
 int rtk_material_cutout(const rtk_material *m, float *cutoff);
 /* Coverage of a texel of an alpha texture: its alpha channel when the
  * image has one that is not all 1, else its first channel (grey masks). */
@@ -308,10 +312,17 @@ float rtk_texture_coverage(const rtk_texture *tex, const float texel[4]);
 /* Coverage of material m at texture coordinates (u, v): alpha factor x
  * the alpha texture, if decoded. */
 float rtk_material_alpha(const struct rtk_scene *s, const rtk_material *m, float u, float v);
-/* Whether a hit at barycentrics (u, v) on triangle prim counts: 1 unless
- * its material cuts out and the coverage there is below the cutoff.
+/* Whether ray's hit at barycentrics (u, v) on triangle prim counts: 1
+ * unless its material cuts out and the coverage there is below the cutoff
+ * (for coverage materials, below a number hashed from the ray and prim,
+ * so that the same ray always decides the same), or the ray is a camera
+ * ray (rtk_alpha_camera_ray) on the back of a single-sided material.
  * Traversal calls it only when scene->has_cutouts. [any thread] */
-int rtk_alpha_opaque(const struct rtk_scene *s, uint32_t prim, float u, float v);
+int rtk_alpha_opaque(const struct rtk_scene *s, const rtk_ray *ray, uint32_t prim, float u, float v);
+/* Marks this thread's traversals as tracing a camera ray (on = 1) or not:
+ * rtk_alpha_opaque then lets camera rays through the back of single-sided
+ * triangles. Set by rtk_trace around a camera ray's traversal. */
+void rtk_alpha_camera_ray(int on);
 
 /* One placement of an instanced mesh. Transforms are 3x4, row-major:
  * x' = m[0] x + m[1] y + m[2] z + m[3], and so on. */
@@ -356,7 +367,9 @@ struct rtk_scene {
     float camera_aspect;         /* the file camera's aspect, 0 if unknown */
     uint32_t dropped_degenerate; /* triangles dropped as zero-area */
     int cutout_materials;        /* a material that cuts out was added: materials and uvs are kept */
-    int has_cutouts;             /* some triangle's material cuts out: traversal tests alpha */
+    int single_sided;            /* a single-sided material was added: materials are kept */
+    int has_cutouts;             /* some triangle's material cuts out or is single-sided:
+                                    traversal asks rtk_alpha_opaque per hit */
     rtk_bounds bounds;
     /* BVH (bvh.c) */
     rtk_bvh_node *nodes;
@@ -685,6 +698,7 @@ struct rtk_ctx {
      * the film position it went through; camera NULL when there is none. */
     const rtk_camera *camera;
     float film_x, film_y;
+    rtk_ray camera_ray;        /* that ray itself, as li received it */
 };
 
 /* Picks ctx's generator, seed and samples per pixel (0 taken as 1). A

@@ -12,6 +12,13 @@
 
 #include <math.h>
 
+/* Whether ray is the current sample's camera ray, in a scene where that
+ * matters: camera rays pass through the back of single-sided materials. */
+static int camera_ray(const rtk_ctx *ctx, const rtk_ray *ray)
+{
+    return ctx->scene->single_sided && ctx->camera && memcmp(ray, &ctx->camera_ray, sizeof *ray) == 0;
+}
+
 RTK_API int rtk_trace(rtk_ctx *ctx, const rtk_ray *ray, rtk_hit *hit)
 {
     ctx->rays++;
@@ -22,7 +29,12 @@ RTK_API int rtk_trace(rtk_ctx *ctx, const rtk_ray *ray, rtk_hit *hit)
         hit->u = hit->v = 0.0f;
         return 0;
     }
-    return rtk_bvh_closest(ctx->scene, ray, hit);
+    if (!camera_ray(ctx, ray))
+        return rtk_bvh_closest(ctx->scene, ray, hit);
+    rtk_alpha_camera_ray(1);
+    int got = rtk_bvh_closest(ctx->scene, ray, hit);
+    rtk_alpha_camera_ray(0);
+    return got;
 }
 
 RTK_API int rtk_occluded(rtk_ctx *ctx, const rtk_ray *ray)
@@ -46,7 +58,11 @@ RTK_API int rtk_trace_measure(rtk_ctx *ctx, const rtk_ray *ray, rtk_hit *hit, rt
         work->nodes = work->triangles = 0;
         return 0;
     }
-    return rtk_bvh_closest_measure(ctx->scene, ray, hit, work);
+    const int camera = camera_ray(ctx, ray);
+    rtk_alpha_camera_ray(camera);
+    int got = rtk_bvh_closest_measure(ctx->scene, ray, hit, work);
+    rtk_alpha_camera_ray(0);
+    return got;
 }
 
 RTK_API const rtk_scene *rtk_ctx_scene(const rtk_ctx *ctx)

@@ -147,7 +147,8 @@ static rtk_status grow_triangles(rtk_scene *scene)
      * reads: traversal tests their alpha. */
     if ((keeps_uvs(scene) || scene->cutout_materials) && !resize(&scene->uvs, (size_t)cap * 6, sizeof(float)))
         return RTK_ERR_NOMEM;
-    if ((keeps_materials(scene) || scene->cutout_materials) && !resize(&scene->tri_material, cap, sizeof(uint32_t)))
+    if ((keeps_materials(scene) || scene->cutout_materials || scene->single_sided) &&
+        !resize(&scene->tri_material, cap, sizeof(uint32_t)))
         return RTK_ERR_NOMEM;
     if ((scene->uvs1 && !resize(&scene->uvs1, (size_t)cap * 6, sizeof(float))) ||
         (scene->colors && !resize(&scene->colors, (size_t)cap * 12, sizeof(float))))
@@ -224,13 +225,13 @@ rtk_status rtk_scene_set_corners(rtk_scene *scene, const float *uvs1, const floa
     return RTK_OK;
 }
 
-/* The first material that cuts out: from now on the scene keeps materials
- * and uvs; triangles added before it get none (they cannot use it). */
-static rtk_status keep_cutout_data(rtk_scene *scene)
+/* The first material that cuts out (uvs: 1) or is single-sided (uvs: 0):
+ * from now on the scene keeps material ids, and uvs for a cutout;
+ * triangles added before it get none (they cannot use it). */
+static rtk_status keep_cutout_data(rtk_scene *scene, int uvs)
 {
-    scene->cutout_materials = 1;
     size_t cap = scene->triangle_cap, n = scene->triangle_count;
-    if (!scene->uvs && cap) {
+    if (uvs && !scene->uvs && cap) {
         if (!(scene->uvs = rtk_calloc(cap * 6, sizeof(float))))
             return RTK_ERR_NOMEM;
     }
@@ -247,7 +248,14 @@ rtk_status rtk_scene_add_material(rtk_scene *scene, const rtk_material *material
 {
     float cutoff;
     if (!scene->cutout_materials && rtk_material_cutout(material, &cutoff)) {
-        rtk_status status = keep_cutout_data(scene);
+        scene->cutout_materials = 1;
+        rtk_status status = keep_cutout_data(scene, 1);
+        if (status != RTK_OK)
+            return status;
+    }
+    if (!scene->single_sided && material->single_sided) {
+        scene->single_sided = 1;
+        rtk_status status = keep_cutout_data(scene, 0);
         if (status != RTK_OK)
             return status;
     }
@@ -463,7 +471,7 @@ static rtk_status decode_textures(rtk_scene *scene)
         const rtk_material *mat = &scene->materials[m];
         float cutoff;
         int cutout = rtk_material_cutout(mat, &cutoff);
-        scene->has_cutouts |= cutout;
+        scene->has_cutouts |= cutout || mat->single_sided;
         const int tex[4] = {mat->base_tex, mat->alpha_tex, mat->normal_tex, mat->emission_tex};
         for (int k = 0; k < 4; k++) {
             if (tex[k] >= 0 && (uint32_t)tex[k] < scene->texture_count &&

@@ -729,6 +729,7 @@ rtk_status Loader::add_materials()
             m.alpha = clamp01(clean(pbr.baseColorFactor[3], 1.0f));
         }
         m.metallic = clamp01(clean(pbr.metallicFactor, 1.0f));
+        m.single_sided = !src.doubleSided;
         m.roughness = clamp01(clean(pbr.roughnessFactor, 1.0f));
         double strength = 1.0;
         tinygltf::ExtensionMap::const_iterator ext = src.extensions.find("KHR_materials_emissive_strength");
@@ -752,6 +753,7 @@ rtk_status Loader::add_materials()
             m.alpha_cutoff = clean(src.alphaCutoff, 0.5f);
         } else if (src.alphaMode == "BLEND") {
             m.alpha_mode = RTK_ALPHA_BLEND;
+            m.coverage = 1; /* alpha is the chance that a ray stops */
         } else if (src.alphaMode != "OPAQUE") {
             rtk_log(RTK_LOG_WARN, "%s: %s has alphaMode '%s'; treated as OPAQUE", path_,
                     label("material", i, src.name).c_str(), src.alphaMode.c_str());

@@ -81,7 +81,7 @@ static int oracle(const rtk_scene *s, const rtk_ray *ray, rtk_hit *out)
         rtk_vec3 a, b, c;
         rtk_scene_triangle(s, i, &a, &b, &c);
         float t, u, v;
-        if (!rtk_intersect_triangle(ray, a, b, c, &t, &u, &v) || !rtk_alpha_opaque(s, i, u, v))
+        if (!rtk_intersect_triangle(ray, a, b, c, &t, &u, &v) || !rtk_alpha_opaque(s, ray, i, u, v))
             continue;
         if (t < out->t || (t == out->t && i < out->prim))
             out->t = t, out->u = u, out->v = v, out->prim = i;

@@ -478,7 +478,8 @@ static void test_vertex_colors(void)
         check(rgb_is(c.base_color, 0.125, 0.5, 0.25) && near(c.alpha, 0.75, 1e-6),
               "interpolated inside: colour and alpha (%g %g %g, %g)", c.base_color.r, c.base_color.g, c.base_color.b,
               c.alpha);
-        check(rtk_alpha_opaque(s, 0, 0.1f, 0.1f) && !rtk_alpha_opaque(s, 0, 0.1f, 0.8f),
+        rtk_ray down = {{0.1f, 0.1f, 1.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, INFINITY};
+        check(rtk_alpha_opaque(s, &down, 0, 0.1f, 0.1f) && !rtk_alpha_opaque(s, &down, 0, 0.1f, 0.8f),
               "a MASK cutout sees COLOR_0's alpha");
         c = surface_at(s, 1, 0.5f, 0.0f);
         check(rgb_is(c.base_color, 0.75, 0.75, 0.375), "RGB floats (%g %g %g)", c.base_color.r, c.base_color.g,
@@ -637,6 +638,126 @@ static void test_skin(void)
     free(g);
 }
 
+/* ---- doubleSided false for camera rays; BLEND as stochastic coverage ---- */
+
+/* A context tracing s; ray is the current sample's camera ray when camera. */
+static rtk_ctx trace_ctx(const rtk_scene *s, const rtk_camera *cam, const rtk_ray *camera_ray)
+{
+    rtk_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.scene = s;
+    ctx.camera = cam;
+    if (camera_ray)
+        ctx.camera_ray = *camera_ray;
+    return ctx;
+}
+
+static void test_double_sided(void)
+{
+    printf("doubleSided\n");
+    gbuf *g = calloc(1, sizeof *g);
+    triangle_data(g);
+    /* Node 0: single-sided at z = 0, facing +z; node 1: double-sided at
+     * z = 1; node 2 and 3 share a single-sided mesh, node 3 mirrored in z,
+     * both at x = 10 (the mirror keeps the authored side the front). */
+    const char *body =
+        "\"scenes\":[{\"nodes\":[0,1,2,3]}],\"nodes\":[{\"mesh\":0},{\"mesh\":1,\"translation\":[0,0,1]},"
+        "{\"mesh\":2,\"translation\":[10,0,0]},{\"mesh\":2,\"translation\":[10,0,-2],\"scale\":[1,1,-1]}],"
+        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"material\":0}]},"
+        "{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"material\":1}]},"
+        "{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"material\":0}]}],"
+        "\"materials\":[{},{\"doubleSided\":true}]";
+    /* No material needs: the ids are kept for the side test all the same. */
+    rtk_scene *s = load_built(write_gltf("sides.gltf", g, body), 0);
+    if (s && s->single_sided && s->tri_material && s->instance_count == 2) {
+        rtk_camera cam;
+        memset(&cam, 0, sizeof cam);
+        rtk_hit h;
+        int got;
+        rtk_ray up = {{0.25f, 0.25f, -5.0f}, 0.0f, {0.0f, 0.0f, 1.0f}, INFINITY};
+        rtk_ctx ctx = trace_ctx(s, &cam, &up);
+        got = rtk_trace(&ctx, &up, &h);
+        check(got && near(h.t, 6.0, 1e-5),
+              "a camera ray passes through the back of the single-sided triangle to the double-sided one (t %g)", h.t);
+        rtk_ray other = up;
+        other.tmin = 1e-6f; /* not bit for bit the camera ray */
+        got = rtk_trace(&ctx, &other, &h);
+        check(got && near(h.t, 5.0, 1e-5), "a secondary ray stops at its back (t %g)", h.t);
+        check(rtk_occluded(&ctx, &up), "shadow rays see both sides");
+        rtk_ray down = {{0.25f, 0.25f, 5.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, INFINITY};
+        ctx = trace_ctx(s, &cam, &down);
+        down.tmin = 4.5f;
+        ctx.camera_ray = down;
+        got = rtk_trace(&ctx, &down, &h);
+        check(got && near(h.t, 5.0, 1e-5), "a camera ray sees its front (t %g)", h.t);
+        rtk_ray inst_up = {{10.25f, 0.25f, -5.0f}, 0.0f, {0.0f, 0.0f, 1.0f}, INFINITY};
+        ctx = trace_ctx(s, &cam, &inst_up);
+        got = rtk_trace(&ctx, &inst_up, &h);
+        check(got && h.inst != RTK_INVALID_ID && near(h.t, 3.0, 1e-5),
+              "instances: the mirrored copy at z = -2 faces -z, the camera ray from below sees it (t %g)", h.t);
+        rtk_ray inst_down = {{10.25f, 0.25f, 5.0f}, 0.0f, {0.0f, 0.0f, -1.0f}, INFINITY};
+        ctx = trace_ctx(s, &cam, &inst_down);
+        got = rtk_trace(&ctx, &inst_down, &h);
+        check(got && near(h.t, 5.0, 1e-5),
+              "instances: the unmirrored copy faces +z, seen from above (t %g)", h.t);
+        rtk_ray mid = {{10.25f, 0.25f, -1.0f}, 0.0f, {0.0f, 0.0f, 1.0f}, INFINITY};
+        ctx = trace_ctx(s, &cam, &mid);
+        check(!rtk_trace(&ctx, &mid, &h), "instances: a camera ray between them meets only backs: a miss");
+    } else {
+        check(0, "sides.gltf: single-sided, material ids kept, two instances");
+    }
+    rtk_scene_free(s);
+    free(g);
+}
+
+static void test_blend_coverage(void)
+{
+    printf("BLEND as coverage\n");
+    gbuf *g = calloc(1, sizeof *g);
+    triangle_data(g);
+    const char *body =
+        "\"scenes\":[{\"nodes\":[0,1]}],\"nodes\":[{\"mesh\":0},{\"mesh\":1}],"
+        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"material\":0}]},"
+        "{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"material\":1}]}],"
+        "\"materials\":[{\"alphaMode\":\"BLEND\",\"doubleSided\":true,"
+        "\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,0.25]}},"
+        "{\"alphaMode\":\"BLEND\",\"doubleSided\":true}]";
+    rtk_scene *s = load_built(write_gltf("blend.gltf", g, body), 0);
+    if (s && s->material_count == 2) {
+        float cutoff;
+        check(rtk_material_cutout(&s->materials[0], &cutoff) && cutoff < 0.0f && s->has_cutouts,
+              "BLEND with alpha 0.25 is stochastic coverage");
+        check(!rtk_material_cutout(&s->materials[1], &cutoff), "BLEND with alpha 1 and no texture stays opaque");
+        /* Mesh 0 (alpha 0.25) and mesh 1 (alpha 1) are the same triangle:
+         * the ray stops at prim 0 about a quarter of the time, else at 1. */
+        rtk_ctx ctx = trace_ctx(s, NULL, NULL);
+        rtk_pcg32 rng;
+        rtk_pcg32_seed(&rng, 7, 1);
+        int stops = 0, n = 20000, same = 1, agree = 1;
+        for (int i = 0; i < n; i++) {
+            rtk_ray r = {{0.05f + 0.4f * rtk_pcg32_float(&rng), 0.05f + 0.4f * rtk_pcg32_float(&rng), 1.0f},
+                         0.0f,
+                         {0.0f, 0.0f, -1.0f},
+                         INFINITY};
+            rtk_hit h, h2;
+            int got = rtk_trace(&ctx, &r, &h);
+            stops += got && h.prim == 0;
+            same &= rtk_trace(&ctx, &r, &h2) == got && h2.prim == h.prim;
+            /* The blend triangle alone: occlusion agrees with the hit. */
+            rtk_ray shadow = r;
+            shadow.tmax = 2.0f;
+            agree &= rtk_alpha_opaque(s, &shadow, 0, 0.25f, 0.25f) == rtk_alpha_opaque(s, &r, 0, 0.25f, 0.25f);
+        }
+        double f = (double)stops / n;
+        check(fabs(f - 0.25) < 0.02, "a quarter of the rays stop at the alpha 0.25 triangle (%.4f)", f);
+        check(same && agree, "the same ray decides the same, whatever its tmax");
+    } else {
+        check(0, "blend.gltf: two materials");
+    }
+    rtk_scene_free(s);
+    free(g);
+}
+
 /* ---- the Khronos sample models, when ../shared/data is present ---- */
 
 static const char *sample(const char *rel)
@@ -735,6 +856,8 @@ int main(void)
     test_morph();
     test_gpu_instancing();
     test_skin();
+    test_double_sided();
+    test_blend_coverage();
     test_samples();
     rtk_params_destroy(builder_params);
     rtk_registry_destroy(reg);
