@@ -9,6 +9,7 @@
 #include <dlfcn.h>
 #include <pthread.h>
 #include <stdio.h>
+#include <stdlib.h>
 
 typedef rtk_status (*image_read_fn)(const char *path, const void *bytes, size_t byte_count, int srgb,
                                     rtk_image *out);
@@ -20,14 +21,22 @@ static image_read_fn module_read;
 static image_write_fn module_write;
 static char module_problem[1024];
 
-static const char *module_path(void)
+/* The build tree's module, or the one installed beside librtk (found from
+ * librtk's own file, so any prefix, DESTDIR or moved tree works). [caller frees] */
+static char *module_path(void)
 {
-    return rtk_running_from_build_tree() ? RTK_BUILD_IMAGE_MODULE : RTK_INSTALL_IMAGE_MODULE;
+    return rtk_running_from_build_tree() ? rtk_strdup(RTK_BUILD_IMAGE_MODULE)
+                                         : rtk_installed_path(RTK_INSTALL_IMAGE_MODULE_SUBPATH);
 }
 
 static void load_module(void)
 {
-    const char *path = module_path();
+    char *path = module_path();
+    if (!path) {
+        snprintf(module_problem, sizeof module_problem, "the image adapter cannot be located (the file librtk was "
+                 "loaded from is unknown): reinstall rtk");
+        return;
+    }
     /* Kept for the life of the process; RTLD_LOCAL: OpenImageIO's symbols
      * stay out of the plugins' way. */
     void *handle = dlopen(path, RTLD_NOW | RTLD_LOCAL);
@@ -35,17 +44,18 @@ static void load_module(void)
         const char *why = dlerror();
         snprintf(module_problem, sizeof module_problem, "the image adapter %s cannot be loaded (%s); it is part "
                  "of rtk: rebuild or reinstall rtk", path, why ? why : "unknown reason");
-        return;
+    } else {
+        image_read_fn r = (image_read_fn)dlsym(handle, "rtk_image_module_read");
+        image_write_fn w = (image_write_fn)dlsym(handle, "rtk_image_module_write");
+        if (r && w) {
+            module_read = r;
+            module_write = w;
+        } else {
+            snprintf(module_problem, sizeof module_problem, "the image adapter %s lacks its entry points (a module "
+                     "from another rtk version?): rebuild or reinstall rtk", path);
+        }
     }
-    image_read_fn r = (image_read_fn)dlsym(handle, "rtk_image_module_read");
-    image_write_fn w = (image_write_fn)dlsym(handle, "rtk_image_module_write");
-    if (!r || !w) {
-        snprintf(module_problem, sizeof module_problem, "the image adapter %s lacks its entry points (a module "
-                 "from another rtk version?): rebuild or reinstall rtk", path);
-        return;
-    }
-    module_read = r;
-    module_write = w;
+    free(path);
 }
 
 rtk_status rtk_image_read(const char *path, const void *bytes, size_t byte_count, int srgb, rtk_image *out)

@@ -246,17 +246,34 @@ static void add_dir_list(rtk_registry *r, const char *list, const char *origin)
     free(copy);
 }
 
+/* The real path of the file this code was loaded from (librtk.so, or a
+ * test that links the kernel statically) into real; 0 when unknown. */
+static int kernel_file(char real[PATH_MAX])
+{
+    Dl_info info;
+    return dladdr((void *)&rtk_registry_create, &info) && info.dli_fname && realpath(info.dli_fname, real);
+}
+
 /* True when this code runs from the build tree rather than an install. */
 int rtk_running_from_build_tree(void)
 {
-    Dl_info info;
-    if (!dladdr((void *)&rtk_registry_create, &info) || !info.dli_fname)
-        return 0;
     char real[PATH_MAX];
-    if (!realpath(info.dli_fname, real))
+    if (!kernel_file(real))
         return 0;
     size_t n = strlen(RTK_BUILD_ROOT);
     return strncmp(real, RTK_BUILD_ROOT, n) == 0 && real[n] == '/';
+}
+
+char *rtk_installed_path(const char *subpath)
+{
+    char real[PATH_MAX];
+    if (!kernel_file(real))
+        return NULL;
+    char *slash = strrchr(real, '/');
+    if (!slash)
+        return NULL;
+    slash[slash == real ? 1 : 0] = '\0'; /* "/librtk.so" lies in "/" */
+    return rtk_path_join(real, subpath);
 }
 
 RTK_API rtk_status rtk_registry_create(rtk_registry **out)
@@ -264,10 +281,14 @@ RTK_API rtk_status rtk_registry_create(rtk_registry **out)
     rtk_registry *r = rtk_calloc(1, sizeof *r);
     if (!r)
         return RTK_ERR_NOMEM;
-    if (rtk_running_from_build_tree())
+    if (rtk_running_from_build_tree()) {
         add_dir_list(r, RTK_BUILD_PLUGIN_DIRS, "build tree");
-    else
-        add_dir(r, RTK_INSTALL_PLUGIN_DIR, "installed plugins");
+    } else {
+        char *installed = rtk_installed_path(RTK_INSTALL_PLUGIN_SUBDIR);
+        if (installed)
+            add_dir(r, installed, "installed plugins");
+        free(installed);
+    }
     const char *env = getenv("RTK_PLUGIN_PATH");
     if (env)
         add_dir_list(r, env, "RTK_PLUGIN_PATH");
