@@ -222,6 +222,10 @@ typedef struct rtk_image {
  * tree (plugins.c): plugins and the image module are then taken from
  * there rather than from the install directories. */
 int rtk_running_from_build_tree(void);
+/* subpath joined to the directory librtk's own file lies in (plugins.c):
+ * how an installed librtk finds its plugins and image module from any
+ * prefix; NULL when that file is unknown. [caller frees] */
+char *rtk_installed_path(const char *subpath);
 
 /* Decodes a file (bytes == NULL) or an in-memory encoded image through
  * OpenImageIO into linear RGBA; srgb: the 8-bit data is sRGB-encoded.
