@@ -9,7 +9,9 @@
 
 #include <tiny_gltf.h>
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -36,6 +38,9 @@ const int max_depth = 256;
 const size_t max_node_visits = size_t(1) << 20;
 /* At most this many tinygltf warnings are printed per file. */
 const size_t max_messages = 20;
+/* Elements of a sparse accessor without a buffer view (all zeros but
+ * for its sparse values) accepted. */
+const size_t max_zero_elements = size_t(1) << 26;
 /* Deepest JSON nesting accepted: tinygltf's parser recurses per level
  * (15,000 levels overflow the stack); glTF's own structure needs 7. */
 const int max_json_depth = 100;
@@ -530,7 +535,11 @@ rtk_status Loader::read(int index, const Where &where, const std::vector<int> &c
     View v;
     v.component = acc.componentType;
     v.normalized = acc.normalized;
-    /* A sparse accessor without a buffer view starts as zeros. */
+    /* A sparse accessor without a buffer view starts as zeros; its count
+     * is bounded since no data in the file backs it. */
+    if (acc.bufferView < 0 && acc.sparse.isSparse && acc.count > max_zero_elements)
+        return fail(where, index, "%zu elements without a buffer view, more than rtk's limit of %zu", acc.count,
+                    max_zero_elements);
     if (acc.bufferView >= 0 || !acc.sparse.isSparse) {
         rtk_status status = locate(where, index, "", acc.bufferView, acc.byteOffset, acc.count, elem, false, &v);
         if (status != RTK_OK)
@@ -1516,22 +1525,32 @@ uint32_t read_u32le(const unsigned char *p) { return uint32_t(p[0]) | uint32_t(p
  * 32-bit lengths). */
 rtk_status read_whole(const char *path, std::vector<unsigned char> *out)
 {
-    FILE *f = std::fopen(path, "rb");
-    if (!f)
+    /* Non-blocking open: a FIFO is refused below instead of waiting for a writer. */
+    const int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+    if (fd < 0)
         return rtk_error(RTK_ERR_IO, "%s: cannot open: %s", path, std::strerror(errno));
     struct stat st;
     rtk_status status = RTK_OK;
-    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode))
-        status = rtk_error(RTK_ERR_IO, "%s: not a regular file", path);
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))
+        status = rtk_error(RTK_ERR_IO, "%s: not a regular file; rtk reads glTF only from regular files", path);
     else if (uint64_t(st.st_size) >= (uint64_t(1) << 32))
         status = rtk_error(RTK_ERR_UNSUPPORTED, "%s: %lld bytes; rtk reads glTF files of less than 4 GiB", path,
                            (long long)st.st_size);
     if (status == RTK_OK) {
         out->resize(size_t(st.st_size));
-        if (!out->empty() && std::fread(out->data(), 1, out->size(), f) != out->size())
-            status = rtk_error(RTK_ERR_IO, "%s: read failed", path);
+        size_t done = 0;
+        while (done < out->size()) {
+            const ssize_t got = ::read(fd, out->data() + done, out->size() - done);
+            if (got < 0 && errno == EINTR)
+                continue;
+            if (got <= 0) {
+                status = rtk_error(RTK_ERR_IO, "%s: read failed after %zu of %zu bytes", path, done, out->size());
+                break;
+            }
+            done += size_t(got);
+        }
     }
-    std::fclose(f);
+    close(fd);
     return status;
 }
 

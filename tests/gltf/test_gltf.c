@@ -218,6 +218,13 @@ static void test_refusals(void)
     check(s && s->triangle_count == 1, "100 levels of JSON and brackets in strings load");
     rtk_scene_free(s);
 
+    /* A FIFO is refused at once, not read (which would wait for a writer). */
+    const char *fifo = in_tmp("fifo.gltf");
+    if (mkfifo(fifo, 0600) == 0)
+        expect_refused("a FIFO", fifo, RTK_ERR_IO, "regular file", NULL);
+    else
+        check(0, "mkfifo %s", fifo);
+
     expect_refused("glTF 1.0 binary", write_glb("v1.glb", 1, "{\"asset\":{\"version\":\"1.0\"}}"),
                    RTK_ERR_UNSUPPORTED, "glTF 1.0", NULL);
     expect_refused("glTF 1.0 text",
@@ -337,6 +344,16 @@ static void test_sparse(void)
                       "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":4},\"indices\":1}]}]";
     expect_refused("sparse values past their view", write_gltf("sparse_bad.gltf", g, bad), RTK_ERR_PARSE,
                    "sparse values", "accessor 4", NULL);
+    /* Zeros for a billion vertices from a few bytes of JSON: refused. */
+    snprintf(members, sizeof members,
+             "\"componentType\":5126,\"count\":1000000000,\"type\":\"VEC3\",\"sparse\":{\"count\":2,"
+             "\"indices\":{\"bufferView\":%d,\"componentType\":5123},\"values\":{\"bufferView\":%d}}",
+             iv2, vv2);
+    gaccessor_json(g, members); /* 5 */
+    const char *huge = "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+                       "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":5},\"indices\":1}]}]";
+    expect_refused("a billion zeros without a buffer view", write_gltf("sparse_huge.gltf", g, huge), RTK_ERR_PARSE,
+                   "1000000000 elements without a buffer view", NULL);
     free(g);
 }
 
