@@ -611,6 +611,8 @@ static rtk_status load_scene(bench *b, const char *path, rtk_registry *reg)
         memset(&co, 0, sizeof co);
         co.size = sizeof co;
         co.allow_config_plugins = b->opt.allow_config_plugins;
+        co.allow_outside_files = b->opt.allow_outside_files;
+        co.oversubscribe = b->opt.oversubscribe;
         rtk_status st = rtk_config_load(path, reg, &co, &b->config);
         if (st != RTK_OK)
             return st;

@@ -30,7 +30,9 @@ static const rtk_param_desc top_params[] = {
     {.name = "sampler", .type = RTK_PARAM_STRING, .doc = "group: type, seed"},
     {.name = "textures", .type = RTK_PARAM_STRING, .doc = "group: filter"},
     {.name = "threads", .type = RTK_PARAM_INT, .def = 0, .min = 0, .max = 1024,
-     .doc = "render threads, 0 = one per core"},
+     .doc = "render threads, 0 = one per core; more than the online cores are capped with a warning"},
+    {.name = "oversubscribe", .type = RTK_PARAM_BOOL, .def = 0,
+     .doc = "run threads beyond the online cores as given (they take turns), as --oversubscribe does"},
     {.name = "cache", .type = RTK_PARAM_STRING, .def_string = "",
      .doc = "BVH cache directory, relative to the config file; \"off\" disables; "
             "default $XDG_CACHE_HOME/rtk or ~/.cache/rtk"},
@@ -131,6 +133,16 @@ static const rtk_plugin instance_schema = {RTK_PLUGIN_HEADER, .name = "instances
 
 static const char aov_choices[] = "albedo|normal|depth";
 
+/* The errors of one load, reported together: every bad key and --set entry
+ * at once rather than one per run. */
+typedef struct error_list {
+    char text[3600];  /* the messages, one per line */
+    size_t used;
+    unsigned count;   /* errors recorded */
+    unsigned dropped; /* of those, left out of text for lack of room */
+    rtk_status first; /* the first one's status */
+} error_list;
+
 /* State of one rtk_config_load call. */
 typedef struct loader {
     const char *path;      /* the config file as the caller named it */
@@ -140,7 +152,38 @@ typedef struct loader {
     int trusted;           /* options->allow_config_plugins */
     char **overrides;      /* copies of the --set entries; settings they made point here */
     size_t override_count;
+    int oversubscribe;     /* options->oversubscribe */
+    error_list *errors;    /* every error found so far */
 } loader;
+
+/* Records the current error message (of status code) in ld->errors. */
+static void note_error(const loader *ld, rtk_status code)
+{
+    error_list *e = ld->errors;
+    const char *msg = rtk_error_message();
+    if (e->count++ == 0)
+        e->first = code;
+    size_t need = strlen(msg) + 4;
+    if (e->used + need >= sizeof e->text) {
+        e->dropped++;
+        return;
+    }
+    e->used += (size_t)snprintf(e->text + e->used, sizeof e->text - e->used, "%s%s", e->used ? "\n  " : "", msg);
+}
+
+/* The outcome of a load: RTK_OK, its one error as it was, or a message
+ * listing every error. */
+static rtk_status report_errors(const error_list *e)
+{
+    if (e->count == 0)
+        return RTK_OK;
+    if (e->count == 1)
+        return rtk_error(e->first, "%s", e->text);
+    char more[64] = "";
+    if (e->dropped)
+        snprintf(more, sizeof more, "\n  ... and %u more", e->dropped);
+    return rtk_error(e->first, "%u errors:\n  %s%s", e->count, e->text, more);
+}
 
 /* The name to show for file, a setting's source as libconfig reports it:
  * @include names are relative to the config's directory. [caller frees] */
@@ -375,7 +418,8 @@ static rtk_status unknown_key(const loader *ld, const config_setting_t *s, const
 
 /* Checks every member of group (NULL = not given) against spec and returns
  * the params with defaults for the rest. Keys in spec->special are left to
- * the caller and only marked as given. */
+ * the caller and only marked as given. A bad key is recorded in
+ * ld->errors and the others are still checked. */
 static rtk_status fill_params(const loader *ld, const config_setting_t *group, const slot_spec *spec,
                               rtk_params **out)
 {
@@ -386,6 +430,7 @@ static rtk_status fill_params(const loader *ld, const config_setting_t *group, c
     char prefix[128] = "";
     if (spec->label)
         snprintf(prefix, sizeof prefix, "%s: ", spec->label);
+    const unsigned errors_before = ld->errors->count;
     int count = group ? config_setting_length(group) : 0;
     for (int i = 0; i < count; i++) {
         const config_setting_t *s = config_setting_get_elem(group, (unsigned)i);
@@ -400,10 +445,16 @@ static rtk_status fill_params(const loader *ld, const config_setting_t *group, c
             value->set_by_user = 1;
         else
             status = set_from_setting(ld, params, value->desc, s, prefix);
-        if (status != RTK_OK) {
+        if (status == RTK_ERR_NOMEM) {
             rtk_params_destroy(params);
             return status;
         }
+        if (status != RTK_OK)
+            note_error(ld, status); /* and on to the group's other keys */
+    }
+    if (ld->errors->count != errors_before) {
+        rtk_params_destroy(params);
+        return RTK_ERR_INVALID;
     }
     const config_setting_t *at = group ? group : spec->at;
     for (uint32_t i = 0; i < params->count; i++) {
@@ -539,8 +590,9 @@ static char *resolve(const loader *ld, const char *path)
 }
 
 /* Honours plugin_path (a string or a list of strings) for trusted configs. */
-static rtk_status read_plugin_path(const loader *ld, const config_setting_t *root)
+static rtk_status read_plugin_path(const loader *ld, const config_setting_t *root, rtk_config *cfg)
 {
+    (void)cfg;
     const config_setting_t *s = member(root, "plugin_path");
     if (!s)
         return RTK_OK;
@@ -1022,6 +1074,12 @@ static rtk_status read_top(const loader *ld, const config_setting_t *root, rtk_c
         return status;
     const char *scene = rtk_params_string(params, "scene");
     cfg->threads = (uint32_t)rtk_params_int(params, "threads");
+    if (cfg->threads) {
+        char origin[1100];
+        where(ld, member(root, "threads"), origin, sizeof origin);
+        cfg->threads = rtk_threads_limit(cfg->threads, ld->oversubscribe || rtk_params_bool(params, "oversubscribe"),
+                                         origin);
+    }
     cfg->cache_limit = (uint64_t)rtk_params_int(params, "cache_limit") << 20;
     if (!scene[0])
         status = fail(ld, member(root, "scene"), RTK_ERR_INVALID, "scene is empty: give the model to render");
@@ -1238,44 +1296,237 @@ static rtk_status apply_override(loader *ld, char *entry)
     return RTK_OK;
 }
 
-/* libconfig 1.5 reads an integer without the L suffix into 32 bits and
- * wraps it without a word (width = 4294967297 became 1, 2147483648 became
- * -2147483648, 0xffffffff -1) and one beyond 64 bits into -1. So before
- * it parses a file, its integer literals are checked here: every one
- * outside comments and strings, in the file and in those it @includes.
- * Returns RTK_OK when the file cannot be read (libconfig then says so) or
- * is not a regular file. */
+/* Before libconfig 1.5 parses a config, its text is checked here, because
+ * libconfig reads an integer without the L suffix into 32 bits and wraps
+ * it without a word (width = 4294967297 became 1, 2147483648 became
+ * -2147483648, 0xffffffff -1) and one beyond 64 bits into -1; cannot read
+ * inf; leaks a string that stands where its grammar wants none ("x" = 1;);
+ * ends the process on an @include of a directory; and reads an included
+ * file again at every @include of it. So every integer literal outside
+ * comments and strings, every bare inf, every string's place and every
+ * @include is checked, in the file and those it includes. An included
+ * file's text continues the including file's at the @include, so the
+ * check follows the token before it into the file and the file's last
+ * token out of it, and asks that a file close the strings, comments and
+ * brackets it opens. Each file is read once for each place it is
+ * included in (the token before it and whether that is in [ ] or ( )),
+ * known by device and inode, so the check takes time linear in the
+ * files' text; a cycle of includes, nesting deeper than libconfig's 10
+ * levels, and a config that would expand past INCLUDE_BYTES_MAX or
+ * INCLUDE_COUNT_MAX are errors. */
 #define INCLUDE_DEPTH_MAX 10
-static rtk_status check_int_literals(const loader *ld, const char *path, const char *shown, int depth)
+#define INCLUDE_BYTES_MAX ((uint64_t)64 << 20)
+#define INCLUDE_COUNT_MAX 4096u
+/* Brackets open at once in one file. */
+#define BRACKET_DEPTH_MAX 256
+
+/* Where a file's text starts (or ends): the token before it, '=' for '='
+ * and ':', a bracket, ',', ';', 'S' a string, 'N' a name, '#' a number,
+ * '-' a sign before a name; and whether that is inside [ ] or ( ). */
+typedef struct text_place {
+    char prev;
+    char in_sequence;
+} text_place;
+
+/* One file the check has read, in one place. */
+typedef struct checked_file {
+    dev_t dev;
+    ino_t ino;
+    text_place entry;  /* where it is included */
+    char exit_prev;    /* its last token, or entry.prev when it has none */
+    int done;          /* 0 while its includes are checked: meeting it again then is a cycle */
+    uint64_t bytes;    /* its text with every include expanded, as libconfig reads it */
+    uint64_t includes; /* @include lines met while libconfig reads it */
+} checked_file;
+
+/* State of the check of one config and its includes. */
+typedef struct text_check {
+    const loader *ld;
+    checked_file *files;
+    uint32_t count, cap;
+    uint32_t include_lines; /* @include lines read */
+} text_check;
+
+static _Thread_local unsigned files_read;
+
+unsigned rtk_config_files_read(void)
 {
-    /* Only regular files: a pipe (rtk render <(...)) read here would be
-     * empty for libconfig. */
-    struct stat st;
-    if (stat(path, &st) != 0 || !S_ISREG(st.st_mode))
-        return RTK_OK;
+    return files_read;
+}
+
+/* Reads the whole regular file at path into *text (NUL-terminated). */
+static rtk_status read_whole(const char *path, char **text, size_t *len)
+{
     FILE *f = fopen(path, "rb");
     if (!f)
-        return RTK_OK;
-    size_t cap = 4096, len = 0;
-    char *text = rtk_alloc(cap);
-    size_t got;
-    while (text && (got = fread(text + len, 1, cap - len - 1, f)) > 0) {
-        len += got;
-        if (len + 1 == cap) {
-            char *more = cap > SIZE_MAX / 2 ? NULL : rtk_realloc_array(text, cap, 2);
+        return rtk_error(RTK_ERR_IO, "cannot read %s: %s", path, strerror(errno));
+    size_t cap = 4096, n = 0, got;
+    char *buf = rtk_alloc(cap);
+    while (buf && (got = fread(buf + n, 1, cap - n - 1, f)) > 0) {
+        n += got;
+        if (n + 1 == cap) {
+            char *more = cap > SIZE_MAX / 2 ? NULL : rtk_realloc_array(buf, cap, 2);
             if (!more)
-                free(text);
-            text = more, cap *= 2;
+                free(buf);
+            buf = more, cap *= 2;
         }
     }
+    int failed = ferror(f);
     fclose(f);
-    if (!text)
+    if (!buf)
         return RTK_ERR_NOMEM;
-    text[len] = '\0';
+    if (failed) {
+        free(buf);
+        return rtk_error(RTK_ERR_IO, "cannot read %s", path);
+    }
+    buf[n] = '\0';
+    *text = buf;
+    *len = n;
+    return RTK_OK;
+}
+/* Checks the number starting at text[*at] (a sign, then digits, letters
+ * and dots), moving *at past it: an integer must fit where libconfig puts
+ * it (32 bits, or 64 with L). */
+static rtk_status check_number_literal(const char *text, size_t len, size_t *at, const char *shown, unsigned line)
+{
+    size_t b = *at, i = b;
+    int sign = text[i] == '-' || text[i] == '+';
+    int hex = text[i + sign] == '0' && (text[i + sign + 1] == 'x' || text[i + sign + 1] == 'X');
+    for (i += (size_t)sign; i < len; i++) {
+        if (isalnum((unsigned char)text[i]) || text[i] == '.')
+            continue;
+        /* a sign after a decimal exponent's e */
+        if (!hex && (text[i] == '-' || text[i] == '+') && (text[i - 1] == 'e' || text[i - 1] == 'E'))
+            continue;
+        break;
+    }
+    *at = i;
+    const size_t start = b + (size_t)sign + (hex ? 2 : 0);
+    size_t digits = 0;
+    while (start + digits < i &&
+           (hex ? isxdigit((unsigned char)text[start + digits]) : isdigit((unsigned char)text[start + digits])))
+        digits++;
+    const size_t rest = i - start - digits; /* the suffix: "", "L" or "LL" for an integer */
+    int wide = rest > 0 && rest <= 2 && text[start + digits] == 'L' && (rest == 1 || text[start + digits + 1] == 'L');
+    if (digits == 0 || (rest > 0 && !wide))
+        return RTK_OK; /* a float, or not an integer libconfig reads */
+    int beyond64 = 1, beyond32 = 1;
+    if (i - b < 64) {
+        char tok[64];
+        memcpy(tok, text + b, i - b);
+        tok[i - b] = '\0';
+        errno = 0;
+        if (hex) {
+            unsigned long long u = strtoull(tok + sign, NULL, 16);
+            beyond64 = errno == ERANGE || u > (unsigned long long)LLONG_MAX;
+            beyond32 = u > 0x7fffffffull;
+        } else {
+            long long v = strtoll(tok, NULL, 10);
+            beyond64 = errno == ERANGE;
+            beyond32 = v < INT_MIN || v > INT_MAX;
+        }
+    }
+    const int shown_len = i - b < 64 ? (int)(i - b) : 64;
+    const char *more = i - b < 64 ? "" : "...";
+    if (beyond64)
+        return rtk_error(RTK_ERR_PARSE, "%s:%u: the integer %.*s%s does not fit in 64 bits; give a smaller value",
+                         shown, line, shown_len, text + b, more);
+    if (beyond32 && !wide)
+        return rtk_error(RTK_ERR_PARSE,
+                         "%s:%u: the integer %.*s does not fit in 32 bits, and libconfig would read it wrapped; "
+                         "write %.*sL for a 64-bit integer (or give a smaller value)",
+                         shown, line, shown_len, text + b, shown_len, text + b);
+    return RTK_OK;
+}
+
+static rtk_status check_file(text_check *tc, const char *path, const char *shown, int depth, text_place entry,
+                             uint32_t *index);
+
+/* a + b, or cap + 1 when that is more than cap. */
+static uint64_t add_capped(uint64_t a, uint64_t b, uint64_t cap)
+{
+    return a > cap || b > cap - a ? cap + 1 : a + b;
+}
+
+/* The @include at text[*at] (a line start) of the file tc->files[self],
+ * at place: the named file is checked there and its expansion added to
+ * self's; *at moves past the file name and place->prev becomes the
+ * included file's last token. */
+static rtk_status check_include(text_check *tc, uint32_t self, const char *shown, unsigned line, int depth,
+                                const char *text, size_t len, size_t *at, text_place *place)
+{
+    size_t q = *at + 8;
+    while (q < len && (text[q] == ' ' || text[q] == '\t'))
+        q++;
+    size_t e = q + 1;
+    while (q < len && text[q] == '"' && e < len && text[e] != '"' && text[e] != '\n')
+        e++;
+    if (q >= len || text[q] != '"' || e >= len || text[e] != '"') {
+        *at = q;
+        place->prev = '?'; /* not an @include libconfig reads: its syntax error comes first */
+        return RTK_OK;
+    }
+    *at = e + 1;
+    const int name_len = (int)(e + 1 - q);
+    if (++tc->include_lines > INCLUDE_COUNT_MAX)
+        return rtk_error(RTK_ERR_PARSE, "%s:%u: more than %u @include lines in the config and the files it includes",
+                         shown, line, INCLUDE_COUNT_MAX);
+    if (depth >= INCLUDE_DEPTH_MAX)
+        return rtk_error(RTK_ERR_PARSE, "%s:%u: @include %.*s nests includes more than %d deep, libconfig's limit",
+                         shown, line, name_len, text + q, INCLUDE_DEPTH_MAX);
+    /* libconfig joins every name to the include directory, absolute or not. */
+    const char *dir = strcmp(tc->ld->dir, ".") == 0 ? "" : tc->ld->dir;
+    size_t size = strlen(dir) + (e - q) + 2;
+    char *inc = rtk_alloc(size);
+    if (!inc)
+        return RTK_ERR_NOMEM;
+    snprintf(inc, size, "%s%s%.*s", dir, dir[0] ? "/" : "", (int)(e - q - 1), text + q + 1);
+    struct stat st;
     rtk_status status = RTK_OK;
+    uint32_t child = UINT32_MAX;
+    if (stat(inc, &st) != 0)
+        status = rtk_error(RTK_ERR_IO, "%s:%u: @include %.*s: cannot read %s: %s", shown, line, name_len, text + q,
+                           inc, strerror(errno));
+    else if (!S_ISREG(st.st_mode))
+        status = rtk_error(RTK_ERR_IO, "%s:%u: @include %.*s: %s is %s, not a config file", shown, line, name_len,
+                           text + q, inc, S_ISDIR(st.st_mode) ? "a directory" : "not a regular file");
+    else
+        status = check_file(tc, inc, inc, depth + 1, *place, &child);
+    if (status == RTK_OK && child == UINT32_MAX)
+        status = rtk_error(RTK_ERR_PARSE, "%s:%u: @include %.*s includes itself, directly or through the files it "
+                           "includes", shown, line, name_len, text + q);
+    if (status == RTK_OK) {
+        checked_file *me = &tc->files[self];
+        const checked_file *it = &tc->files[child];
+        place->prev = it->exit_prev;
+        me->bytes = add_capped(me->bytes, it->bytes, INCLUDE_BYTES_MAX);
+        me->includes = add_capped(me->includes, it->includes + 1, INCLUDE_COUNT_MAX);
+        if (me->bytes > INCLUDE_BYTES_MAX || me->includes > INCLUDE_COUNT_MAX)
+            status = rtk_error(RTK_ERR_PARSE,
+                               "%s:%u: @include %.*s makes %s more than %llu MiB or %u includes once expanded "
+                               "(libconfig reads a file again at each @include of it): include each file once",
+                               shown, line, name_len, text + q, shown, (unsigned long long)(INCLUDE_BYTES_MAX >> 20),
+                               INCLUDE_COUNT_MAX);
+    }
+    free(inc);
+    return status;
+}
+
+/* Checks the text of the file tc->files[self], included depth deep; see
+ * the comment above INCLUDE_DEPTH_MAX. */
+static rtk_status check_text(text_check *tc, uint32_t self, const char *shown, int depth, const char *text,
+                             size_t len)
+{
+    static const char *const bracket_names[] = {"group { }", "array [ ]", "list ( )"};
+    char open[BRACKET_DEPTH_MAX]; /* brackets opened and not closed: '{', '[' or '(' */
+    unsigned open_line = 0;       /* of open[0] */
+    int level = 0;
+    text_place place = tc->files[self].entry;
+    const char *key = NULL; /* the last name before a value, for the inf message */
+    int key_len = 0;
     unsigned line = 1;
     int line_start = 1;
-    for (size_t i = 0; i < len && status == RTK_OK;) {
+    for (size_t i = 0; i < len;) {
         char c = text[i];
         if (c == '\n') {
             line++, line_start = 1, i++;
@@ -1286,109 +1537,167 @@ static rtk_status check_int_literals(const loader *ld, const char *path, const c
                 i++;
             continue;
         }
+        if (c == ' ' || c == '\t' || c == '\r') {
+            i++;
+            continue;
+        }
         if (c == '/' && text[i + 1] == '*') {
+            unsigned start = line;
             for (i += 2; i < len && !(text[i] == '*' && text[i + 1] == '/'); i++)
                 line += text[i] == '\n';
+            if (i >= len)
+                return rtk_error(RTK_ERR_PARSE, "%s:%u: the comment /* opened here is not closed in this file",
+                                 shown, start);
             i += 2;
             continue;
         }
+        if (c == '@' && line_start && strncmp(text + i, "@include", 8) == 0) {
+            text_place here = {.prev = place.prev, .in_sequence = level > 0 ? open[level - 1] != '{' : place.in_sequence};
+            rtk_status status = check_include(tc, self, shown, line, depth, text, len, &i, &here);
+            if (status != RTK_OK)
+                return status;
+            place.prev = here.prev;
+            continue;
+        }
+        line_start = 0;
+        /* Where libconfig takes a value: after '=' or ':', or in [ ] or ( ) after the bracket or a comma. */
+        int in_sequence = level > 0 ? open[level - 1] != '{' : place.in_sequence;
+        char prev = place.prev;
+        int value_place = prev == '=' || (in_sequence && (prev == '[' || prev == '(' || prev == ','));
         if (c == '"') {
+            size_t b = i;
+            unsigned start = line;
             for (i++; i < len && text[i] != '"'; i++) {
                 if (text[i] == '\\' && i + 1 < len)
                     i++;
                 line += text[i] == '\n';
             }
+            if (i >= len)
+                return rtk_error(RTK_ERR_PARSE, "%s:%u: the string opened here is not closed in this file", shown,
+                                 start);
             i++;
-            line_start = 0;
+            if (!value_place && prev != 'S' && prev != '?')
+                return rtk_error(RTK_ERR_PARSE,
+                                 "%s:%u: syntax error at the string %.*s%s: a string is a value, after '=' or ':' "
+                                 "(name = \"text\";) or in [ ] or ( ) after a comma",
+                                 shown, start, i - b < 40 ? (int)(i - b) : 40, text + b, i - b < 40 ? "" : "...");
+            place.prev = 'S';
             continue;
         }
-        if (c == '@' && line_start && strncmp(text + i, "@include", 8) == 0) {
-            /* @include "file", relative to the config's directory */
-            size_t q = i + 8;
-            while (q < len && (text[q] == ' ' || text[q] == '\t'))
-                q++;
-            size_t e = q + 1;
-            while (q < len && text[q] == '"' && e < len && text[e] != '"' && text[e] != '\n')
-                e++;
-            if (q < len && text[q] == '"' && e < len && text[e] == '"' && depth < INCLUDE_DEPTH_MAX) {
-                char *name = rtk_alloc(e - q);
-                if (!name) {
-                    status = RTK_ERR_NOMEM;
-                    break;
-                }
-                memcpy(name, text + q + 1, e - q - 1);
-                name[e - q - 1] = '\0';
-                char *inc = name[0] == '/' ? rtk_strdup(name) : rtk_path_join(ld->dir, name);
-                status = inc ? check_int_literals(ld, inc, inc, depth + 1) : RTK_ERR_NOMEM;
-                free(inc);
-                free(name);
-            }
-            i = e + 1;
-            continue;
-        }
-        if (c == ' ' || c == '\t' || c == '\r') {
-            i++;
-            continue;
-        }
-        line_start = 0;
         if (isalpha((unsigned char)c) || c == '*' || c == '_') { /* a name, digits and all */
+            size_t b = i;
             while (i < len && (isalnum((unsigned char)text[i]) || (text[i] && strchr("-_*", text[i]))))
                 i++;
-            continue;
-        }
-        int sign = (c == '-' || c == '+') && i + 1 < len && isdigit((unsigned char)text[i + 1]);
-        if (!isdigit((unsigned char)c) && !sign) {
-            i++;
-            continue;
-        }
-        /* A number: sign, then digits, letters and dots, and a sign after
-         * a decimal exponent's e. */
-        size_t b = i;
-        int hex = text[i + sign] == '0' && (text[i + sign + 1] == 'x' || text[i + sign + 1] == 'X');
-        for (i += (size_t)sign; i < len; i++) {
-            if (isalnum((unsigned char)text[i]) || text[i] == '.')
-                continue;
-            if (!hex && (text[i] == '-' || text[i] == '+') && (text[i - 1] == 'e' || text[i - 1] == 'E'))
-                continue;
-            break;
-        }
-        const size_t at = b + (size_t)sign + (hex ? 2 : 0);
-        size_t digits = 0;
-        while (at + digits < i && (hex ? isxdigit((unsigned char)text[at + digits])
-                                       : isdigit((unsigned char)text[at + digits])))
-            digits++;
-        const size_t rest = i - at - digits; /* the suffix: "", "L" or "LL" for an integer */
-        int wide = rest > 0 && rest <= 2 && text[at + digits] == 'L' && (rest == 1 || text[at + digits + 1] == 'L');
-        if (digits == 0 || (rest > 0 && !wide))
-            continue; /* a float, or not an integer libconfig reads */
-        int beyond64 = 1, beyond32 = 1;
-        if (i - b < 64) {
-            char tok[64];
-            memcpy(tok, text + b, i - b);
-            tok[i - b] = '\0';
-            errno = 0;
-            if (hex) {
-                unsigned long long u = strtoull(tok + sign, NULL, 16);
-                beyond64 = errno == ERANGE || u > (unsigned long long)LLONG_MAX;
-                beyond32 = u > 0x7fffffffull;
-            } else {
-                long long v = strtoll(tok, NULL, 10);
-                beyond64 = errno == ERANGE;
-                beyond32 = v < INT_MIN || v > INT_MAX;
+            char word[16] = "";
+            if (i - b < sizeof word)
+                memcpy(word, text + b, i - b);
+            if ((value_place || prev == '-') && is_inf_text(word))
+                return rtk_error(RTK_ERR_PARSE,
+                                 "%s:%u: libconfig cannot read %s%s as a number; write it as a string, "
+                                 "%.*s = \"%s%s\"; (rtk reads \"inf\" and \"infinity\" where a number is expected)",
+                                 shown, line, prev == '-' ? "-" : "", word, key ? key_len : 4, key ? key : "name",
+                                 prev == '-' ? "-" : "", word);
+            if (!value_place) {
+                key = text + b;
+                key_len = (int)(i - b);
             }
+            place.prev = 'N';
+            continue;
         }
-        const int shown_len = i - b < 64 ? (int)(i - b) : 64;
-        const char *more = i - b < 64 ? "" : "...";
-        if (beyond64)
-            status = rtk_error(RTK_ERR_PARSE, "%s:%u: the integer %.*s%s does not fit in 64 bits; give a smaller value",
-                               shown, line, shown_len, text + b, more);
-        else if (beyond32 && !wide)
-            status = rtk_error(RTK_ERR_PARSE,
-                               "%s:%u: the integer %.*s does not fit in 32 bits, and libconfig would read it wrapped; "
-                               "write %.*sL for a 64-bit integer (or give a smaller value)",
-                               shown, line, shown_len, text + b, shown_len, text + b);
+        int sign = c == '-' || c == '+';
+        if (isdigit((unsigned char)c) || (sign && i + 1 < len && isdigit((unsigned char)text[i + 1]))) {
+            rtk_status status = check_number_literal(text, len, &i, shown, line);
+            if (status != RTK_OK)
+                return status;
+            place.prev = '#';
+            continue;
+        }
+        i++;
+        if (c == '{' || c == '[' || c == '(') {
+            if (level == BRACKET_DEPTH_MAX)
+                return rtk_error(RTK_ERR_PARSE, "%s:%u: more than %d groups, arrays and lists inside each other",
+                                 shown, line, BRACKET_DEPTH_MAX);
+            if (level == 0)
+                open_line = line;
+            open[level++] = c;
+            place.prev = c;
+        } else if (c == '}' || c == ']' || c == ')') {
+            if (level == 0)
+                return rtk_error(RTK_ERR_PARSE, "%s:%u: '%c' closes a bracket this file did not open%s", shown, line, c,
+                                 depth ? " (an included file holds whole settings, groups, arrays and lists)" : "");
+            level--;
+            place.prev = c;
+        } else if (c == '=' || c == ':') {
+            place.prev = '=';
+        } else if (c == ',' || c == ';') {
+            place.prev = c;
+        } else if (sign && value_place) {
+            place.prev = '-'; /* a sign before a name: -inf */
+        } else {
+            place.prev = '?'; /* libconfig's syntax error comes first */
+        }
     }
+    if (level > 0) {
+        int kind = open[0] == '{' ? 0 : open[0] == '[' ? 1 : 2;
+        return rtk_error(RTK_ERR_PARSE, "%s:%u: the %s opened here is not closed in this file", shown, open_line,
+                         bracket_names[kind]);
+    }
+    tc->files[self].exit_prev = place.prev;
+    return RTK_OK;
+}
+
+/* Checks the file at path (shown as shown) included at entry, unless it
+ * was checked there before; *index is its entry in tc->files, or
+ * UINT32_MAX when it is being checked already (a cycle). */
+static rtk_status check_file(text_check *tc, const char *path, const char *shown, int depth, text_place entry,
+                             uint32_t *index)
+{
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return rtk_error(RTK_ERR_IO, "%s: cannot read config: %s", shown, strerror(errno));
+    *index = UINT32_MAX;
+    for (uint32_t k = 0; k < tc->count; k++) {
+        const checked_file *f = &tc->files[k];
+        if (f->dev != st.st_dev || f->ino != st.st_ino)
+            continue;
+        if (!f->done)
+            return RTK_OK;
+        if (f->entry.prev == entry.prev && f->entry.in_sequence == entry.in_sequence) {
+            *index = k;
+            return RTK_OK;
+        }
+    }
+    if (!rtk_grow_array((void **)&tc->files, &tc->cap, tc->count, sizeof *tc->files))
+        return RTK_ERR_NOMEM;
+    uint32_t self = tc->count++;
+    tc->files[self] = (checked_file){.dev = st.st_dev, .ino = st.st_ino, .entry = entry, .exit_prev = entry.prev};
+    char *text = NULL;
+    size_t len = 0;
+    rtk_status status = read_whole(path, &text, &len);
+    if (status != RTK_OK)
+        return status;
+    files_read++;
+    tc->files[self].bytes = len;
+    status = check_text(tc, self, shown, depth, text, len);
     free(text);
+    tc->files[self].done = 1;
+    *index = self;
+    return status;
+}
+
+/* Checks the config's text and every file it includes; a config that is
+ * not a regular file (rtk render <(...)) is left to libconfig, since what
+ * is read here would not reach it. */
+static rtk_status check_config_text(const loader *ld)
+{
+    struct stat st;
+    files_read = 0;
+    if (stat(ld->path, &st) != 0 || !S_ISREG(st.st_mode))
+        return RTK_OK;
+    text_check tc = {.ld = ld};
+    uint32_t root;
+    rtk_status status = check_file(&tc, ld->path, ld->path, 0, (text_place){.prev = ';'}, &root);
+    free(tc.files);
     return status;
 }
 
@@ -1400,7 +1709,7 @@ static rtk_status parse_file(loader *ld)
         return rtk_error(RTK_ERR_IO, "%s: cannot read config: %s", ld->path, strerror(errno));
     if (S_ISDIR(st.st_mode))
         return rtk_error(RTK_ERR_IO, "%s: is a directory, not a config file", ld->path);
-    rtk_status checked = check_int_literals(ld, ld->path, ld->path, 0);
+    rtk_status checked = check_config_text(ld);
     if (checked != RTK_OK)
         return checked;
     config_set_include_dir(&ld->cfg, ld->dir);
@@ -1423,25 +1732,51 @@ static rtk_status parse_file(loader *ld)
     return status;
 }
 
+static rtk_status read_accelerator(const loader *ld, const config_setting_t *root, rtk_config *cfg)
+{
+    return load_slot(ld, root, "accelerator", RTK_KIND_ACCELERATOR, "median", &cfg->accelerator);
+}
+
+static rtk_status read_integrator(const loader *ld, const config_setting_t *root, rtk_config *cfg)
+{
+    return load_slot(ld, root, "integrator", RTK_KIND_INTEGRATOR, "headlight", &cfg->integrator);
+}
+
+static rtk_status read_filter(const loader *ld, const config_setting_t *root, rtk_config *cfg)
+{
+    return load_slot(ld, root, "filter", RTK_KIND_FILTER, "box", &cfg->filter);
+}
+
+/* Parses, applies every override, then runs every reader, recording each
+ * one's error and going on, so that all are reported at once; only the
+ * plugin slots wait for plugin_path, which may hold their plugins. */
 static rtk_status load(loader *ld, rtk_config *cfg)
 {
     rtk_status status = parse_file(ld);
     if (status != RTK_OK)
         return status;
     for (size_t i = 0; i < ld->override_count; i++) {
-        if ((status = apply_override(ld, ld->overrides[i])) != RTK_OK)
+        if ((status = apply_override(ld, ld->overrides[i])) == RTK_ERR_NOMEM)
             return status;
+        if (status != RTK_OK)
+            note_error(ld, status);
     }
+    typedef rtk_status (*reader_fn)(const loader *ld, const config_setting_t *root, rtk_config *cfg);
+    static const reader_fn readers[] = {read_top,      read_plugin_path, read_camera,      read_film,
+                                        read_sampler,  read_lights,      read_instances,   read_textures,
+                                        read_accelerator, read_integrator, read_filter};
     const config_setting_t *root = config_root_setting(&ld->cfg);
-    if ((status = read_top(ld, root, cfg)) != RTK_OK || (status = read_plugin_path(ld, root)) != RTK_OK ||
-        (status = read_camera(ld, root, cfg)) != RTK_OK || (status = read_film(ld, root, cfg)) != RTK_OK ||
-        (status = read_sampler(ld, root, cfg)) != RTK_OK || (status = read_lights(ld, root, cfg)) != RTK_OK ||
-        (status = read_instances(ld, root, cfg)) != RTK_OK || (status = read_textures(ld, root, cfg)) != RTK_OK ||
-        (status = load_slot(ld, root, "accelerator", RTK_KIND_ACCELERATOR, "median", &cfg->accelerator)) != RTK_OK ||
-        (status = load_slot(ld, root, "integrator", RTK_KIND_INTEGRATOR, "headlight", &cfg->integrator)) != RTK_OK ||
-        (status = load_slot(ld, root, "filter", RTK_KIND_FILTER, "box", &cfg->filter)) != RTK_OK)
-        return status;
-    return RTK_OK;
+    for (size_t i = 0; i < RTK_COUNTOF(readers); i++) {
+        unsigned before = ld->errors->count;
+        status = readers[i](ld, root, cfg);
+        if (status == RTK_ERR_NOMEM)
+            return status;
+        if (status != RTK_OK && ld->errors->count == before)
+            note_error(ld, status);
+        if (status != RTK_OK && readers[i] == read_plugin_path)
+            break;
+    }
+    return report_errors(ld->errors);
 }
 
 RTK_API rtk_status rtk_config_load(const char *path, rtk_registry *registry, const rtk_config_options *options,
@@ -1457,9 +1792,12 @@ RTK_API rtk_status rtk_config_load(const char *path, rtk_registry *registry, con
     /* Fields past the caller's size keep their defaults; size 0 means a
      * caller built against this header that left it unset. */
     size_t size = options ? (options->size ? options->size : sizeof *options) : 0;
-    loader ld = {.path = path, .registry = registry};
+    error_list errors = {.count = 0};
+    loader ld = {.path = path, .registry = registry, .errors = &errors};
     if (size >= offsetof(rtk_config_options, allow_config_plugins) + sizeof options->allow_config_plugins)
         ld.trusted = options->allow_config_plugins != 0;
+    if (size >= offsetof(rtk_config_options, oversubscribe) + sizeof options->oversubscribe)
+        ld.oversubscribe = options->oversubscribe != 0;
     size_t override_count = 0;
     if (size >= offsetof(rtk_config_options, override_count) + sizeof options->override_count && options->overrides)
         override_count = options->override_count;
@@ -1489,6 +1827,20 @@ RTK_API rtk_status rtk_config_load(const char *path, rtk_registry *registry, con
     }
     *out = cfg;
     return RTK_OK;
+}
+
+RTK_API uint32_t rtk_threads_limit(uint32_t wanted, int oversubscribe, const char *origin)
+{
+    uint32_t cores = rtk_core_count();
+    if (wanted <= cores || oversubscribe)
+        return wanted;
+    char key[1200];
+    snprintf(key, sizeof key, "threads:%s:%u", origin ? origin : "", wanted);
+    rtk_warn_once(key,
+                  "%s: %u threads on %u online cores would only take turns; using %u (--oversubscribe, or "
+                  "oversubscribe = true; in the config, runs all %u)",
+                  origin ? origin : "threads", wanted, cores, cores, wanted);
+    return cores;
 }
 
 RTK_API void rtk_config_destroy(rtk_config *config)

@@ -10,6 +10,7 @@
 #include "lights.h"
 
 #include <float.h>
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -54,11 +55,14 @@ static rtk_params *param_variant(const rtk_plugin *p, int index, char *label, si
         const rtk_param_desc *d = &p->params[i];
         char values[16][64];
         int n = 0;
-        if ((d->type == RTK_PARAM_INT || d->type == RTK_PARAM_FLOAT) && d->min != d->max) {
+        if ((d->type == RTK_PARAM_INT || d->type == RTK_PARAM_FLOAT) && rtk_param_has_range(d)) {
             const double ends[2] = {d->min, d->max};
             for (int e = 0; e < 2; e++) {
+                if (d->type == RTK_PARAM_INT && isinf(ends[e]))
+                    continue; /* an open side has no end to try */
                 if (d->type == RTK_PARAM_INT)
-                    snprintf(values[n++], 64, "%lld", (long long)ends[e]);
+                    snprintf(values[n++], 64, "%lld",
+                             ends[e] >= 9223372036854775807.0 ? LLONG_MAX : (long long)ends[e]);
                 else if (isinf(ends[e]))
                     snprintf(values[n++], 64, "%s", ends[e] > 0 ? "inf" : "-inf");
                 else

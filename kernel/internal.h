@@ -775,3 +775,7 @@ typedef struct rtk_film {
 RTK_EXTERN_C_END
 
 #endif
+/* Files the last rtk_config_load on this thread read to check the config's
+ * text: each once, however often it is @included (tests count work). */
+unsigned rtk_config_files_read(void);
+

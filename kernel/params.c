@@ -211,6 +211,20 @@ static int choice_allowed(const char *choices, const char *s)
     }
 }
 
+/* Edit distance from word to candidate when candidate passes for a typo of
+ * word (at most a third of word's length, at least 2, and something in
+ * common), else INT_MAX. */
+static int typo_distance(const char *word, const char *candidate)
+{
+    size_t len = strlen(word), other = strlen(candidate);
+    int limit = (int)(len / 3) > 2 ? (int)(len / 3) : 2;
+    int d = rtk_edit_distance(word, candidate);
+    /* A distance equal to the longer length means nothing in common. */
+    if (d > limit || (size_t)d >= (len > other ? len : other))
+        return INT_MAX;
+    return d;
+}
+
 /* Writes the choices as "a, b, c" into buf, and the closest one to s
  * (or "" when none is close) into near. */
 static void describe_choices(const char *choices, const char *s, char *buf, size_t size,
@@ -218,7 +232,6 @@ static void describe_choices(const char *choices, const char *s, char *buf, size
 {
     size_t used = 0;
     int best = INT_MAX;
-    int limit = (int)strlen(s) / 3 > 2 ? (int)strlen(s) / 3 : 2;
     near[0] = '\0';
     buf[0] = '\0';
     const char *p = choices;
@@ -229,8 +242,8 @@ static void describe_choices(const char *choices, const char *s, char *buf, size
         snprintf(one, sizeof one, "%.*s", (int)len, p);
         if (used < size)
             used += (size_t)snprintf(buf + used, size - used, "%s%s", used ? ", " : "", one);
-        int d = rtk_edit_distance(s, one);
-        if (d < best && d <= limit && (size_t)d < (len > strlen(s) ? len : strlen(s))) {
+        int d = typo_distance(s, one);
+        if (d < best) {
             best = d;
             snprintf(near, near_size, "%s", one);
         }
@@ -240,12 +253,15 @@ static void describe_choices(const char *choices, const char *s, char *buf, size
     }
 }
 
-/* One bound of an integer range; 2^63 stands for INT64_MAX, which a
- * double cannot hold exactly. */
+/* One bound of an integer range; 2^63 and beyond (an open side) stand
+ * for INT64_MAX, which a double cannot hold exactly, -2^63 and below for
+ * INT64_MIN. */
 static void describe_int_bound(double v, char *buf, size_t size)
 {
     if (v >= INT64_LIMIT)
         snprintf(buf, size, "%lld", (long long)INT64_MAX);
+    else if (v <= -INT64_LIMIT)
+        snprintf(buf, size, "%lld", (long long)INT64_MIN);
     else
         snprintf(buf, size, "%.0f", v);
 }
@@ -292,7 +308,7 @@ rtk_status rtk_params_set_text(rtk_params *params, const char *name, const char 
                          plugin_name(params->plugin), keys);
     }
     const rtk_param_desc *desc = value->desc;
-    int bounded = desc->min != desc->max;
+    int bounded = rtk_param_has_range(desc);
     char range[128];
     describe_range(desc, range, sizeof range);
     while (*text == ' ' || *text == '\t')
@@ -376,10 +392,15 @@ static rtk_status check_number(const char *plugin, const rtk_param_desc *desc)
     if (isnan(desc->min) || isnan(desc->max) || desc->min > desc->max)
         return rtk_error(RTK_ERR_PLUGIN, "plugin '%s': parameter '%s' has range %s with min > max", plugin,
                          desc->name, range);
-    int bounded = desc->min != desc->max;
-    if (desc->type == RTK_PARAM_INT && bounded &&
-        (desc->min != floor(desc->min) || desc->max != floor(desc->max) || desc->min < -INT64_LIMIT ||
-         desc->max > INT64_LIMIT))
+    int bounded = rtk_param_has_range(desc);
+    /* An integer bound is a whole number within int64, or infinite (open). */
+    int int_bounds_ok = 1;
+    for (int k = 0; k < 2; k++) {
+        double v = k ? desc->max : desc->min;
+        if (!isinf(v) && (v != floor(v) || v < -INT64_LIMIT || v > INT64_LIMIT))
+            int_bounds_ok = 0;
+    }
+    if (desc->type == RTK_PARAM_INT && bounded && !int_bounds_ok)
         return rtk_error(RTK_ERR_PLUGIN, "plugin '%s': integer parameter '%s' has range %s, not 64-bit integers",
                          plugin, desc->name, range);
     if (desc->required)
@@ -465,25 +486,27 @@ rtk_status rtk_params_check_schema(const rtk_plugin *plugin)
     return RTK_OK;
 }
 
-const char *rtk_params_suggest(const rtk_param_desc *schema, uint32_t count, const char *name)
+RTK_API const char *rtk_suggest(const char *word, const char *const *names, size_t count, size_t stride)
 {
-    if (!schema || !name)
+    if (!word || !names)
         return NULL;
-    size_t len = strlen(name);
-    int limit = (int)(len / 3) > 2 ? (int)(len / 3) : 2;
     const char *best = NULL;
     int best_distance = INT_MAX;
-    for (uint32_t i = 0; i < count; i++) {
-        const char *candidate = schema[i].name;
+    for (size_t i = 0; i < count; i++) {
+        const char *candidate;
+        memcpy(&candidate, (const char *)names + i * stride, sizeof candidate);
         if (!candidate)
             continue;
-        int d = rtk_edit_distance(name, candidate);
-        size_t longer = len > strlen(candidate) ? len : strlen(candidate);
-        /* A distance equal to the longer length means nothing in common. */
-        if (d < best_distance && d <= limit && (size_t)d < longer) {
+        int d = typo_distance(word, candidate);
+        if (d < best_distance) {
             best_distance = d;
             best = candidate;
         }
     }
     return best;
+}
+
+const char *rtk_params_suggest(const rtk_param_desc *schema, uint32_t count, const char *name)
+{
+    return schema ? rtk_suggest(name, &schema->name, count, sizeof *schema) : NULL;
 }

@@ -62,6 +62,7 @@ typedef struct rtk_config_options {
     const char *const *overrides; /* "integrator.rays=64" ... */
     size_t override_count;
     int allow_outside_files;      /* let the scene read files outside its and the config's folders */
+    int oversubscribe;            /* let threads exceed the online cores (see rtk_threads_limit) */
 } rtk_config_options;
 
 /* Parses path, applies overrides, resolves the plugins through registry
@@ -70,6 +71,20 @@ typedef struct rtk_config_options {
 RTK_API rtk_status rtk_config_load(const char *path, rtk_registry *registry,
                                    const rtk_config_options *options, rtk_config **out);
 RTK_API void rtk_config_destroy(rtk_config *config);
+
+/* The number of threads to run when wanted are asked for (0: one per
+ * core): wanted itself up to the number of online cores; above it, the
+ * core count, with a warning (once per process) that names origin
+ * ("--threads 999", "scene.cfg:3") and how to keep wanted, unless
+ * oversubscribe. */
+RTK_API uint32_t rtk_threads_limit(uint32_t wanted, int oversubscribe, const char *origin);
+
+/* The name closest to word by edit distance among count names, or NULL
+ * when none is close enough to be a typo of it: for "did you mean"
+ * messages. The names lie stride bytes apart from names[0], so an array of
+ * structs whose first member is the name serves as well as an array of
+ * strings (stride sizeof(const char *)); NULL entries are skipped. */
+RTK_API const char *rtk_suggest(const char *word, const char *const *names, size_t count, size_t stride);
 
 /* Options of one render. */
 typedef struct rtk_render_options {
@@ -129,6 +144,8 @@ typedef struct rtk_bench_options {
     const char *csv;                  /* also write one row per accelerator x threads here */
     int progress;                     /* progress on stderr (the caller checks isatty) */
     int allow_config_plugins;         /* as in rtk_config_options */
+    int allow_outside_files;          /* as in rtk_config_options */
+    int oversubscribe;                /* as in rtk_config_options */
 } rtk_bench_options;
 
 /* Benchmarks accelerators on a mesh (.obj, read as BENCH.md's standard
@@ -237,6 +254,8 @@ typedef struct rtk_sweep_options {
     int plot;                             /* 0: run gnuplot when found; 1: required (error if missing); -1: script only */
     int bvh_cache;                        /* 1: keep the config's BVH cache; 0: cache=off, so build_s is a build */
     int progress;                         /* progress bar on stderr (the caller checks isatty) */
+    int allow_outside_files;              /* as in rtk_config_options */
+    int oversubscribe;                    /* as in rtk_config_options */
 } rtk_sweep_options;
 
 /* Runs the sweep of the config at path: validates every axis value and

@@ -17,7 +17,9 @@ typedef enum rtk_param_type {
 } rtk_param_type;
 
 /* One entry of a plugin's parameter schema. Zero-initialised fields mean
- * "none": min == max means unbounded, choices == NULL means any string. */
+ * "none": min and max both 0 mean unbounded, choices == NULL means any
+ * string. Any other min and max are an inclusive range, an exact one such
+ * as [1, 1] included; -INFINITY or INFINITY leaves one side open. */
 typedef struct rtk_param_desc {
     const char *name;       /* key in the config, e.g. "rays" */
     rtk_param_type type;
@@ -28,6 +30,13 @@ typedef struct rtk_param_desc {
     const char *doc;        /* one line for `rtk plugins NAME` */
     int required;           /* 1: the config must give it, def is ignored */
 } rtk_param_desc;
+
+/* 1 when desc declares a range for its int or float values (min and max
+ * not both 0), 0 when they are unbounded. */
+static inline int rtk_param_has_range(const rtk_param_desc *desc)
+{
+    return desc->min != 0.0 || desc->max != 0.0;
+}
 
 /* Validated values for one plugin instance (opaque, kernel-owned). */
 typedef struct rtk_params rtk_params;

@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # End-to-end checks of the rtk command: plugin listing, rendering, config
-# errors with file and line, refusing untrusted code, atomic output.
-# usage: test_cli.sh RTK SOURCE_ROOT BUILD_ROOT
+# errors with file and line, refusing untrusted code, atomic output, help,
+# suggestions, the version and the thread limit.
+# usage: test_cli.sh RTK SOURCE_ROOT BUILD_ROOT VERSION
 set -u
 rtk=$1
 src=$2
 build=$3
+version=$4
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 export XDG_CACHE_HOME="$tmp/cache"
@@ -14,7 +16,7 @@ failed=0
 
 ok() { passed=$((passed + 1)); echo "ok    $1"; }
 bad() { failed=$((failed + 1)); echo "FAIL  $1"; }
-# expect NAME STATUS(0|fail) PATTERN... -- CMD...: runs CMD, checks exit and that output has every pattern
+# expect NAME STATUS(0|fail|N) PATTERN... -- CMD...: runs CMD, checks exit and that output has every pattern
 expect() {
     local name=$1 want=$2
     shift 2
@@ -29,6 +31,9 @@ expect() {
     fi
     if [ "$want" = fail ] && [ $status -eq 0 ]; then
         bad "$name (succeeded, expected failure)"; echo "$out" | sed 's/^/    /'; return
+    fi
+    if [ "$want" != 0 ] && [ "$want" != fail ] && [ $status -ne "$want" ]; then
+        bad "$name (exit $status, expected $want)"; echo "$out" | sed 's/^/    /'; return
     fi
     for p in "${patterns[@]}"; do
         if ! grep -qF -- "$p" <<<"$out"; then
@@ -74,6 +79,78 @@ printf 'scene = "quad.obj";\nfilm = { spp = 0; };\n' >"$tmp/range.cfg"
 expect "out of range value names file and line" fail "range.cfg:2" "spp" -- "$rtk" render "$tmp/range.cfg"
 expect "--set override with a typo is refused" fail "--set" "bogus" -- "$rtk" render "$tmp/min.cfg" --set integrator.bogus=1
 expect "--set override applies" 0 "8x8" -- "$rtk" render "$tmp/min.cfg" --set film.width=8 --set film.height=8
+
+# Every bad --set at once (only the last one read was reported).
+expect "every bad --set is reported" fail "2 errors" "--set integrator.bogus=1" "--set film.widht=3" \
+    "did you mean 'width'" -- "$rtk" render "$tmp/min.cfg" --set integrator.bogus=1 --set film.widht=3
+# --set arrays, as rtk render --help shows them.
+expect "--set film.aovs=[albedo,normal] renders the layers" 0 "aovs.exr" -- "$rtk" render "$tmp/min.cfg" \
+    -o "$tmp/aovs.exr" --set film.aovs=[albedo,normal]
+expect "--set film.aovs with quoted strings renders" 0 "aovs2.exr" -- "$rtk" render "$tmp/min.cfg" \
+    -o "$tmp/aovs2.exr" --set 'film.aovs=["albedo","normal"]'
+# inf in a config: the string "inf"; bare inf gets the way to write it.
+printf 'scene = "quad.obj";\nfilm = { width = 8; height = 8; spp = 1; };\nintegrator = { plugin = "ao"; distance = "inf"; };\n' \
+    >"$tmp/inf.cfg"
+expect "distance = \"inf\" renders" 0 "8x8" -- "$rtk" render "$tmp/inf.cfg"
+printf 'scene = "quad.obj";\nintegrator = { plugin = "ao";\n  distance = inf; };\n' >"$tmp/bareinf.cfg"
+expect "bare inf says how to write it" fail "bareinf.cfg:3" 'distance = "inf";' -- "$rtk" render "$tmp/bareinf.cfg"
+
+# Help: per command, short usage on errors, the overview, did-you-mean.
+lines() { "$@" 2>&1 | wc -l; }
+expect "rtk render --help shows render's options" 0 "usage: rtk render CONFIG" "--threads" "--oversubscribe" \
+    "--allow-outside-files" "film.aovs=[albedo,normal]" "--plugin-path" -- "$rtk" render --help
+out=$("$rtk" render --help)
+if grep -q -- "--samplers\|--epsilon\|--accel " <<<"$out"; then bad "render --help leaves out other commands' options"
+else ok "render --help leaves out other commands' options"; fi
+[ "$("$rtk" help render)" = "$out" ] && ok "rtk help render = rtk render --help" || bad "rtk help render = rtk render --help"
+expect "rtk bench -h shows bench's options" 0 "usage: rtk bench" "--accel" "--runs" "--allow-outside-files" -- "$rtk" bench -h
+expect "rtk sweep --help shows sweep's options" 0 "usage: rtk sweep" "--samplers" "--allow-outside-files" \
+    "--oversubscribe" -- "$rtk" sweep --help
+expect "rtk --help is the overview" 0 "render" "plugins" "conform" "bench" "diff" "sweep" "rtk help COMMAND" -- "$rtk" --help
+expect "rtk help lists the commands" 0 "render" "sweep" "version" -- "$rtk" help
+if "$rtk" --help | grep -q -- "--reference-spp"; then bad "the overview leaves out command options"
+else ok "the overview leaves out command options"; fi
+expect "a typo'd command gets a suggestion" 2 "unknown command 'rendr'" "did you mean 'render'?" -- "$rtk" rendr x.cfg
+expect "rtk help of a typo'd command" 2 "did you mean 'sweep'?" -- "$rtk" help swep
+expect "a typo'd render option gets a suggestion" 2 "unknown option '--thread' for render" "did you mean '--threads'?" \
+    "usage: rtk render CONFIG" -- "$rtk" render "$tmp/min.cfg" --thread 4
+expect "a typo'd bench option gets a suggestion" 2 "did you mean '--runs'?" -- "$rtk" bench x.obj --runz 3
+expect "a typo'd sweep option gets a suggestion" 2 "did you mean '--samplers'?" -- "$rtk" sweep x.cfg --sampler sobol
+expect "a typo'd diff option gets a suggestion" 2 "did you mean '--epsilon'?" -- "$rtk" diff a.png b.png --epsilom 1
+expect "a typo'd option before the command" 2 "did you mean '--threads'?" -- "$rtk" --thread 4 render "$tmp/min.cfg"
+n=$(lines "$rtk" render)
+[ "$n" -le 4 ] && ok "a usage error prints the command's usage, not all help ($n lines)" ||
+    bad "a usage error prints the command's usage, not all help ($n lines)"
+expect "--threads without a value names it" 2 "--threads needs a value" -- "$rtk" render "$tmp/min.cfg" --threads
+expect "options before the command still apply" 0 -- "$rtk" --set film.width=8 -q render "$tmp/min.cfg" \
+    --set film.height=8 -o "$tmp/before.png"
+[ -f "$tmp/before.png" ] && ok "options before the command: -q and -o" || bad "options before the command: -q and -o"
+expect "--version gives the release and the ABI" 0 "rtk $version (plugin ABI " -- "$rtk" --version
+expect "rtk version gives the same" 0 "rtk $version (plugin ABI " -- "$rtk" version
+expect "--allow-outside-files is an option of render" 0 "8x8" -- "$rtk" render "$tmp/min.cfg" --allow-outside-files \
+    --set film.width=8 --set film.height=8
+
+# Threads above the online cores are capped, with a warning, unless --oversubscribe.
+cores=$(nproc)
+many=$((cores + 3))
+if [ "$many" -le 1024 ]; then
+    expect "--threads above the cores is capped" 0 "--threads $many: $many threads on $cores online cores" \
+        "using $cores" "$cores threads" -- "$rtk" render "$tmp/min.cfg" --threads "$many"
+    expect "--oversubscribe keeps them" 0 "$many threads" -- "$rtk" render "$tmp/min.cfg" --threads "$many" --oversubscribe
+    if "$rtk" render "$tmp/min.cfg" --threads "$many" --oversubscribe 2>&1 | grep -q "online cores"; then
+        bad "--oversubscribe gives no warning"; else ok "--oversubscribe gives no warning"; fi
+    printf 'scene = "quad.obj";\nfilm = { width = 8; height = 8; spp = 1; };\nthreads = %d;\n' "$many" >"$tmp/threads.cfg"
+    expect "the config's threads are capped" 0 "threads.cfg:3: $many threads on $cores online cores" \
+        "$cores threads" -- "$rtk" render "$tmp/threads.cfg"
+    printf 'oversubscribe = true;\n' >>"$tmp/threads.cfg"
+    expect "oversubscribe = true keeps them" 0 "$many threads" -- "$rtk" render "$tmp/threads.cfg"
+    expect "bench caps its thread counts" 0 "--threads $many: $many threads on $cores online cores" -- \
+        "$rtk" bench "$tmp/quad.obj" --accel median --threads "1,$many" --runs 1 --width 8 --height 8 -q
+    expect "sweep caps its threads" 0 "--threads $many: $many threads on $cores online cores" -- \
+        "$rtk" sweep "$tmp/min.cfg" --threads "$many" --spp 1 --seeds 1 --reference-spp 1 --no-plot --out "$tmp/sweep" -q
+else
+    echo "skip  thread limit ($cores cores)"
+fi
 
 printf 'scene = "quad.obj";\nplugin_path = "plugins";\n' >"$tmp/untrusted.cfg"
 mkdir -p "$tmp/plugins"

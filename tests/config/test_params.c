@@ -177,6 +177,54 @@ static void test_check_schema(void)
     CHECK_MSG("'x' is declared twice");
 }
 
+/* A declared range [v, v] is exact: "min == max means unbounded" let a
+ * parameter declared [1, 1] take -7. Only min and max both 0 (left out)
+ * mean unbounded; an infinite bound leaves one side open. */
+static const rtk_param_desc range_params[] = {
+    {.name = "one", .type = RTK_PARAM_INT, .def = 1, .min = 1, .max = 1, .doc = "exactly 1"},
+    {.name = "half", .type = RTK_PARAM_FLOAT, .def = 0.5, .min = 0.5, .max = 0.5, .doc = "exactly 0.5"},
+    {.name = "any", .type = RTK_PARAM_INT, .def = 3, .doc = "unbounded"},
+    {.name = "natural", .type = RTK_PARAM_INT, .def = 0, .min = 0, .max = INFINITY, .doc = "from 0 up"},
+    {.name = "below", .type = RTK_PARAM_FLOAT, .def = -1, .min = -INFINITY, .max = 2, .doc = "up to 2"},
+};
+static const rtk_plugin ranges = {RTK_PLUGIN_HEADER, .kind = RTK_KIND_FILTER, .name = "ranges",
+                                  .params = range_params, .param_count = RTK_COUNTOF(range_params)};
+
+static void test_ranges(void)
+{
+    CHECK(rtk_params_check_schema(&ranges) == RTK_OK);
+    CHECK(rtk_param_has_range(&range_params[0]) && rtk_param_has_range(&range_params[1]));
+    CHECK(!rtk_param_has_range(&range_params[2]));
+    CHECK(rtk_param_has_range(&range_params[3]) && rtk_param_has_range(&range_params[4]));
+    rtk_params *p = rtk_params_defaults(&ranges);
+    if (!p)
+        return;
+    CHECK(rtk_params_set_text(p, "one", "-7") == RTK_ERR_INVALID);
+    CHECK_MSG("one = -7 is out of range [1, 1]");
+    CHECK(rtk_params_set_text(p, "one", "2") == RTK_ERR_INVALID);
+    CHECK(rtk_params_set_text(p, "one", "1") == RTK_OK && rtk_params_int(p, "one") == 1);
+    CHECK(rtk_params_set_text(p, "half", "0.25") == RTK_ERR_INVALID);
+    CHECK_MSG("half = 0.25 is out of range [0.5, 0.5]");
+    CHECK(rtk_params_set_text(p, "half", "0.5") == RTK_OK);
+    CHECK(rtk_params_set_text(p, "any", "-7") == RTK_OK && rtk_params_int(p, "any") == -7);
+    CHECK(rtk_params_set_text(p, "natural", "-1") == RTK_ERR_INVALID);
+    CHECK_MSG("natural = -1 is out of range [0, 9223372036854775807]");
+    CHECK(rtk_params_set_text(p, "natural", "123456789012") == RTK_OK && rtk_params_int(p, "natural") == 123456789012);
+    CHECK(rtk_params_set_text(p, "below", "-1e300") == RTK_OK);
+    CHECK(rtk_params_set_text(p, "below", "-inf") == RTK_OK && isinf(rtk_params_float(p, "below")));
+    CHECK(rtk_params_set_text(p, "below", "3") == RTK_ERR_INVALID);
+    CHECK_MSG("below = 3 is out of range [-inf, 2]");
+    rtk_params_destroy(p);
+    /* The schema check holds a default to an exact range too. */
+    CHECK(check_one((rtk_param_desc){.name = "x", .type = RTK_PARAM_INT, .def = 0, .min = 1, .max = 1}) != RTK_OK);
+    CHECK_MSG("default 0 outside its range [1, 1]");
+    CHECK(check_one((rtk_param_desc){.name = "x", .type = RTK_PARAM_FLOAT, .def = 2, .min = -3, .max = -3}) !=
+          RTK_OK);
+    CHECK(check_one((rtk_param_desc){.name = "x", .type = RTK_PARAM_INT, .def = -5, .min = -INFINITY, .max = 0}) ==
+          RTK_OK);
+    CHECK(check_one((rtk_param_desc){.name = "x", .type = RTK_PARAM_INT, .def = 5, .min = 0, .max = NAN}) != RTK_OK);
+}
+
 static void test_suggest(void)
 {
     const rtk_param_desc *s = ao_params;
@@ -187,6 +235,15 @@ static void test_suggest(void)
     CHECK(rtk_params_suggest(s, n, "resolution") == NULL);
     CHECK(rtk_params_suggest(s, n, "xy") == NULL);
     CHECK(rtk_params_suggest(NULL, 0, "rays") == NULL);
+    /* The same for plain strings and for structs that begin with a name. */
+    static const char *const words[] = {"render", "plugins", NULL, "bench"};
+    const char *near = rtk_suggest("rendr", words, RTK_COUNTOF(words), sizeof words[0]);
+    CHECK(near && strcmp(near, "render") == 0);
+    CHECK(rtk_suggest("sweep", words, RTK_COUNTOF(words), sizeof words[0]) == NULL);
+    near = rtk_suggest("--thread", &(const char *const[]){"--threads", "--set"}[0], 2, sizeof(const char *));
+    CHECK(near && strcmp(near, "--threads") == 0);
+    near = rtk_suggest("distnace", &ao_params[0].name, RTK_COUNTOF(ao_params), sizeof ao_params[0]);
+    CHECK(near && strcmp(near, "distance") == 0);
 }
 
 int main(void)
@@ -195,6 +252,7 @@ int main(void)
     test_defaults_and_getters();
     test_set_text();
     test_check_schema();
+    test_ranges();
     test_suggest();
     printf("%d checks, %d failed\n", checks, failures);
     return failures ? 1 : 0;
