@@ -2,6 +2,7 @@
  * after every check passed; any doubt means one warning and a rebuild. */
 #include "bvh_cache.h"
 #include "bvh_wide.h"
+#include "output.h"
 
 #include <dirent.h>
 #include <dlfcn.h>
@@ -482,13 +483,17 @@ rtk_status rtk_bvh_cache_save(const rtk_scene *s, const char *path, uint64_t geo
     char *temp = rtk_alloc(len);
     if (!temp)
         return RTK_ERR_NOMEM;
+    rtk_temp_remove_stale(path, len - 64); /* output.h: what killed saves left */
     snprintf(temp, len, "%s.tmp%ld-%u", path, (long)getpid(), atomic_fetch_add(&counter, 1));
+    int slot = rtk_temp_register(temp);
+    rtk_xfsz_hold();
     unsigned char hb[RTK_BVH_CACHE_HEADER_SIZE];
     fill_header(hb, s, geometry, builder, plugin);
     uint64_t sum = checksum(hb, s->nodes, s->node_count, s->prim_ids, s->triangle_count);
     const char *step = "create";
     int fd = open(temp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
     int ok = fd >= 0;
+    rtk_interrupt_stop_point("cache-save");
     if (ok) {
         step = "write";
         ok = write_all(fd, hb, sizeof hb) && write_all(fd, s->nodes, sizeof *s->nodes * (size_t)s->node_count) &&
@@ -516,6 +521,8 @@ rtk_status rtk_bvh_cache_save(const rtk_scene *s, const char *path, uint64_t geo
     } else {
         rtk_log(RTK_LOG_DEBUG, "BVH cache %s: saved %u nodes", path, s->node_count);
     }
+    rtk_temp_unregister(slot);
+    rtk_xfsz_release();
     free(temp);
     return st;
 }

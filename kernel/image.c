@@ -5,16 +5,17 @@
  * commands that never touch an image (`rtk plugins`, `rtk bench`, most of
  * the test suite). */
 #include "internal.h"
+#include "output.h"
 
 #include <dlfcn.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <unistd.h>
 
 typedef rtk_status (*image_read_fn)(const char *path, const void *bytes, size_t byte_count, int srgb,
                                     rtk_image *out);
-typedef rtk_status (*image_write_fn)(const char *path, int width, int height, int nchannels,
-                                     const char *const *channel_names, const float *pixels, int half);
+typedef rtk_status (*image_write_fn)(const rtk_image_write_job *job);
 
 static pthread_once_t module_once = PTHREAD_ONCE_INIT;
 static image_read_fn module_read;
@@ -46,7 +47,7 @@ static void load_module(void)
                  "of rtk: rebuild or reinstall rtk", path, why ? why : "unknown reason");
     } else {
         image_read_fn r = (image_read_fn)dlsym(handle, "rtk_image_module_read");
-        image_write_fn w = (image_write_fn)dlsym(handle, "rtk_image_module_write");
+        image_write_fn w = (image_write_fn)dlsym(handle, "rtk_image_module_encode");
         if (r && w) {
             module_read = r;
             module_write = w;
@@ -69,11 +70,50 @@ rtk_status rtk_image_read(const char *path, const void *bytes, size_t byte_count
     return module_read(path, bytes, byte_count, srgb, out);
 }
 
+rtk_status rtk_image_check_output(const char *path, int width, int height, int nchannels)
+{
+    if (!path || !path[0])
+        return rtk_error(RTK_ERR_INVALID, "no output file name given");
+    pthread_once(&module_once, load_module);
+    if (!module_write)
+        return rtk_error(RTK_ERR_IO, "cannot write image '%s': %s", path, module_problem);
+    rtk_image_write_job job = {.path = path, .width = width, .height = height, .nchannels = nchannels};
+    rtk_status st = module_write(&job);
+    return st == RTK_OK ? rtk_output_check(path) : st;
+}
+
+/* Where ".tmp<pid>-<n>" goes: before the extension, which picks the format. */
+static size_t image_stem(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    const char *dot = strrchr(slash ? slash + 1 : path, '.');
+    return dot ? (size_t)(dot - path) : strlen(path);
+}
+
 rtk_status rtk_image_write(const char *path, int width, int height, int nchannels,
                            const char *const *channel_names, const float *pixels, int half)
 {
-    pthread_once(&module_once, load_module);
-    if (!module_write)
-        return rtk_error(RTK_ERR_IO, "cannot write image '%s': %s", path ? path : "(none)", module_problem);
-    return module_write(path, width, height, nchannels, channel_names, pixels, half);
+    rtk_status st = rtk_image_check_output(path, width, height, nchannels);
+    if (st != RTK_OK)
+        return st;
+    if (!pixels)
+        return rtk_error(RTK_ERR_INVALID, "cannot write image '%s': no pixels given", path);
+    rtk_temp_file file;
+    if ((st = rtk_temp_open(&file, path, image_stem(path))) != RTK_OK)
+        return st;
+    rtk_image_write_job job = {.path = path, .width = width, .height = height, .nchannels = nchannels,
+                               .channel_names = channel_names, .pixels = pixels, .half = half,
+                               .file = &file, .write_at = rtk_temp_write_at};
+    st = module_write(&job);
+    if (st != RTK_OK && file.err)
+        return rtk_temp_commit(&file, 1); /* a failed write is the cause: say which and why */
+    if (st != RTK_OK) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", rtk_error_message());
+        int existed = access(path, F_OK) == 0;
+        rtk_temp_commit(&file, 0);
+        return rtk_error(st, "%s; its temporary file was removed and %s", msg,
+                         existed ? "the previous file is unchanged" : "no file was written");
+    }
+    return rtk_temp_commit(&file, 1);
 }

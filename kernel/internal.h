@@ -41,13 +41,14 @@ void rtk_release_tail(void *block, size_t used, size_t size);
  * returns when all are done. Ranges below min_chunk items are not cut. */
 typedef void (*rtk_range_fn)(void *ctx, uint32_t begin, uint32_t end);
 void rtk_parallel_ranges(uint32_t n, uint32_t threads, uint32_t min_chunk, rtk_range_fn fn, void *ctx);
-/* A file written through a temporary sibling (name.tmp.ext) and renamed
- * over path only when complete, so that a failed or interrupted write
- * never leaves a half-written file under path. */
+/* A file written through a temporary sibling (name.tmp<pid>-<n>.ext, see
+ * output.h) and renamed over path only when complete, so that a failed or
+ * interrupted write never leaves a half-written file under path. */
 typedef struct rtk_out_file {
     FILE *f;          /* write here between open and close */
     char *tmp;
     const char *path; /* borrowed: must outlive the file */
+    int slot;         /* interrupt registry slot of tmp */
 } rtk_out_file;
 /* Opens the temporary file (error set, naming it, on failure). */
 rtk_status rtk_out_open(rtk_out_file *out, const char *path);

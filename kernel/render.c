@@ -4,6 +4,7 @@
 #include "film.h"
 #include "lights.h"
 #include "internal.h"
+#include "output.h"
 
 #include <math.h>
 #include <pthread.h>
@@ -346,6 +347,15 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     if (want_aovs && !has_extension(cfg->output, ".exr"))
         return rtk_error(RTK_ERR_INVALID, "%s: film.aovs needs an EXR output (film.output = \"%s\"): use a .exr name",
                          cfg->path, cfg->output);
+    /* The output's folder, permissions and format are checked before
+     * anything is loaded, so a bad film.output never costs a render. */
+    int out_channels = 3 + 3 * (cfg->aov_albedo != 0) + 3 * (cfg->aov_normal != 0) + (cfg->aov_depth != 0);
+    rtk_status out_st = rtk_image_check_output(cfg->output, (int)cfg->width, (int)cfg->height, out_channels);
+    if (out_st != RTK_OK) {
+        char where[1100];
+        snprintf(where, sizeof where, "%s: film.output (-o)", cfg->path);
+        return with_context(out_st, where);
+    }
 
     rtk_sampler_type sampler = RTK_SAMPLER_INDEPENDENT;
     if (cfg->sampler_type && !rtk_sampler_type_from_name(cfg->sampler_type, &sampler))
@@ -384,6 +394,7 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
 
     double t = rtk_now();
     uint32_t needs = ifn->needs(istate);
+    rtk_interrupt_phase("loading the scene", cfg->output);
     st = rtk_scene_load(cfg->scene_path, needs, &scene);
     for (uint32_t i = 0; st == RTK_OK && i < cfg->light_count; i++)
         st = rtk_scene_add_punctual(scene, &cfg->lights[i]);
@@ -408,6 +419,7 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
         count_textures(scene, &report->textures, &report->textures_decoded);
 
     t = rtk_now();
+    rtk_interrupt_phase("building the BVH", cfg->output);
     struct timespec build_start;
     clock_gettime(CLOCK_REALTIME, &build_start);
     rtk_bvh_cache_use cache;
@@ -471,6 +483,7 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     }
     rtk_render_stats stats;
     t = rtk_now();
+    rtk_interrupt_phase("rendering", cfg->output);
     st = rtk_render_film_mode(scene, &camera, ifn, istate, ffn, fstate, cfg->spp, sampler,
                               cfg->importance ? RTK_RECON_IMPORTANCE : RTK_RECON_SPLAT, cfg->seed, threads,
                               options->progress && !options->quiet, pixels, &stats);
@@ -514,7 +527,9 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
         for (int c = 0; c < nch; c++)
             pixels[i * (size_t)nch + (size_t)c] = pixels[i * RTK_FILM_CHANNELS + (size_t)keep[c]];
     t = rtk_now();
+    rtk_interrupt_phase("writing the image", cfg->output);
     st = rtk_image_write(cfg->output, (int)cfg->width, (int)cfg->height, nch, names, pixels, cfg->half);
+    rtk_interrupt_phase(NULL, NULL);
     if (st != RTK_OK)
         goto done;
     report->write_seconds = rtk_now() - t;
@@ -526,6 +541,7 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
         rtk_log(RTK_LOG_WARN, "%llu invalid rays (NaN, zero direction or empty interval) were rejected",
                 (unsigned long long)stats.invalid_rays);
 done:
+    rtk_interrupt_phase(NULL, NULL);
     report->peak_rss_bytes = rtk_peak_rss();
     free(pixels);
     if (istate)

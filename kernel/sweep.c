@@ -16,6 +16,7 @@
  * for every sampler and filter, and reported beside it. */
 #include "bvh_cache.h"
 #include "internal.h"
+#include "output.h"
 
 #include <errno.h>
 #include <math.h>
@@ -868,6 +869,7 @@ static rtk_status run_gnuplot(const sweep *s, const char *script, const char *pn
     char *dir_q = NULL;
     if (!tmp)
         return RTK_ERR_NOMEM;
+    int slot = rtk_temp_register(tmp); /* SIGINT/SIGTERM remove it (output.h) */
     /* gnuplot -e "cd '<dir>'; outfile = 'sweep.tmp.png'" <dir>/sweep.gp */
     size_t len = strlen(s->dir) * 2 + 64;
     dir_q = rtk_alloc(len);
@@ -905,6 +907,7 @@ static rtk_status run_gnuplot(const sweep *s, const char *script, const char *pn
             st = rtk_error(RTK_ERR_IO, "cannot write %s: %s", png, strerror(errno));
     }
     remove(tmp);
+    rtk_temp_unregister(slot);
     free(tmp);
     free(dir_q);
     return st;
@@ -1018,6 +1021,7 @@ static void sweep_free(sweep *s)
     free(s->config_text);
     if (s->run_output)
         remove(s->run_output);
+    rtk_temp_unregister_path(s->run_output);
     free(s->run_output);
     for (size_t i = 0; i < s->fixed_count; i++)
         free(s->fixed[i]);
@@ -1056,6 +1060,8 @@ RTK_API rtk_status rtk_sweep(const char *path, rtk_registry *registry, const rtk
         st = rtk_error(RTK_ERR_IO, "cannot use output directory %s: %s", s.o.out_dir, strerror(errno));
     if (st == RTK_OK && !(s.run_output = format("%s/.sweep-run-%ld.exr", s.dir, (long)getpid())))
         st = RTK_ERR_NOMEM;
+    if (st == RTK_OK)
+        rtk_temp_register(s.run_output); /* SIGINT/SIGTERM remove it (output.h) */
     if (st == RTK_OK && (!(s.fixed[s.fixed_count++] = format("film.output=%s", s.run_output)) ||
                          !(s.fixed[s.fixed_count++] = format("film.half=false")) ||
                          (!s.o.bvh_cache && !(s.fixed[s.fixed_count++] = format("cache=off"))) ||

@@ -1,5 +1,6 @@
 /* Small helpers: checked allocation, paths, clocks, memory figures. */
 #include "internal.h"
+#include "output.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -99,23 +100,22 @@ rtk_status rtk_out_open(rtk_out_file *out, const char *path)
 {
     out->path = path;
     out->f = NULL;
-    const char *dot = strrchr(path, '.');
+    out->tmp = NULL;
+    out->slot = -1;
     const char *slash = strrchr(path, '/');
-    if (!dot || (slash && dot < slash))
-        dot = path + strlen(path);
-    const size_t stem = (size_t)(dot - path), size = strlen(path) + sizeof ".tmp";
-    out->tmp = rtk_alloc(size);
-    if (!out->tmp)
-        return RTK_ERR_NOMEM;
-    snprintf(out->tmp, size, "%.*s.tmp%s", (int)stem, path, dot);
-    out->f = fopen(out->tmp, "w");
-    if (!out->f) {
-        rtk_status st = rtk_error(RTK_ERR_IO, "cannot write %s: cannot create its temporary file %s: %s", path,
-                                  out->tmp, strerror(errno));
-        free(out->tmp);
-        out->tmp = NULL;
+    const char *dot = strrchr(slash ? slash + 1 : path, '.');
+    rtk_temp_file t;
+    rtk_status st = rtk_temp_open(&t, path, dot ? (size_t)(dot - path) : strlen(path));
+    if (st != RTK_OK)
+        return st;
+    if (!(out->f = fdopen(t.fd, "w"))) {
+        st = rtk_error(RTK_ERR_IO, "cannot write %s: cannot open its temporary file %s: %s", path, t.tmp,
+                       strerror(errno));
+        rtk_temp_commit(&t, 0);
         return st;
     }
+    out->tmp = t.tmp;
+    out->slot = t.slot;
     return RTK_OK;
 }
 
@@ -123,25 +123,19 @@ rtk_status rtk_out_close(rtk_out_file *out, int ok)
 {
     if (!out->f)
         return RTK_OK;
-    int bad = ferror(out->f);
-    int err = bad ? EIO : 0;
-    if (fclose(out->f) != 0 && !bad) {
-        bad = 1;
-        err = errno;
-    }
+    rtk_temp_file t = {.fd = -1, .tmp = out->tmp, .path = out->path, .slot = out->slot};
+    if (fflush(out->f) != 0)
+        t.err = errno;
+    else if (ferror(out->f))
+        t.err = EIO;
+    else if (ok && fsync(fileno(out->f)) != 0)
+        t.err = errno;
+    if (fclose(out->f) != 0 && !t.err)
+        t.err = errno;
     out->f = NULL;
-    rtk_status st = RTK_OK;
-    if (ok && !bad && rename(out->tmp, out->path) != 0) {
-        bad = 1;
-        err = errno;
-    }
-    if (ok && bad)
-        st = rtk_error(RTK_ERR_IO, "cannot write %s: %s", out->path, strerror(err));
-    if (!ok || bad)
-        remove(out->tmp);
-    free(out->tmp);
     out->tmp = NULL;
-    return st;
+    out->slot = -1;
+    return rtk_temp_commit(&t, ok);
 }
 
 char *rtk_strdup(const char *s)

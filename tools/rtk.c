@@ -1063,6 +1063,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "rtk: out of memory\n");
         return 1;
     }
+    rtk_interrupt_install(); /* SIGINT/SIGTERM: temporaries removed, one line said, exit 130/143 */
     int status = 0;
     int word = find_command_word(argc, argv, &status);
     if (status == 0 && word == argc) {

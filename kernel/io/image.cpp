@@ -7,12 +7,12 @@
  * rtk_status), and every error names the file (or the embedded image's
  * name) and the reason. */
 #include "../internal.h"
+#include "../output.h"
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 #include <OpenImageIO/strutil.h>
 
-#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -268,20 +268,99 @@ int find_channel(const std::vector<std::string> &names, const char *name)
     return -1;
 }
 
-/* "dir/out.png" -> "dir/out.tmp<pid>-<n>.png": unique per process and
- * call, extension last so that OIIO still infers the format. */
-std::string temp_sibling(const std::string &path, size_t dot)
+/* The bytes OpenImageIO encodes go through rtk's checked writes into the
+ * temporary file. A failed write is reported to the encoder as done: the
+ * failure is kept in the file (file->err) and reported after close, so no
+ * encoder reaches an error path of its library that ends the process
+ * (libjpeg's default error_exit calls exit(1)). */
+class TempFileProxy : public OIIO::Filesystem::IOProxy {
+public:
+    explicit TempFileProxy(const rtk_image_write_job &job) : IOProxy(job.file->tmp, Write), job_(job) {}
+    const char *proxytype() const override { return "rtk-temp"; }
+    size_t write(const void *buf, size_t size) override
+    {
+        size_t n = pwrite(buf, size, m_pos);
+        m_pos += int64_t(n);
+        return n;
+    }
+    size_t pwrite(const void *buf, size_t size, int64_t offset) override
+    {
+        if (offset < 0)
+            return 0;
+        job_.write_at(job_.file, buf, size, uint64_t(offset));
+        if (uint64_t(offset) + size > end_)
+            end_ = uint64_t(offset) + size;
+        return size;
+    }
+    size_t read(void *buf, size_t size) override
+    {
+        size_t n = pread(buf, size, m_pos);
+        m_pos += int64_t(n);
+        return n;
+    }
+    size_t pread(void *buf, size_t size, int64_t offset) override
+    {
+        size_t done = 0;
+        while (offset >= 0 && done < size) {
+            ssize_t n = ::pread(job_.file->fd, static_cast<char *>(buf) + done, size - done, off_t(offset) + off_t(done));
+            if (n < 0 && errno == EINTR)
+                continue;
+            if (n <= 0)
+                break;
+            done += size_t(n);
+        }
+        return done;
+    }
+    size_t size() const override { return size_t(end_); }
+    uint64_t bytes() const { return end_; }
+
+private:
+    const rtk_image_write_job &job_;
+    uint64_t end_ = 0;
+};
+
+/* Largest width or height libjpeg encodes (JPEG_MAX_DIMENSION); above it
+ * libjpeg's error path would call exit(). */
+const int jpeg_max_dimension = 65500;
+
+/* The formats rtk writes (OpenImageIO's names), and their extensions for
+ * messages: those rtk also reads back, each written through checked writes
+ * (TIFF by name, then read back, see write_image). */
+const char *const writable_formats[] = {"openexr", "png", "jpeg", "hdr", "tiff", "targa", "bmp", "pnm"};
+const char *const writable_list = ".exr, .png, .jpg, .hdr, .tif, .tga, .bmp or .ppm";
+
+/* Reads the TIFF at file back and compares its pixels with expected (8-bit
+ * RGB): proof that a write the library reported done is whole. */
+bool read_back_matches(const std::string &file, int width, int height, const std::vector<unsigned char> &expected,
+                       std::string *why)
 {
-    static std::atomic<unsigned> counter(0);
-    char tag[64];
-    std::snprintf(tag, sizeof tag, ".tmp%ld-%u", long(getpid()), counter++);
-    return path.substr(0, dot) + tag + path.substr(dot);
+    auto in = ImageInput::open(file);
+    if (!in) {
+        *why = one_line(OIIO::geterror());
+        return false;
+    }
+    const ImageSpec spec = in->spec();
+    std::vector<unsigned char> got(expected.size());
+    bool ok = spec.width == width && spec.height == height && spec.nchannels >= 3 &&
+              in->read_image(0, 0, 0, 3, TypeDesc::UINT8, got.data());
+    if (!ok)
+        *why = one_line(in->geterror());
+    in->close();
+    in->geterror();
+    if (ok && got != expected) {
+        *why = "the file read back differs from the image written";
+        ok = false;
+    }
+    return ok;
 }
 
-rtk_status write_image(const char *path, int width, int height, int nchannels,
-                       const char *const *channel_names, const float *pixels, int half)
+/* Checks that job's image can be written, then (pixels given) encodes it
+ * through a TempFileProxy. */
+rtk_status write_image(const rtk_image_write_job &job)
 {
-    if (width <= 0 || height <= 0 || nchannels <= 0 || !pixels)
+    const char *path = job.path;
+    int width = job.width, height = job.height, nchannels = job.nchannels;
+    if (width < 0 || height < 0 || nchannels < 0 || (job.pixels && (width == 0 || height == 0 || nchannels == 0)))
         return rtk_error(RTK_ERR_INVALID, "cannot write image '%s': bad size %dx%d with %d channels",
                          path, width, height, nchannels);
     uint64_t pixel_count = uint64_t(width) * uint64_t(height);
@@ -295,46 +374,54 @@ rtk_status write_image(const char *path, int width, int height, int nchannels,
     size_t dot = target.rfind('.');
     if (dot == std::string::npos || dot <= start || dot + 1 == target.size())
         return rtk_error(RTK_ERR_UNSUPPORTED,
-                         "cannot write image '%s': the file name has no extension to pick a format "
-                         "(use e.g. .exr, .png, .jpg, .hdr, .tif)",
-                         path);
+                         "cannot write image '%s': the file name has no extension to pick a format (use %s)", path,
+                         writable_list);
     std::string ext = target.substr(dot);
 
-    std::string dir = start == 0 ? std::string(".")
-                      : start == 1 ? std::string("/")
-                                   : target.substr(0, start - 1);
-    struct stat st;
-    if (stat(dir.c_str(), &st) != 0)
-        return rtk_error(RTK_ERR_IO, "cannot write image '%s': directory '%s': %s", path, dir.c_str(),
-                         errno == ENOENT ? "does not exist" : std::strerror(errno));
-    if (!S_ISDIR(st.st_mode))
-        return rtk_error(RTK_ERR_IO, "cannot write image '%s': '%s' is not a directory", path, dir.c_str());
-    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
-        return rtk_error(RTK_ERR_IO, "cannot write image '%s': it is a directory", path);
-
-    std::string temp = temp_sibling(target, dot);
-    auto output = ImageOutput::create(temp);
+    auto output = ImageOutput::create(target);
     if (!output) {
         OIIO::geterror();
-        return rtk_error(RTK_ERR_UNSUPPORTED,
-                         "cannot write image '%s': no image format for extension '%s' "
-                         "(supported include .exr, .png, .jpg, .hdr, .tif)",
-                         path, ext.c_str());
+        return rtk_error(RTK_ERR_UNSUPPORTED, "cannot write image '%s': OpenImageIO has no writer for '%s' (use %s)",
+                         path, ext.c_str(), writable_list);
     }
     std::string format = output->format_name();
+    bool known = false;
+    for (const char *name : writable_formats)
+        known = known || format == name;
+    if (!known)
+        return rtk_error(RTK_ERR_UNSUPPORTED,
+                         "cannot write image '%s': rtk does not write %s files (it writes and reads back %s)", path,
+                         format.c_str(), writable_list);
+    /* OIIO 2.4's TIFF writer cannot rewrite its directory through a proxy
+     * (it reads nothing back), so TIFF goes by name and is read back. */
+    bool by_name = format == "tiff";
+    if (!by_name && !output->supports("ioproxy"))
+        return rtk_error(RTK_ERR_UNSUPPORTED,
+                         "cannot write image '%s': OpenImageIO's %s writer cannot write through rtk's checked writes, "
+                         "so a full disk could go unnoticed (use %s)",
+                         path, format.c_str(), writable_list);
+    if (format == "jpeg" && (width > jpeg_max_dimension || height > jpeg_max_dimension))
+        return rtk_error(RTK_ERR_UNSUPPORTED,
+                         "cannot write image '%s': %dx%d is larger than JPEG allows (%d pixels a side); use .exr or .png",
+                         path, width, height, jpeg_max_dimension);
+    if (!job.pixels)
+        return RTK_OK;
+    if (!job.file || job.file->fd < 0 || !job.write_at)
+        return rtk_error(RTK_ERR_INVALID, "cannot write image '%s': no temporary file to write to", path);
 
     size_t count = size_t(pixel_count);
+    const float *pixels = job.pixels;
     ImageSpec spec;
     const void *data = pixels;
     TypeDesc data_type = TypeDesc::FLOAT;
     std::vector<float> rgb;
     std::vector<unsigned char> bytes8;
     if (format == "openexr") {
-        spec = ImageSpec(width, height, nchannels, half ? TypeDesc::HALF : TypeDesc::FLOAT);
-        if (channel_names) {
+        spec = ImageSpec(width, height, nchannels, job.half ? TypeDesc::HALF : TypeDesc::FLOAT);
+        if (job.channel_names) {
             spec.channelnames.clear();
             for (int c = 0; c < nchannels; c++) {
-                const char *name = channel_names[c];
+                const char *name = job.channel_names[c];
                 if (!name || !name[0])
                     return rtk_error(RTK_ERR_INVALID, "cannot write image '%s': channel %d has no name",
                                      path, c);
@@ -372,31 +459,40 @@ rtk_status write_image(const char *path, int width, int height, int nchannels,
     }
     spec.attribute("Software", "rtk");
 
+    TempFileProxy proxy(job);
     std::string why;
-    bool ok = output->open(temp, spec);
+    int err = 0;
+    bool ok = (by_name || output->set_ioproxy(&proxy)) && output->open(job.file->tmp, spec);
     if (ok) {
         ok = output->write_image(data_type, data);
         if (!ok) {
+            err = errno;
             why = one_line(output->geterror());
             output->close();
         } else {
             ok = output->close();
+            err = errno;
         }
+    } else {
+        err = errno;
     }
-    if (!ok) {
-        if (why.empty())
-            why = one_line(output->geterror());
-        output.reset();
-        std::remove(temp.c_str());
-        return rtk_error(RTK_ERR_IO, "cannot write image '%s': %s", path, why.c_str());
-    }
+    if (!ok && why.empty())
+        why = one_line(output->geterror());
+    output->geterror();
     output.reset();
-    if (std::rename(temp.c_str(), path) != 0) {
-        int err = errno;
-        std::remove(temp.c_str());
-        return rtk_error(RTK_ERR_IO, "cannot write image '%s': renaming '%s' over it failed: %s", path,
-                         temp.c_str(), std::strerror(err));
+    if (!ok && by_name && (err == ENOSPC || err == EFBIG || err == EDQUOT || err == EIO)) {
+        /* The library's message may not say why; its last failed write does. */
+        job.file->err = err;
+        return rtk_error(RTK_ERR_IO, "cannot write image '%s': %s (%s)", path, std::strerror(err), why.c_str());
     }
+    if (!ok)
+        return rtk_error(RTK_ERR_IO, "cannot write image '%s': %s", path, why.c_str());
+    if (by_name && !read_back_matches(job.file->tmp, width, height, bytes8, &why))
+        return rtk_error(RTK_ERR_IO, "cannot write image '%s': reading its temporary file back failed: %s", path,
+                         why.c_str());
+    if (!by_name && proxy.bytes() == 0)
+        return rtk_error(RTK_ERR_IO, "cannot write image '%s': OpenImageIO's %s writer passed no bytes through rtk's "
+                         "checked writes", path, format.c_str());
     return RTK_OK;
 }
 
@@ -424,14 +520,13 @@ extern "C" RTK_EXPORT rtk_status rtk_image_module_read(const char *path, const v
     }
 }
 
-extern "C" RTK_EXPORT rtk_status rtk_image_module_write(const char *path, int width, int height, int nchannels,
-                                                       const char *const *channel_names, const float *pixels,
-                                                       int half)
+extern "C" RTK_EXPORT rtk_status rtk_image_module_encode(const rtk_image_write_job *job)
 {
-    if (!path || !path[0])
+    if (!job || !job->path || !job->path[0])
         return rtk_error(RTK_ERR_INVALID, "rtk_image_write: no output file name given");
+    const char *path = job->path;
     try {
-        return write_image(path, width, height, nchannels, channel_names, pixels, half);
+        return write_image(*job);
     } catch (const std::bad_alloc &) {
         return rtk_error(RTK_ERR_NOMEM, "cannot write image '%s': out of memory", path);
     } catch (const std::exception &e) {
