@@ -6,6 +6,7 @@
  * exceptions. */
 #include "../internal.h"
 #include "../lights.h"
+#include "draco.h"
 
 #include <tiny_gltf.h>
 
@@ -365,16 +366,23 @@ const char *const supported_required[] = {"KHR_materials_emissive_strength", "KH
                                           "KHR_mesh_quantization", "KHR_texture_transform",
                                           "EXT_mesh_gpu_instancing"};
 
+const char *const draco_extension = "KHR_draco_mesh_compression";
+
 bool supported_extension(const std::string &name)
 {
     for (const char *s : supported_required)
         if (name == s)
             return true;
-    return false;
+    return name == draco_extension && rtk_draco::available();
 }
 
 rtk_status refuse_extension(const char *path, const std::string &name)
 {
+    if (name == draco_extension)
+        return rtk_error(RTK_ERR_UNSUPPORTED,
+                         "%s: the file requires the glTF extension %s, and this rtk was built without Draco; "
+                         "install libdraco-dev and rebuild rtk, or export the scene without Draco compression",
+                         path, name.c_str());
     return rtk_error(RTK_ERR_UNSUPPORTED,
                      "%s: the file requires the glTF extension %s, which rtk does not support; "
                      "export the scene without it",
@@ -445,6 +453,10 @@ class Loader {
     rtk_status joint_matrices(int node, std::vector<Mat4> *out);
     /* Node index's world transform, from its parents (memoised). */
     rtk_status global(int index, int depth, Mat4 *out);
+    /* Decodes the primitive's KHR_draco_mesh_compression data: its
+     * attributes' accessors read from decoded_, its corners into indices. */
+    rtk_status decode_draco(int mesh, int primitive, const tinygltf::Value &ext, std::vector<uint32_t> *indices);
+    std::map<int, std::vector<double>> decoded_; /* accessor -> values, while a Draco primitive is added */
     std::vector<int> parent_;    /* made on first use: each node's parent, -1 for none */
     std::vector<Mat4> globals_;
     std::vector<char> global_done_;
@@ -529,6 +541,11 @@ rtk_status Loader::read(int index, const Where &where, const std::vector<int> &c
                     acc.componentType, expected.c_str());
     if (acc.type != type)
         return fail(where, index, "type %s, expected %s", type_name(acc.type), type_name(type));
+    std::map<int, std::vector<double>>::const_iterator decoded = decoded_.find(index);
+    if (decoded != decoded_.end()) {
+        *out = decoded->second;
+        return RTK_OK;
+    }
     const size_t n = component_count(type), elem = component_size(acc.componentType) * n;
     if (acc.count > (SIZE_MAX / sizeof(double)) / n)
         return fail(where, index, "%zu elements is more than rtk can hold", acc.count);
@@ -1055,11 +1072,73 @@ rtk_status Loader::skin_vertices(int mesh, int index, const std::vector<Mat4> &j
     return RTK_OK;
 }
 
+rtk_status Loader::decode_draco(int mesh, int index, const tinygltf::Value &ext, std::vector<uint32_t> *indices)
+{
+    const tinygltf::Primitive &prim = model_.meshes[size_t(mesh)].primitives[size_t(index)];
+    const std::string where = path_ + std::string(": ") + mesh_label(mesh) + " primitive " + std::to_string(index) +
+                              ": " + draco_extension;
+    const tinygltf::Value &bv = ext.Get("bufferView"), &attributes = ext.Get("attributes");
+    const int view = bv.IsNumber() ? bv.GetNumberAsInt() : -1;
+    if (view < 0 || size_t(view) >= model_.bufferViews.size() || !attributes.IsObject())
+        return rtk_error(RTK_ERR_PARSE, "%s: needs a bufferView (the file has %zu) and attributes", where.c_str(),
+                         model_.bufferViews.size());
+    const tinygltf::BufferView &v = model_.bufferViews[size_t(view)];
+    const size_t size = v.buffer >= 0 && size_t(v.buffer) < model_.buffers.size()
+                            ? model_.buffers[size_t(v.buffer)].data.size()
+                            : 0;
+    if (v.byteOffset > size || v.byteLength > size - v.byteOffset || !v.byteLength)
+        return rtk_error(RTK_ERR_PARSE, "%s: buffer view %d (%zu bytes from offset %zu) does not fit in its buffer",
+                         where.c_str(), view, v.byteLength, v.byteOffset);
+    /* Each attribute of the primitive that the extension names, by its Draco id. */
+    std::vector<std::pair<int, int>> wanted; /* (accessor, Draco id) */
+    std::vector<int> ids;
+    for (const auto &attr : prim.attributes) {
+        if (!attributes.Has(attr.first))
+            continue;
+        const tinygltf::Value &id = attributes.Get(attr.first);
+        if (!id.IsNumber() || id.GetNumberAsInt() < 0)
+            return rtk_error(RTK_ERR_PARSE, "%s: attribute %s has no Draco id", where.c_str(), attr.first.c_str());
+        wanted.emplace_back(attr.second, id.GetNumberAsInt());
+        ids.push_back(id.GetNumberAsInt());
+    }
+    rtk_draco::Mesh decoded;
+    std::string why;
+    if (!rtk_draco::decode(model_.buffers[size_t(v.buffer)].data.data() + v.byteOffset, v.byteLength, ids, &decoded,
+                           &why))
+        return rtk_error(RTK_ERR_PARSE, "%s: %s", where.c_str(), why.c_str());
+    for (const std::pair<int, int> &w : wanted) {
+        const int accessor = w.first;
+        const size_t n = size_t(accessor) < model_.accessors.size()
+                             ? component_count(model_.accessors[size_t(accessor)].type)
+                             : 0;
+        if (n == 0 || int(n) != decoded.components[w.second])
+            return rtk_error(RTK_ERR_PARSE, "%s: Draco attribute %d has %d components, accessor %d wants %zu",
+                             where.c_str(), w.second, decoded.components[w.second], accessor, n);
+        decoded_[accessor] = std::move(decoded.attributes[w.second]);
+    }
+    *indices = std::move(decoded.indices);
+    return RTK_OK;
+}
+
 rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, const std::vector<double> &weights,
                                  rtk_scene *dst, const std::vector<Mat4> *joints)
 {
     const tinygltf::Primitive &prim = model_.meshes[size_t(mesh)].primitives[size_t(index)];
-    const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+    /* Draco: the decoded attributes stand in for their accessors while
+     * this primitive is added, its faces for the indices. */
+    struct Forget {
+        std::map<int, std::vector<double>> &decoded;
+        ~Forget() { decoded.clear(); }
+    } forget{decoded_};
+    decoded_.clear();
+    std::vector<uint32_t> indices;
+    tinygltf::ExtensionMap::const_iterator draco = prim.extensions.find(draco_extension);
+    const bool compressed = draco != prim.extensions.end() && rtk_draco::available();
+    rtk_status status;
+    if (compressed && (status = decode_draco(mesh, index, draco->second, &indices)) != RTK_OK)
+        return status;
+    const bool indexed = compressed || prim.indices >= 0;
+    const int mode = compressed ? TINYGLTF_MODE_TRIANGLES : prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
     if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE || mode == TINYGLTF_MODE_LINE_LOOP ||
         mode == TINYGLTF_MODE_LINE_STRIP) {
         skipped_primitives_++;
@@ -1082,8 +1161,7 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, const s
                          mesh_label(mesh).c_str(), index);
     Where where = {mesh, index, "POSITION"};
     std::vector<double> pos, nrm, tex;
-    rtk_status status = read(attr->second, where, vertex_components, TINYGLTF_TYPE_VEC3, &pos);
-    if (status != RTK_OK)
+    if ((status = read(attr->second, where, vertex_components, TINYGLTF_TYPE_VEC3, &pos)) != RTK_OK)
         return status;
     const int pos_accessor = attr->second;
     const size_t nverts = pos.size() / 3;
@@ -1143,8 +1221,11 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, const s
             for (size_t j = 0; j < k; j++)
                 colors[i * 4 + j] = std::isfinite(c[i * k + j]) ? clamp01(float(c[i * k + j])) : 1.0f;
     }
-    std::vector<uint32_t> indices;
-    if (prim.indices >= 0) {
+    for (size_t i = 0; compressed && i < indices.size(); i++)
+        if (indices[i] >= nverts)
+            return rtk_error(RTK_ERR_PARSE, "%s: %s primitive %d: Draco corner %zu is point %u, but POSITION has %zu",
+                             path_, mesh_label(mesh).c_str(), index, i, indices[i], nverts);
+    if (!compressed && prim.indices >= 0) {
         where.what = "indices";
         std::vector<double> iv;
         if ((status = read(prim.indices, where,
@@ -1160,7 +1241,7 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, const s
                             nverts);
         }
     }
-    const size_t n = prim.indices >= 0 ? indices.size() : nverts;
+    const size_t n = indexed ? indices.size() : nverts;
     if (n < 3)
         return RTK_OK;
 
@@ -1227,7 +1308,7 @@ rtk_status Loader::add_primitive(int mesh, int index, const Mat4 &world, const s
         const size_t *c = list[mode == TINYGLTF_MODE_TRIANGLES ? 0 : mode == TINYGLTF_MODE_TRIANGLE_STRIP ? 1 : 2];
         uint32_t v[3];
         for (int k = 0; k < 3; k++)
-            v[k] = prim.indices >= 0 ? indices[c[k]] : uint32_t(c[k]);
+            v[k] = indexed ? indices[c[k]] : uint32_t(c[k]);
         if (skinned.empty() ? mirrored : flipped[v[0]] != 0)
             std::swap(v[1], v[2]);
         float tn[9], tuv[6], tuv1[6], tc[12];
@@ -1464,18 +1545,32 @@ std::string json_string(const char *t, size_t n, size_t *i)
     return out;
 }
 
+/* Whether the open levels are those of meshes[m].primitives[p]'s object
+ * or deeper. */
+bool in_primitive(const std::vector<char> &open, const std::vector<std::string> &keys)
+{
+    return open.size() >= 5 && open[0] == '{' && open[1] == '[' && open[2] == '{' && open[3] == '[' &&
+           open[4] == '{' && keys[0] == "meshes" && keys[2] == "primitives";
+}
+
 /* Scans the JSON text (strings skipped as such) for its nesting depth,
  * refused past max_json_depth since tinygltf's parser recurses once per
  * level, and for the required extensions and the version. Malformed JSON
- * is left to tinygltf to report. */
-rtk_status prescan_json(const char *path, const char *t, size_t n, Prescan *out)
+ * is left to tinygltf to report. When Draco is available, the key
+ * "indices" of a primitive that has KHR_draco_mesh_compression becomes
+ * "_ndices" in t: its accessor has no buffer view (the faces are in the
+ * Draco data), which tinygltf 2.7 refuses for indices. */
+rtk_status prescan_json(const char *path, char *t, size_t n, Prescan *out)
 {
     std::vector<char> open;        /* '{' or '[' per open level */
     std::vector<std::string> keys; /* the last key read at each level */
+    size_t indices_key = std::string::npos; /* the current primitive's "indices", when Draco may take it */
+    bool draco = false;                     /* the current primitive has the Draco extension */
     size_t i = 0;
     while (i < n) {
         const char c = t[i];
         if (c == '"') {
+            const size_t at = i;
             std::string str = json_string(t, n, &i);
             size_t j = i;
             while (j < n && (t[j] == ' ' || t[j] == '\t' || t[j] == '\r' || t[j] == '\n'))
@@ -1484,6 +1579,10 @@ rtk_status prescan_json(const char *path, const char *t, size_t n, Prescan *out)
             if (d > 0 && open[d - 1] == '{' && j < n && t[j] == ':') {
                 keys[d - 1] = str;
                 i = j + 1;
+                if (d == 5 && str == "indices" && in_primitive(open, keys) && rtk_draco::available())
+                    indices_key = at;
+                if (d == 6 && str == draco_extension && in_primitive(open, keys) && keys[4] == "extensions")
+                    draco = true;
             } else if (d == 2 && open[1] == '[' && keys[0] == "extensionsRequired") {
                 out->required.push_back(str);
             } else if (d == 2 && open[1] == '{' && keys[0] == "asset" && keys[1] == "version") {
@@ -1499,6 +1598,12 @@ rtk_status prescan_json(const char *path, const char *t, size_t n, Prescan *out)
             open.push_back(c);
             keys.emplace_back();
         } else if ((c == '}' || c == ']') && !open.empty()) {
+            if (open.size() == 5 && in_primitive(open, keys)) {
+                if (draco && indices_key != std::string::npos)
+                    t[indices_key + 1] = '_';
+                indices_key = std::string::npos;
+                draco = false;
+            }
             open.pop_back();
             keys.pop_back();
         }
@@ -1556,13 +1661,14 @@ rtk_status read_whole(const char *path, std::vector<unsigned char> *out)
 
 /* Checks the file before tinygltf parses it: glTF 1.0 binaries, JSON
  * nesting, the version and required extensions (refused with rtk's own
- * message rather than tinygltf's failure on the data they change). */
-rtk_status prescan(const char *path, const std::vector<unsigned char> &bytes, bool *binary)
+ * message rather than tinygltf's failure on the data they change); and
+ * readies Draco primitives for tinygltf (prescan_json). */
+rtk_status prescan(const char *path, std::vector<unsigned char> &bytes, bool *binary)
 {
-    const unsigned char *b = bytes.data();
+    unsigned char *b = bytes.data();
     const size_t n = bytes.size();
     *binary = has_extension(path, ".glb") || (n >= 4 && std::memcmp(b, "glTF", 4) == 0);
-    const char *json = reinterpret_cast<const char *>(b);
+    char *json = reinterpret_cast<char *>(b);
     size_t json_size = n;
     if (*binary) {
         if (n >= 8 && std::memcmp(b, "glTF", 4) == 0 && read_u32le(b + 4) == 1)
