@@ -87,6 +87,9 @@ static const rtk_param_desc sampler_params[] = {
 static const rtk_param_desc textures_params[] = {
     {.name = "filter", .type = RTK_PARAM_STRING, .def_string = "bilinear", .choices = "nearest|bilinear|trilinear",
      .doc = "texture filter: nearest texel, bilinear, or trilinear between MIP levels picked by ray differentials"},
+    {.name = "memory", .type = RTK_PARAM_INT, .def = 2048, .min = 1, .max = 1048576,
+     .doc = "MB the decoded textures may take in all (float RGBA, MIP levels included); a texture past it is "
+            "not decoded, with a warning"},
 };
 
 static const rtk_param_desc light_params[] = {
@@ -1029,6 +1032,7 @@ static rtk_status read_textures(const loader *ld, const config_setting_t *root, 
     if ((status = fill_params(ld, group, &spec, &params)) != RTK_OK)
         return status;
     const char *name = rtk_params_string(params, "filter");
+    cfg->texture_budget = (uint64_t)rtk_params_int(params, "memory") << 20;
     if (!rtk_texture_filter_from_name(name, &cfg->texture_filter))
         status = fail(ld, member(group, "filter"), RTK_ERR_INVALID,
                       "textures: filter = \"%s\": expected nearest, bilinear or trilinear", name);
@@ -1798,6 +1802,9 @@ RTK_API rtk_status rtk_config_load(const char *path, rtk_registry *registry, con
         ld.trusted = options->allow_config_plugins != 0;
     if (size >= offsetof(rtk_config_options, oversubscribe) + sizeof options->oversubscribe)
         ld.oversubscribe = options->oversubscribe != 0;
+    int allow_outside_files = 0;
+    if (size >= offsetof(rtk_config_options, allow_outside_files) + sizeof options->allow_outside_files)
+        allow_outside_files = options->allow_outside_files != 0;
     size_t override_count = 0;
     if (size >= offsetof(rtk_config_options, override_count) + sizeof options->override_count && options->overrides)
         override_count = options->override_count;
@@ -1814,6 +1821,8 @@ RTK_API rtk_status rtk_config_load(const char *path, rtk_registry *registry, con
     }
     if (status == RTK_OK && !(cfg->path = rtk_strdup(path)))
         status = RTK_ERR_NOMEM;
+    if (status == RTK_OK)
+        cfg->allow_outside_files = allow_outside_files;
     if (status == RTK_OK)
         status = load(&ld, cfg);
     config_destroy(&ld.cfg);

@@ -11,10 +11,11 @@
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
-typedef rtk_status (*image_read_fn)(const char *path, const void *bytes, size_t byte_count, int srgb,
-                                    rtk_image *out);
+typedef rtk_status (*image_read_fn)(const char *name, const void *bytes, size_t byte_count, const char *format,
+                                    int srgb, rtk_image *out);
 typedef rtk_status (*image_write_fn)(const rtk_image_write_job *job);
 
 static pthread_once_t module_once = PTHREAD_ONCE_INIT;
@@ -59,35 +60,54 @@ static void load_module(void)
     free(path);
 }
 
-rtk_status rtk_image_read(const char *path, const void *bytes, size_t byte_count, int srgb, rtk_image *out)
+rtk_status rtk_image_source_open(const char *path, const void *bytes, size_t byte_count, rtk_image_source *src)
+{
+    memset(src, 0, sizeof *src);
+    src->name = path ? path : "embedded image";
+    if (!bytes) {
+        size_t count;
+        rtk_status st = rtk_file_read(path, "image", RTK_MAX_IMAGE_FILE, &src->owned, &count);
+        if (st != RTK_OK)
+            return st;
+        src->bytes = src->owned;
+        src->count = count;
+    } else {
+        src->bytes = bytes;
+        src->count = byte_count;
+    }
+    if (!src->count)
+        return rtk_error(RTK_ERR_PARSE, "cannot read image '%s': it is empty", src->name);
+    return rtk_image_source_check(src);
+}
+
+void rtk_image_source_close(rtk_image_source *src)
+{
+    free(src->owned);
+    src->owned = NULL;
+    src->bytes = NULL;
+}
+
+rtk_status rtk_image_source_decode(const rtk_image_source *src, int srgb, rtk_image *out)
 {
     pthread_once(&module_once, load_module);
     if (!module_read) {
         if (out)
             out->width = out->height = out->channels = out->has_alpha = 0, out->rgba = NULL;
-        return rtk_error(RTK_ERR_IO, "cannot read image '%s': %s", path ? path : "embedded image", module_problem);
+        return rtk_error(RTK_ERR_IO, "cannot read image '%s': %s", src->name, module_problem);
     }
-    return module_read(path, bytes, byte_count, srgb, out);
+    return module_read(src->name, src->bytes, src->count, src->format, srgb, out);
 }
 
-rtk_status rtk_image_check_output(const char *path, int width, int height, int nchannels)
+rtk_status rtk_image_read(const char *path, const void *bytes, size_t byte_count, int srgb, rtk_image *out)
 {
-    if (!path || !path[0])
-        return rtk_error(RTK_ERR_INVALID, "no output file name given");
-    pthread_once(&module_once, load_module);
-    if (!module_write)
-        return rtk_error(RTK_ERR_IO, "cannot write image '%s': %s", path, module_problem);
-    rtk_image_write_job job = {.path = path, .width = width, .height = height, .nchannels = nchannels};
-    rtk_status st = module_write(&job);
-    return st == RTK_OK ? rtk_output_check(path) : st;
-}
-
-/* Where ".tmp<pid>-<n>" goes: before the extension, which picks the format. */
-static size_t image_stem(const char *path)
-{
-    const char *slash = strrchr(path, '/');
-    const char *dot = strrchr(slash ? slash + 1 : path, '.');
-    return dot ? (size_t)(dot - path) : strlen(path);
+    if (out)
+        out->width = out->height = out->channels = out->has_alpha = 0, out->rgba = NULL;
+    rtk_image_source src;
+    rtk_status st = rtk_image_source_open(path, bytes, byte_count, &src);
+    if (st == RTK_OK)
+        st = rtk_image_source_decode(&src, srgb, out);
+    rtk_image_source_close(&src);
+    return st;
 }
 
 rtk_status rtk_image_write(const char *path, int width, int height, int nchannels,

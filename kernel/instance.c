@@ -95,7 +95,7 @@ rtk_status rtk_scene_instance_file(rtk_scene *scene, const char *path, const dou
     }
     if (index == RTK_INVALID_ID) {
         rtk_scene *mesh = NULL;
-        rtk_status st = rtk_scene_load(path, scene->needs, &mesh);
+        rtk_status st = rtk_scene_load_with(path, scene->needs, scene->files, &mesh);
         if (st != RTK_OK) {
             char msg[2048];
             snprintf(msg, sizeof msg, "%s", rtk_error_message());

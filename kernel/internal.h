@@ -187,11 +187,16 @@ typedef struct rtk_texture {
     rtk_texture_filter filter; /* how lookups filter it */
     int levels;        /* MIP levels in mip (trilinear filter only), else 0 */
     rtk_texture_level *mip; /* level 0 is rgba itself, then halved down to 1x1 */
+    char *problem;     /* why it may not be read (outside the scene's folders), or NULL */
 } rtk_texture;
 
 /* Decodes tex if not yet tried; on failure warns once and marks it missing.
  * Builds the MIP pyramid when tex->filter is trilinear. */
+struct rtk_scene_files;
 void rtk_texture_decode(rtk_texture *tex);
+/* rtk_texture_decode within files' texture budget (NULL: none): a texture
+ * whose header says it would not fit is not decoded (warned, missing). */
+void rtk_texture_decode_within(rtk_texture *tex, struct rtk_scene_files *files);
 /* Sets how tex is filtered: builds its MIP pyramid (if decoded) for
  * trilinear, drops it otherwise. RTK_ERR_NOMEM leaves it bilinear. */
 rtk_status rtk_texture_set_filter(rtk_texture *tex, rtk_texture_filter filter);
@@ -227,6 +232,30 @@ int rtk_running_from_build_tree(void);
  * how an installed librtk finds its plugins and image module from any
  * prefix; NULL when that file is unknown. [caller frees] */
 char *rtk_installed_path(const char *subpath);
+
+/* An encoded image, recognised by its first bytes as one of the formats
+ * rtk decodes (image_format.c) and its header checked. */
+typedef struct rtk_image_source {
+    const char *name;           /* the file, or the embedded image's name, for messages */
+    const unsigned char *bytes; /* the encoded image */
+    size_t count;
+    unsigned char *owned;       /* bytes when they were read from the file */
+    const char *format;         /* OpenImageIO's name of the format ("png") */
+    const char *format_label;   /* its name in messages ("PNG") */
+    int width, height;          /* from the header */
+} rtk_image_source;
+
+/* Reads the regular file path (bytes == NULL) or takes the bytes (not
+ * copied), and checks them (rtk_image_source_check). [close after] */
+rtk_status rtk_image_source_open(const char *path, const void *bytes, size_t byte_count, rtk_image_source *src);
+/* Sets format and size from bytes: one of PNG, JPEG, OpenEXR, Radiance
+ * HDR, TIFF, BMP, TGA (a .tga name), PNM, with its header walked (a
+ * truncated PNG or PNM is refused here); anything else is an error naming
+ * the formats. */
+rtk_status rtk_image_source_check(rtk_image_source *src);
+/* Decodes src through OpenImageIO's reader of src->format alone. */
+rtk_status rtk_image_source_decode(const rtk_image_source *src, int srgb, rtk_image *out);
+void rtk_image_source_close(rtk_image_source *src);
 
 /* Decodes a file (bytes == NULL) or an in-memory encoded image through
  * OpenImageIO into linear RGBA; srgb: the 8-bit data is sRGB-encoded.
@@ -403,6 +432,10 @@ struct rtk_scene {
     rtk_bvh_node *tlas_nodes;    /* top level over the instances, or NULL */
     uint32_t tlas_node_count, tlas_depth;
     uint32_t *tlas_order;        /* top-level leaf slot -> instance */
+    /* Which files it may read and its texture budget (files.c), shared
+     * with the models instanced into it; NULL for a scene built in memory
+     * (no boundary, no budget). */
+    struct rtk_scene_files *files;
 };
 
 /* The axes of the watertight triangle test (Woop, Benthin, Wald 2013) for
@@ -522,6 +555,56 @@ rtk_status rtk_config_place_instances(const struct rtk_config *cfg, rtk_scene *s
 
 /* Loads path by extension (.obj, .gltf, .glb) keeping what needs asks for. */
 rtk_status rtk_scene_load(const char *path, uint32_t needs, rtk_scene **out);
+/* rtk_scene_load reading the files path names as files says (NULL: only
+ * under path's folder, the default texture budget); the scene holds a
+ * reference to files. */
+rtk_status rtk_scene_load_with(const char *path, uint32_t needs, struct rtk_scene_files *files, rtk_scene **out);
+
+/* ---- files a scene names (files.c) ---- */
+
+/* Decoded texture memory a scene may use when the config says nothing
+ * (textures.memory): 2048 MiB. */
+#define RTK_TEXTURE_BUDGET_DEFAULT ((uint64_t)2048 << 20)
+/* Largest files read whole: an MTL, a glTF's JSON, a buffer or .glb, an
+ * encoded image. */
+#define RTK_MAX_TEXT_FILE ((uint64_t)256 << 20)
+#define RTK_MAX_BUFFER_FILE ((uint64_t)16 << 30)
+#define RTK_MAX_IMAGE_FILE ((uint64_t)1 << 30)
+
+/* Where a scene may read and how much its textures may decode to. */
+typedef struct rtk_scene_files {
+    char *config_dir;        /* the config's folder, readable too; NULL when none */
+    int allow_outside;       /* --allow-outside-files: no boundary */
+    uint64_t texture_budget; /* bytes decoded textures may take, all together */
+    uint64_t texture_bytes;  /* bytes decoded so far */
+    int trilinear;           /* MIP levels will be built: each texture counts a third more */
+    unsigned refs;
+} rtk_scene_files;
+
+/* New settings (texture_budget 0: the default). [caller unrefs] */
+rtk_scene_files *rtk_scene_files_new(const char *config_dir, int allow_outside, uint64_t texture_budget);
+rtk_scene_files *rtk_scene_files_ref(rtk_scene_files *files);
+void rtk_scene_files_unref(rtk_scene_files *files);
+/* RTK_OK when scene may read path (see files.c for the boundary; a scene
+ * without files, built in memory, may read any), else an error naming
+ * what ("texture", "file") and path, the folders allowed and
+ * --allow-outside-files; nothing about the file itself. */
+rtk_status rtk_scene_file_allowed(const rtk_scene *scene, const char *path, const char *what);
+/* Opens a regular file for reading (never blocks on a FIFO; a directory,
+ * FIFO or device is an error naming it); *size its size. [caller closes] */
+rtk_status rtk_file_open(const char *path, const char *what, int *fd, uint64_t *size);
+/* Reads all of the regular file path, refusing one above limit bytes.
+ * [caller frees *bytes] */
+rtk_status rtk_file_read(const char *path, const char *what, uint64_t limit, unsigned char **bytes, size_t *count);
+/* rtk_scene_file_allowed, then rtk_file_read. */
+rtk_status rtk_scene_file_read(const rtk_scene *scene, const char *path, const char *what, uint64_t limit,
+                               unsigned char **bytes, size_t *count);
+/* Loads cfg's scene as rtk_scene_load_with does, with the config's
+ * folder, --allow-outside-files and textures group. */
+rtk_status rtk_config_load_scene(const struct rtk_config *cfg, uint32_t needs, rtk_scene **out);
+/* Absolute path with symbolic links, "." and ".." resolved; the part that
+ * does not exist is taken lexically. NULL when it cannot be. [caller frees] */
+char *rtk_path_canonical(const char *path);
 /* Format loaders (C++ adapters); they fill scene and call nothing else. */
 rtk_status rtk_load_obj(const char *path, rtk_scene *scene);
 rtk_status rtk_load_gltf(const char *path, rtk_scene *scene);
@@ -756,6 +839,8 @@ struct rtk_config {
     rtk_config_instance *instances; /* models placed beside the scene */
     uint32_t instance_count;
     rtk_texture_filter texture_filter; /* textures.filter */
+    uint64_t texture_budget;     /* textures.memory in bytes */
+    int allow_outside_files;     /* rtk_config_options.allow_outside_files */
     rtk_plugin_slot integrator, accelerator, filter;
 };
 

@@ -13,12 +13,36 @@ static _Thread_local char error_text[4096];
 
 static const char *const level_names[] = {"error", "warning", "info", "debug"};
 
+/* Formats into out (cap bytes) with control characters shown as \xNN:
+ * names from files (objects, materials, paths) reach every message, and
+ * an escape sequence in one would drive the terminal. Newlines and tabs
+ * stay; C1 controls (U+0080..U+009F, C2 80..C2 9F in UTF-8) are shown too. */
+static void format_safe(char *out, size_t cap, const char *fmt, va_list ap)
+{
+    char raw[4096];
+    vsnprintf(raw, sizeof raw, fmt, ap);
+    size_t o = 0;
+    for (const unsigned char *p = (const unsigned char *)raw; *p && o + 1 < cap; p++) {
+        unsigned c = *p;
+        if (c == 0xC2 && p[1] >= 0x80 && p[1] <= 0x9F)
+            c = *++p;
+        else if (!((c < 0x20 && c != '\n' && c != '\t') || c == 0x7F)) {
+            out[o++] = (char)c;
+            continue;
+        }
+        if (o + 5 > cap)
+            break;
+        o += (size_t)snprintf(out + o, cap - o, "\\x%02x", c);
+    }
+    out[o] = '\0';
+}
+
 static void log_va(rtk_log_level level, const char *fmt, va_list ap)
 {
     if (level > log_level)
         return;
     char line[4096];
-    vsnprintf(line, sizeof line, fmt, ap);
+    format_safe(line, sizeof line, fmt, ap);
     pthread_mutex_lock(&log_lock);
     if (level == RTK_LOG_INFO)
         fprintf(stderr, "rtk: %s\n", line);
@@ -50,7 +74,7 @@ RTK_API rtk_status rtk_error(rtk_status code, const char *fmt, ...)
     char text[sizeof error_text];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(text, sizeof text, fmt, ap);
+    format_safe(text, sizeof text, fmt, ap);
     va_end(ap);
     memcpy(error_text, text, sizeof text);
     return code;

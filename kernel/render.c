@@ -395,7 +395,7 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     double t = rtk_now();
     uint32_t needs = ifn->needs(istate);
     rtk_interrupt_phase("loading the scene", cfg->output);
-    st = rtk_scene_load(cfg->scene_path, needs, &scene);
+    st = rtk_config_load_scene(cfg, needs, &scene);
     for (uint32_t i = 0; st == RTK_OK && i < cfg->light_count; i++)
         st = rtk_scene_add_punctual(scene, &cfg->lights[i]);
     if (st == RTK_OK && cfg->instance_count)

@@ -13,6 +13,7 @@
 #include <string.h>
 #include <strings.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 /* The largest count an index array may reach: RTK_INVALID_ID is reserved. */
 #define MAX_COUNT (RTK_INVALID_ID - 1u)
@@ -88,6 +89,7 @@ void rtk_scene_free(rtk_scene *scene)
     free(scene->prim_ids);
     rtk_lights_free(scene->lights);
     free(scene->punctual);
+    rtk_scene_files_unref(scene->files);
     free(scene);
 }
 
@@ -307,6 +309,14 @@ rtk_status rtk_scene_add_texture(rtk_scene *scene, const char *name, const char 
     tex.srgb = srgb;
     tex.name = rtk_strdup(name ? name : path ? path : "embedded image");
     tex.path = rtk_strdup(path);
+    /* Refused files stay textures that read white, as missing ones do:
+     * the reason is told if a plugin needs the image. */
+    if (path && rtk_scene_file_allowed(scene, path, "texture") != RTK_OK &&
+        !(tex.problem = rtk_strdup(rtk_error_message()))) {
+        free(tex.name);
+        free(tex.path);
+        return RTK_ERR_NOMEM;
+    }
     /* Encoded bytes are kept: a cutout material may need the image even
      * when the integrator reads no texture (rtk_scene_finish frees those
      * that were not decoded). */
@@ -320,6 +330,7 @@ rtk_status rtk_scene_add_texture(rtk_scene *scene, const char *name, const char 
     if (!tex.name || (path && !tex.path) || (bytes && byte_count && !tex.bytes)) {
         free(tex.name);
         free(tex.path);
+        free(tex.problem);
         free(tex.bytes);
         return RTK_ERR_NOMEM;
     }
@@ -476,7 +487,7 @@ static rtk_status decode_textures(rtk_scene *scene)
         for (int k = 0; k < 4; k++) {
             if (tex[k] >= 0 && (uint32_t)tex[k] < scene->texture_count &&
                 (keeps_textures(scene) || (cutout && k == 1))) {
-                rtk_texture_decode(&scene->textures[tex[k]]);
+                rtk_texture_decode_within(&scene->textures[tex[k]], scene->files);
                 if (k == 2)
                     rtk_normal_map_usable(&scene->textures[tex[k]]);
             }
@@ -574,6 +585,11 @@ static const char *path_extension(const char *path)
 
 rtk_status rtk_scene_load(const char *path, uint32_t needs, rtk_scene **out)
 {
+    return rtk_scene_load_with(path, needs, NULL, out);
+}
+
+rtk_status rtk_scene_load_with(const char *path, uint32_t needs, rtk_scene_files *files, rtk_scene **out)
+{
     *out = NULL;
     if (!path || !path[0])
         return rtk_error(RTK_ERR_INVALID, "no scene file given");
@@ -590,17 +606,22 @@ rtk_status rtk_scene_load(const char *path, uint32_t needs, rtk_scene **out)
         return rtk_error(RTK_ERR_UNSUPPORTED,
                          "%s: unknown scene format '.%s'; supported extensions are .obj, .gltf and .glb", path, ext);
 
-    struct stat st;
-    if (stat(path, &st) != 0)
-        return rtk_error(RTK_ERR_IO, "%s: cannot open scene file: %s", path, strerror(errno));
-    if (S_ISDIR(st.st_mode))
-        return rtk_error(RTK_ERR_IO, "%s: is a directory, not a scene file", path);
+    int fd;
+    rtk_status status = rtk_file_open(path, "scene file", &fd, NULL);
+    if (status != RTK_OK)
+        return status;
+    close(fd);
 
     rtk_scene *scene = rtk_scene_new(path, needs);
     if (!scene)
         return RTK_ERR_NOMEM;
+    scene->files = files ? rtk_scene_files_ref(files) : rtk_scene_files_new(NULL, 0, 0);
+    if (!scene->files) {
+        rtk_scene_free(scene);
+        return RTK_ERR_NOMEM;
+    }
     double start = rtk_now();
-    rtk_status status = load(path, scene);
+    status = load(path, scene);
     if (status == RTK_OK)
         status = rtk_scene_finish(scene);
     if (status != RTK_OK) {

@@ -20,19 +20,67 @@ static void free_mip(rtk_texture *tex);
 
 void rtk_texture_decode(rtk_texture *tex)
 {
-    if (!tex || tex->decoded)
-        return;
-    tex->decoded = 1;
-    const char *name = tex->name ? tex->name : tex->path ? tex->path : "(unnamed)";
+    rtk_texture_decode_within(tex, NULL);
+}
+
+/* Bytes a decoded texture of w x h takes: float RGBA, and a third more
+ * for the MIP levels under trilinear filtering. */
+static uint64_t decoded_bytes(int w, int h, int trilinear)
+{
+    uint64_t bytes = (uint64_t)w * (uint64_t)h * 16u;
+    return trilinear ? bytes + bytes / 3 : bytes;
+}
+
+/* Opens the texture's image and checks it against the budget: 0 (warned,
+ * marked missing) when it cannot be decoded. */
+static int open_within(rtk_texture *tex, const char *name, rtk_scene_files *files, rtk_image_source *src)
+{
     const char *source = tex->bytes ? name : tex->path;
-    rtk_image image;
     rtk_status status = RTK_ERR_INVALID;
-    if (source)
-        status = rtk_image_read(source, tex->bytes, tex->byte_count, tex->srgb, &image);
+    if (tex->problem)
+        rtk_error(RTK_ERR_IO, "%s", tex->problem);
+    else if (source)
+        status = rtk_image_source_open(source, tex->bytes, tex->byte_count, src);
     else
         rtk_error(RTK_ERR_INVALID, "it has neither a file nor embedded data");
     if (status != RTK_OK) {
-        tex->missing = 1;
+        rtk_log(RTK_LOG_WARN, "texture '%s' cannot be read (%s): rendering without it", name, rtk_error_message());
+        return 0;
+    }
+    if (!files)
+        return 1;
+    int trilinear = files->trilinear || tex->filter == RTK_TEX_TRILINEAR;
+    uint64_t need = decoded_bytes(src->width, src->height, trilinear);
+    uint64_t left = files->texture_budget > files->texture_bytes ? files->texture_budget - files->texture_bytes : 0;
+    if (need > left) {
+        rtk_log(RTK_LOG_WARN, "texture '%s' (%s, %dx%d) would take %.1f MiB decoded%s, and the scene's texture "
+                "budget has %.1f of %.0f MiB left: rendering without it; raise textures.memory in the config or "
+                "make the image smaller", name, src->format_label, src->width, src->height, (double)need / 1048576.0,
+                trilinear ? " with its MIP levels" : "", (double)left / 1048576.0,
+                (double)files->texture_budget / 1048576.0);
+        return 0;
+    }
+    files->texture_bytes += need;
+    return 1;
+}
+
+void rtk_texture_decode_within(rtk_texture *tex, rtk_scene_files *files)
+{
+    if (!tex || tex->decoded)
+        return;
+    tex->decoded = 1;
+    tex->missing = 1;
+    const char *name = tex->name ? tex->name : tex->path ? tex->path : "(unnamed)";
+    rtk_image_source src;
+    memset(&src, 0, sizeof src);
+    if (!open_within(tex, name, files, &src)) {
+        rtk_image_source_close(&src);
+        return;
+    }
+    rtk_image image;
+    rtk_status status = rtk_image_source_decode(&src, tex->srgb, &image);
+    rtk_image_source_close(&src);
+    if (status != RTK_OK) {
         rtk_log(RTK_LOG_WARN, "texture '%s' cannot be read (%s): rendering without it", name,
                 rtk_error_message());
         return;
@@ -333,6 +381,8 @@ void rtk_texture_free(rtk_texture *tex)
     free(tex->name);
     free(tex->path);
     free(tex->bytes);
+    free(tex->problem);
+    tex->problem = NULL;
     free_mip(tex);
     free(tex->rgba);
     tex->name = tex->path = NULL;

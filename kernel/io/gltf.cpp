@@ -1626,6 +1626,58 @@ bool has_extension(const char *path, const char *ext)
 
 uint32_t read_u32le(const unsigned char *p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24; }
 
+/* tinygltf's file access for buffers and images: only regular files
+ * under the folders the scene may read (files.c), no `~` or variable
+ * expansion, no fallback to the working directory. */
+struct SceneFiles {
+    const rtk_scene *scene;
+    std::string prefix; /* the glTF's folder with a slash: tinygltf's first place to look */
+
+    static bool exists(const std::string &path, void *user)
+    {
+        const SceneFiles *self = static_cast<const SceneFiles *>(user);
+        if (path.compare(0, self->prefix.size(), self->prefix) != 0)
+            return false;
+        /* A file outside is "found" without looking, and then refused by
+         * read, so that nothing tells whether it exists. */
+        if (rtk_scene_file_allowed(self->scene, path.c_str(), "file") != RTK_OK)
+            return true;
+        struct stat st;
+        return stat(path.c_str(), &st) == 0;
+    }
+    static std::string expand(const std::string &path, void *) { return path; }
+    static bool read(std::vector<unsigned char> *out, std::string *err, const std::string &path, void *user)
+    {
+        const SceneFiles *self = static_cast<const SceneFiles *>(user);
+        unsigned char *bytes = NULL;
+        size_t count = 0;
+        if (rtk_scene_file_read(self->scene, path.c_str(), "file", RTK_MAX_BUFFER_FILE, &bytes, &count) != RTK_OK) {
+            if (err)
+                *err = rtk_error_message();
+            return false;
+        }
+        out->assign(bytes, bytes + count);
+        std::free(bytes);
+        return true;
+    }
+    static bool write(std::string *err, const std::string &, const std::vector<unsigned char> &, void *)
+    {
+        if (err)
+            *err = "rtk writes no glTF files";
+        return false;
+    }
+    tinygltf::FsCallbacks callbacks()
+    {
+        tinygltf::FsCallbacks fs;
+        fs.FileExists = exists;
+        fs.ExpandFilePath = expand;
+        fs.ReadWholeFile = read;
+        fs.WriteWholeFile = write;
+        fs.user_data = this;
+        return fs;
+    }
+};
+
 /* The whole file; only a regular file of less than 4 GiB (tinygltf takes
  * 32-bit lengths). */
 rtk_status read_whole(const char *path, std::vector<unsigned char> *out)
@@ -1703,6 +1755,8 @@ rtk_status load(const char *path, rtk_scene *scene)
     if (status != RTK_OK || (status = prescan(path, bytes, &binary)) != RTK_OK)
         return status;
     const std::string base = take(rtk_path_dirname(path));
+    SceneFiles files{scene, base.back() == '/' ? base : base + "/"};
+    gltf.SetFsCallbacks(files.callbacks());
     bool ok = binary ? gltf.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), unsigned(bytes.size()), base)
                      : gltf.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char *>(bytes.data()),
                                                 unsigned(bytes.size()), base);

@@ -150,37 +150,29 @@ void expand(float *rgba, size_t pixels, const ChannelMap &map, Colour colour, Al
     }
 }
 
-rtk_status read_image(const char *name, const void *bytes, size_t byte_count, int srgb,
+rtk_status read_image(const char *name, const void *bytes, size_t byte_count, const char *format, int srgb,
                       rtk_image *out)
 {
-    if (!bytes) {
-        struct stat st;
-        if (stat(name, &st) != 0)
-            return rtk_error(RTK_ERR_IO, "cannot read image '%s': %s", name, std::strerror(errno));
-        if (S_ISDIR(st.st_mode))
-            return rtk_error(RTK_ERR_IO, "cannot read image '%s': it is a directory", name);
-        if (access(name, R_OK) != 0)
-            return rtk_error(RTK_ERR_IO, "cannot read image '%s': %s", name, std::strerror(errno));
-    } else if (byte_count == 0) {
-        return rtk_error(RTK_ERR_PARSE, "cannot read image '%s': the embedded data is empty", name);
-    }
+    if (!bytes || byte_count == 0)
+        return rtk_error(RTK_ERR_PARSE, "cannot read image '%s': the data is empty", name);
 
     /* Straight (unassociated) alpha as stored: OIIO would otherwise
      * premultiply PNG/TGA/TIFF colour, and do it on encoded values. */
     ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
-    std::unique_ptr<OIIO::Filesystem::IOMemReader> memory;
-    if (bytes) {
-        /* OIIO 2.4's open() with a config drops its ioproxy argument; the
-         * proxy must also travel in the config to reach the reader. */
-        memory.reset(new OIIO::Filesystem::IOMemReader(bytes, byte_count));
-        void *proxy = memory.get();
-        config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
-    }
-    auto in = ImageInput::open(name, &config, memory.get());
-    if (!in) {
-        std::string why = one_line(OIIO::geterror());
-        return rtk_error(RTK_ERR_PARSE, "cannot read image '%s': %s", name, why.c_str());
+    /* OIIO 2.4's open() with a config drops its ioproxy argument; the
+     * proxy must also travel in the config to reach the reader. */
+    OIIO::Filesystem::IOMemReader memory(bytes, byte_count);
+    void *proxy = &memory;
+    config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
+    /* The reader of the format the kernel recognised, and no other: OIIO's
+     * open() by name would probe the bytes with every reader it has. */
+    auto in = ImageInput::create(format, false, &config, &memory);
+    ImageSpec opened;
+    if (!in || !in->open(name, opened, config)) {
+        std::string why = one_line(in ? in->geterror() : OIIO::geterror());
+        OIIO::geterror();
+        return rtk_error(RTK_ERR_PARSE, "cannot read image '%s' as %s: %s", name, format, why.c_str());
     }
 
     const ImageSpec spec = in->spec(); /* a copy: close() may reset the reader's */
@@ -499,18 +491,18 @@ rtk_status write_image(const rtk_image_write_job &job)
 } // namespace
 
 extern "C" RTK_EXPORT rtk_status rtk_image_module_read(const char *path, const void *bytes, size_t byte_count,
-                                                      int srgb, rtk_image *out)
+                                                      const char *format, int srgb, rtk_image *out)
 {
     if (!out)
         return rtk_error(RTK_ERR_INVALID, "rtk_image_read: no output image given");
     out->width = out->height = 0;
     out->channels = out->has_alpha = 0;
     out->rgba = nullptr;
-    if (!path && !bytes)
-        return rtk_error(RTK_ERR_INVALID, "rtk_image_read: neither a file nor image data given");
+    if (!bytes || !format)
+        return rtk_error(RTK_ERR_INVALID, "rtk_image_read: no image data or format given");
     const char *name = path ? path : "embedded image";
     try {
-        return read_image(name, bytes, byte_count, srgb, out);
+        return read_image(name, bytes, byte_count, format, srgb, out);
     } catch (const std::bad_alloc &) {
         return rtk_error(RTK_ERR_NOMEM, "cannot read image '%s': out of memory", name);
     } catch (const std::exception &e) {

@@ -10,12 +10,13 @@
 #include <tiny_obj_loader.h>
 
 #include <cerrno>
+#include <cfloat>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
+#include <algorithm>
 #include <map>
 #include <new>
 #include <sstream>
@@ -23,10 +24,17 @@
 #include <utility>
 #include <vector>
 
+#include <string.h>
+#include <unistd.h>
+
 namespace {
 
 /* At most this many distinct parser messages are printed per file. */
 const size_t max_messages = 20;
+/* Most corners of a face ear clipping takes (its time grows with the
+ * cube of the count at worst); a larger face must be convex, or seen
+ * whole from its last corner, to be triangulated as a fan. */
+const size_t max_concave_corners = 1024;
 
 std::string trimmed(const std::string &s)
 {
@@ -133,21 +141,25 @@ std::vector<MtlInfo> scan_mtl(const std::string &text, const std::string &dir)
  * as tinyobj::MaterialFileReader does) and records an MtlInfo per material. */
 class MtlReader : public tinyobj::MaterialReader {
   public:
-    MtlReader(const std::string &obj_dir, std::vector<MtlInfo> *info) : obj_dir_(obj_dir), info_(info) {}
+    MtlReader(const rtk_scene *scene, const std::string &obj_dir, std::vector<MtlInfo> *info)
+        : scene_(scene), obj_dir_(obj_dir), info_(info)
+    {
+    }
 
     bool operator()(const std::string &name, std::vector<tinyobj::material_t> *materials,
                     std::map<std::string, int> *names, std::string *warn, std::string *err) override
     {
         std::string file = join(obj_dir_, name);
-        std::ifstream in(file.c_str(), std::ios::binary);
-        if (!in) {
+        unsigned char *bytes = NULL;
+        size_t count = 0;
+        if (rtk_scene_file_read(scene_, file.c_str(), "material library", RTK_MAX_TEXT_FILE, &bytes, &count) !=
+            RTK_OK) {
             if (warn)
-                *warn += "material library '" + name + "' not found (looked for " + file + ")\n";
+                *warn += std::string(rtk_error_message()) + "; its materials are left out\n";
             return false;
         }
-        std::ostringstream buffer;
-        buffer << in.rdbuf();
-        const std::string text = buffer.str();
+        const std::string text(reinterpret_cast<const char *>(bytes), count);
+        std::free(bytes);
         std::istringstream stream(text);
         size_t first = materials->size();
         std::string mtl_warn;
@@ -162,8 +174,120 @@ class MtlReader : public tinyobj::MaterialReader {
     }
 
   private:
+    const rtk_scene *scene_;
     std::string obj_dir_;
     std::vector<MtlInfo> *info_;
+};
+
+/* The OBJ file as tinyobjloader reads it, in whole lines, checked on the
+ * way: a face index that does not fit in 32 bits (tinyobjloader's atoi
+ * would wrap 4294967299 to 3) and a line longer than max_line stop the
+ * stream before that line, with the line number kept for the message. */
+class CheckedObj : public std::streambuf {
+  public:
+    static const size_t max_line = size_t(64) << 20;
+    explicit CheckedObj(int fd) : fd_(fd), buf_(size_t(1) << 20) {}
+    ~CheckedObj() override { close(fd_); }
+    uint64_t bad_line = 0;   /* line of the problem, 0 when none */
+    std::string problem;     /* what is wrong there */
+    bool read_error = false;
+
+  protected:
+    int_type underflow() override
+    {
+        if (gptr() < egptr())
+            return traits_type::to_int_type(*gptr());
+        if (stopped_)
+            return traits_type::eof();
+        /* The partial line after what was delivered moves to the front. */
+        size_t tail = filled_ - delivered_;
+        std::memmove(buf_.data(), buf_.data() + delivered_, tail);
+        filled_ = tail;
+        delivered_ = 0;
+        size_t end = 0;
+        for (;;) {
+            if (filled_ == buf_.size()) {
+                if (buf_.size() >= max_line) {
+                    stop(line_, "a line is longer than 64 MiB (no line break)");
+                    return traits_type::eof();
+                }
+                buf_.resize(buf_.size() * 2);
+            }
+            ssize_t n = eof_ ? 0 : read(fd_, buf_.data() + filled_, buf_.size() - filled_);
+            if (n < 0 && errno == EINTR)
+                continue;
+            if (n < 0) {
+                read_error = true;
+                n = 0;
+            }
+            if (n == 0)
+                eof_ = true;
+            filled_ += size_t(n);
+            const char *last = static_cast<const char *>(memrchr(buf_.data(), '\n', filled_));
+            if (last) {
+                end = size_t(last - buf_.data()) + 1;
+                break;
+            }
+            if (eof_) {
+                end = filled_;
+                break;
+            }
+        }
+        end = scan(end);
+        delivered_ = end;
+        setg(buf_.data(), buf_.data(), buf_.data() + end);
+        if (end == 0)
+            return traits_type::eof();
+        return traits_type::to_int_type(*gptr());
+    }
+
+  private:
+    void stop(uint64_t line, const std::string &what)
+    {
+        stopped_ = true;
+        bad_line = line;
+        problem = what;
+    }
+    /* Checks the whole lines in [0, end); returns where delivery stops. */
+    size_t scan(size_t end)
+    {
+        const char *b = buf_.data();
+        size_t at = 0;
+        while (at < end) {
+            const char *nl = static_cast<const char *>(std::memchr(b + at, '\n', end - at));
+            size_t stop_at = nl ? size_t(nl - b) : end;
+            size_t p = at;
+            while (p < stop_at && (b[p] == ' ' || b[p] == '\t'))
+                p++;
+            if (p + 1 < stop_at && b[p] == 'f' && (b[p + 1] == ' ' || b[p + 1] == '\t')) {
+                for (size_t q = p + 2; q < stop_at; q++) {
+                    if (b[q] < '0' || b[q] > '9')
+                        continue;
+                    size_t start = q;
+                    uint64_t v = 0;
+                    while (q < stop_at && b[q] >= '0' && b[q] <= '9') {
+                        if (v <= 2147483647u)
+                            v = v * 10 + uint64_t(b[q] - '0');
+                        q++;
+                    }
+                    if (v > 2147483647u) {
+                        std::string digits(b + start, std::min<size_t>(q - start, 40));
+                        stop(line_, "face index " + digits + " is too large (the largest is 2147483647)");
+                        return at;
+                    }
+                }
+            }
+            line_++;
+            at = stop_at + 1;
+        }
+        return end;
+    }
+
+    int fd_;
+    std::vector<char> buf_;
+    size_t filled_ = 0, delivered_ = 0;
+    uint64_t line_ = 1;
+    bool eof_ = false, stopped_ = false;
 };
 
 float clean(tinyobj::real_t v, float fallback) { return std::isfinite(v) ? float(v) : fallback; }
@@ -182,6 +306,13 @@ struct Stop {
 struct Corner {
     uint32_t v;
     int64_t vt, vn;
+};
+
+/* Orientation of the polygon's corners projected on the plane of its
+ * dominant axis: axes a, b and the sign that makes it counter-clockwise. */
+struct Plane {
+    int a, b;
+    double sign;
 };
 
 /* State of one file being streamed into the scene. */
@@ -217,6 +348,7 @@ struct Reader {
     int64_t resolve(int raw, size_t count, bool optional, const char *what, const char *plural);
     void add_face(const tinyobj::index_t *indices, int count);
     void triangulate();
+    bool fan(const Plane &pl, bool star);
     void add_materials(const tinyobj::material_t *list, int count);
 };
 
@@ -314,12 +446,6 @@ void Reader::add_materials(const tinyobj::material_t *list, int count)
     }
 }
 
-/* Orientation of the polygon's corners projected on the plane of its
- * dominant axis: axes a, b and the sign that makes it counter-clockwise. */
-struct Plane {
-    int a, b;
-    double sign;
-};
 
 Plane polygon_plane(const Reader &r, const std::vector<uint32_t> &poly)
 {
@@ -351,6 +477,67 @@ double turn(const Plane &pl, const float *p, const float *q, const float *s)
 }
 
 bool same(const float *p, const float *q) { return p[0] == q[0] && p[1] == q[1] && p[2] == q[2]; }
+
+/* Fan triangulation around the last corner, in linear time: ears (n-1,
+ * k, k+1), then (n-3, n-2, n-1), which is what ear clipping makes of a
+ * strictly convex polygon (every turn positive, its edges going round
+ * once). With star set, any polygon whose fan triangles all turn the
+ * polygon's way and together sweep less than a full turn around the last
+ * corner (a polygon every point of which the last corner sees) qualifies,
+ * up to float rounding (a circle of 1e5 corners in float coordinates has
+ * corners that are flat or slightly reflex): a fan triangle may turn back
+ * by what rounding moves its corners, a sliver. False, writing nothing,
+ * otherwise. */
+bool Reader::fan(const Plane &pl, bool star)
+{
+    const size_t n = corners.size();
+    const uint32_t last = uint32_t(n - 1);
+    if (!star) {
+        int flips = 0;
+        double prev_da = 0.0, first_da = 0.0;
+        for (size_t i = 0; i < n; i++) {
+            const float *p = position((i + n - 1) % n), *q = position(i), *r = position((i + 1) % n);
+            if (!(turn(pl, p, q, r) > 0))
+                return false;
+            /* Sign changes of the edges' extent along axis a: two for a
+             * polygon that goes round once, more for a star. */
+            double da = double(r[pl.a]) - q[pl.a];
+            if (da != 0.0) {
+                if (prev_da != 0.0 && (da > 0) != (prev_da > 0))
+                    flips++;
+                if (first_da == 0.0)
+                    first_da = da;
+                prev_da = da;
+            }
+        }
+        if (prev_da != 0.0 && first_da != 0.0 && (first_da > 0) != (prev_da > 0))
+            flips++;
+        if (flips > 2)
+            return false;
+    }
+    double swept = 0.0;
+    const float *o = position(last);
+    for (uint32_t k = 0; k + 2 < n; k++) {
+        const float *p = position(k), *q = position(k + 1);
+        double t = turn(pl, o, p, q);
+        double ua = double(p[pl.a]) - o[pl.a], ub = double(p[pl.b]) - o[pl.b];
+        double va = double(q[pl.a]) - o[pl.a], vb = double(q[pl.b]) - o[pl.b];
+        /* A star may turn back by what rounding its corners to float
+         * moves them (a few ulps of the largest coordinate): slivers. */
+        double m = std::max({std::fabs(double(o[pl.a])), std::fabs(double(o[pl.b])), std::fabs(double(p[pl.a])),
+                             std::fabs(double(p[pl.b])), std::fabs(double(q[pl.a])), std::fabs(double(q[pl.b]))});
+        double slack = star ? 4.0 * FLT_EPSILON * m * (std::hypot(ua, ub) + std::hypot(va, vb)) : 0.0;
+        if (star ? !(t >= -slack) : !(t > 0))
+            return false;
+        swept += std::atan2(t, ua * va + ub * vb);
+    }
+    if (star && !(swept < 2.0 * 3.14159265358979323846))
+        return false;
+    for (uint32_t k = 0; k + 3 < n; k++)
+        triangles.insert(triangles.end(), {last, k, k + 1});
+    triangles.insert(triangles.end(), {uint32_t(n - 3), uint32_t(n - 2), last});
+    return true;
+}
 
 /* Ear clipping in the polygon's plane. Every polygon of n corners gives
  * n - 2 triangles: when no proper ear exists (self-intersecting or
@@ -385,6 +572,17 @@ void Reader::triangulate()
         else
             triangles.insert(triangles.end(), {0, 1, 2, 0, 2, 3});
         return;
+    }
+    if (fan(pl, false))
+        return;
+    if (n > max_concave_corners) {
+        if (fan(pl, true))
+            return;
+        fail(RTK_ERR_UNSUPPORTED,
+             "face %zu (object '%s') has %zu corners and is neither convex nor seen whole from its last corner; "
+             "rtk ear-clips such faces up to %zu corners (its time grows with the cube of the count): split it "
+             "in the modelling tool",
+             face, object.empty() ? "(unnamed)" : object.c_str(), n, max_concave_corners);
     }
     size_t start = 0;
     while (remaining.size() > 3) {
@@ -517,22 +715,25 @@ void on_object(void *user, const char *name) { static_cast<Reader *>(user)->obje
 
 rtk_status load(const char *path, rtk_scene *scene)
 {
-    std::ifstream in(path, std::ios::binary);
-    if (!in)
-        return rtk_error(RTK_ERR_IO, "%s: cannot open: %s", path, std::strerror(errno));
+    int fd;
+    rtk_status opened = rtk_file_open(path, "OBJ file", &fd, NULL);
+    if (opened != RTK_OK)
+        return opened;
+    CheckedObj file(fd);
     unsigned char bom[3] = {0, 0, 0};
-    in.read(reinterpret_cast<char *>(bom), 3);
-    if ((bom[0] == 0xFE && bom[1] == 0xFF) || (bom[0] == 0xFF && bom[1] == 0xFE))
+    ssize_t got = pread(fd, bom, 3, 0);
+    if (got >= 2 && ((bom[0] == 0xFE && bom[1] == 0xFF) || (bom[0] == 0xFF && bom[1] == 0xFE)))
         return rtk_error(RTK_ERR_UNSUPPORTED, "%s: the file is UTF-16 encoded; save it as UTF-8 or ASCII", path);
-    in.clear();
-    in.seekg(bom[0] == 0xEF && bom[1] == 0xBB && bom[2] == 0xBF ? 3 : 0); /* skip a UTF-8 byte order mark */
+    if (got == 3 && bom[0] == 0xEF && bom[1] == 0xBB && bom[2] == 0xBF) /* skip a UTF-8 byte order mark */
+        lseek(fd, 3, SEEK_SET);
+    std::istream in(&file);
 
     Reader r;
     r.path = path;
     r.scene = scene;
     r.want_normals = (scene->needs & RTK_NEED_NORMALS) != 0;
     r.base = scene->vertex_count;
-    MtlReader mtl(dir_of(path), &r.info);
+    MtlReader mtl(scene, dir_of(path), &r.info);
     tinyobj::callback_t cb;
     cb.vertex_cb = on_vertex;
     cb.normal_cb = on_normal;
@@ -550,10 +751,13 @@ rtk_status load(const char *path, rtk_scene *scene)
         return stop.status;
     }
     log_messages(path, warn);
+    if (file.bad_line)
+        return rtk_error(RTK_ERR_PARSE, "%s:%llu: %s; fix the line", path, (unsigned long long)file.bad_line,
+                         file.problem.c_str());
     if (!ok)
         return rtk_error(RTK_ERR_PARSE, "%s: %s", path, trimmed(err).c_str());
     log_messages(path, err);
-    if (in.bad())
+    if (in.bad() || file.read_error)
         return rtk_error(RTK_ERR_IO, "%s: read error", path);
     size_t shown = 0;
     for (const std::pair<const std::string, size_t> &u : r.unknown_materials) {
