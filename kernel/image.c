@@ -11,8 +11,8 @@
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
 #include <unistd.h>
+#include <string.h>
 
 typedef rtk_status (*image_read_fn)(const char *name, const void *bytes, size_t byte_count, const char *format,
                                     int srgb, rtk_image *out);
@@ -108,6 +108,26 @@ rtk_status rtk_image_read(const char *path, const void *bytes, size_t byte_count
         st = rtk_image_source_decode(&src, srgb, out);
     rtk_image_source_close(&src);
     return st;
+}
+
+rtk_status rtk_image_check_output(const char *path, int width, int height, int nchannels)
+{
+    if (!path || !path[0])
+        return rtk_error(RTK_ERR_INVALID, "no output file name given");
+    pthread_once(&module_once, load_module);
+    if (!module_write)
+        return rtk_error(RTK_ERR_IO, "cannot write image '%s': %s", path, module_problem);
+    rtk_image_write_job job = {.path = path, .width = width, .height = height, .nchannels = nchannels};
+    rtk_status st = module_write(&job);
+    return st == RTK_OK ? rtk_output_check(path) : st;
+}
+
+/* Where ".tmp<pid>-<n>" goes: before the extension, which picks the format. */
+static size_t image_stem(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    const char *dot = strrchr(slash ? slash + 1 : path, '.');
+    return dot ? (size_t)(dot - path) : strlen(path);
 }
 
 rtk_status rtk_image_write(const char *path, int width, int height, int nchannels,
