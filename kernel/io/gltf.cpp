@@ -9,6 +9,9 @@
 #include "draco.h"
 
 #include <tiny_gltf.h>
+#ifdef RTK_HAVE_MESHOPT
+#include <meshoptimizer.h>
+#endif
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -367,13 +370,19 @@ const char *const supported_required[] = {"KHR_materials_emissive_strength", "KH
                                           "EXT_mesh_gpu_instancing"};
 
 const char *const draco_extension = "KHR_draco_mesh_compression";
+const char *const meshopt_extension = "EXT_meshopt_compression";
+#ifdef RTK_HAVE_MESHOPT
+const bool meshopt_available = true;
+#else
+const bool meshopt_available = false;
+#endif
 
 bool supported_extension(const std::string &name)
 {
     for (const char *s : supported_required)
         if (name == s)
             return true;
-    return name == draco_extension && rtk_draco::available();
+    return (name == draco_extension && rtk_draco::available()) || (name == meshopt_extension && meshopt_available);
 }
 
 rtk_status refuse_extension(const char *path, const std::string &name)
@@ -382,6 +391,12 @@ rtk_status refuse_extension(const char *path, const std::string &name)
         return rtk_error(RTK_ERR_UNSUPPORTED,
                          "%s: the file requires the glTF extension %s, and this rtk was built without Draco; "
                          "install libdraco-dev and rebuild rtk, or export the scene without Draco compression",
+                         path, name.c_str());
+    if (name == meshopt_extension)
+        return rtk_error(RTK_ERR_UNSUPPORTED,
+                         "%s: the file requires the glTF extension %s, and this rtk was built without "
+                         "meshoptimizer; install libmeshoptimizer-dev and rebuild rtk, or export the scene without "
+                         "meshopt compression",
                          path, name.c_str());
     return rtk_error(RTK_ERR_UNSUPPORTED,
                      "%s: the file requires the glTF extension %s, which rtk does not support; "
@@ -1522,6 +1537,14 @@ rtk_status Loader::run()
 struct Prescan {
     std::vector<std::string> required; /* extensionsRequired */
     std::string version;               /* asset.version */
+    /* Text to put in place of [at, at + erase), in order: meshopt
+     * fallback buffers without a uri get four bytes of their own, since
+     * tinygltf refuses a buffer without data. */
+    struct Edit {
+        size_t at, erase;
+        std::string text;
+    };
+    std::vector<Edit> edits;
 };
 
 /* The JSON string whose opening quote is t[*i]; *i is left past its
@@ -1566,6 +1589,10 @@ rtk_status prescan_json(const char *path, char *t, size_t n, Prescan *out)
     std::vector<std::string> keys; /* the last key read at each level */
     size_t indices_key = std::string::npos; /* the current primitive's "indices", when Draco may take it */
     bool draco = false;                     /* the current primitive has the Draco extension */
+    /* The current buffer: where it opens, its byteLength's digits, a uri,
+     * the meshopt extension (its data is decoded into buffers of its own). */
+    size_t buffer_open = 0, length_at = 0, length_size = 0;
+    bool buffer_uri = false, buffer_meshopt = false;
     size_t i = 0;
     while (i < n) {
         const char c = t[i];
@@ -1583,6 +1610,20 @@ rtk_status prescan_json(const char *path, char *t, size_t n, Prescan *out)
                     indices_key = at;
                 if (d == 6 && str == draco_extension && in_primitive(open, keys) && keys[4] == "extensions")
                     draco = true;
+                if (d == 3 && keys[0] == "buffers" && open[1] == '[') {
+                    buffer_uri = buffer_uri || str == "uri";
+                    if (str == "byteLength") {
+                        size_t k = i;
+                        while (k < n && (t[k] == ' ' || t[k] == '\t' || t[k] == '\r' || t[k] == '\n'))
+                            k++;
+                        length_at = k;
+                        while (k < n && t[k] >= '0' && t[k] <= '9')
+                            k++;
+                        length_size = k - length_at;
+                    }
+                }
+                if (d == 4 && keys[0] == "buffers" && keys[2] == "extensions" && str == meshopt_extension)
+                    buffer_meshopt = true;
             } else if (d == 2 && open[1] == '[' && keys[0] == "extensionsRequired") {
                 out->required.push_back(str);
             } else if (d == 2 && open[1] == '{' && keys[0] == "asset" && keys[1] == "version") {
@@ -1597,7 +1638,17 @@ rtk_status prescan_json(const char *path, char *t, size_t n, Prescan *out)
                                  path, size_t(std::count(t, t + i, '\n')) + 1, max_json_depth);
             open.push_back(c);
             keys.emplace_back();
+            if (open.size() == 3 && open[1] == '[' && keys[0] == "buffers") {
+                buffer_open = i;
+                buffer_uri = buffer_meshopt = false;
+                length_size = 0;
+            }
         } else if ((c == '}' || c == ']') && !open.empty()) {
+            if (open.size() == 3 && open[1] == '[' && keys[0] == "buffers" && buffer_meshopt && !buffer_uri &&
+                length_size > 0 && meshopt_available) {
+                out->edits.push_back({buffer_open + 1, 0, "\"uri\":\"data:application/octet-stream;base64,AAAAAA==\","});
+                out->edits.push_back({length_at, length_size, "4"});
+            }
             if (open.size() == 5 && in_primitive(open, keys)) {
                 if (draco && indices_key != std::string::npos)
                     t[indices_key + 1] = '_';
@@ -1735,11 +1786,114 @@ rtk_status prescan(const char *path, std::vector<unsigned char> &bytes, bool *bi
     rtk_status status = prescan_json(path, json, json_size, &scan);
     if (status != RTK_OK)
         return status;
+    if (!scan.edits.empty()) {
+        std::string text;
+        size_t from = 0;
+        for (const Prescan::Edit &e : scan.edits) {
+            text.append(json + from, e.at - from);
+            text += e.text;
+            from = e.at + e.erase;
+        }
+        text.append(json + from, json_size - from);
+        std::vector<unsigned char> edited;
+        if (*binary) {
+            /* The same container around the longer JSON chunk: header,
+             * chunk length and type, the text padded with spaces, the rest. */
+            while (text.size() % 4)
+                text += ' ';
+            const size_t rest = 20 + json_size;
+            edited.resize(20 + text.size() + (n - rest));
+            std::memcpy(edited.data(), b, 20);
+            std::memcpy(edited.data() + 20, text.data(), text.size());
+            std::memcpy(edited.data() + 20 + text.size(), b + rest, n - rest);
+            const uint32_t sizes[2] = {uint32_t(edited.size()), uint32_t(text.size())};
+            for (int k = 0; k < 2; k++)
+                for (int byte = 0; byte < 4; byte++)
+                    edited[size_t(8 + 4 * k + byte)] = (unsigned char)(sizes[k] >> (8 * byte));
+        } else {
+            edited.assign(text.begin(), text.end());
+        }
+        bytes.swap(edited);
+    }
     if (!scan.version.empty() && !starts_with(scan.version, "2."))
         return refuse_version(path, scan.version);
     for (const std::string &ext : scan.required)
         if (!supported_extension(ext))
             return refuse_extension(path, ext);
+    return RTK_OK;
+}
+
+/* Largest decoded size of one EXT_meshopt_compression buffer view: its
+ * compressed data may expand by far more than the file's size. */
+const size_t max_meshopt_bytes = size_t(1) << 30;
+
+/* EXT_meshopt_compression: each compressed buffer view is decoded
+ * (meshoptimizer, and its filter) into a buffer of its own, which the
+ * view then names, so that accessors read it like any other. */
+rtk_status decode_meshopt(const char *path, tinygltf::Model *model)
+{
+    for (size_t i = 0; i < model->bufferViews.size(); i++) {
+        tinygltf::BufferView &bv = model->bufferViews[i];
+        tinygltf::ExtensionMap::const_iterator ext = bv.extensions.find(meshopt_extension);
+        if (ext == bv.extensions.end() || !meshopt_available)
+            continue;
+        const tinygltf::Value &e = ext->second;
+        const int buffer = e.Get("buffer").IsNumber() ? e.Get("buffer").GetNumberAsInt() : -1;
+        const double offset = number(e.Get("byteOffset"), 0.0), length = number(e.Get("byteLength"), -1.0);
+        const double stride = number(e.Get("byteStride"), 0.0), count = number(e.Get("count"), -1.0);
+        const std::string mode = e.Get("mode").IsString() ? e.Get("mode").Get<std::string>() : "";
+        const std::string filter = e.Get("filter").IsString() ? e.Get("filter").Get<std::string>() : "NONE";
+        const size_t have = buffer >= 0 && size_t(buffer) < model->buffers.size()
+                                ? model->buffers[size_t(buffer)].data.size()
+                                : 0;
+        const char *bad = NULL;
+        if (buffer < 0 || size_t(buffer) >= model->buffers.size())
+            bad = "its buffer does not exist";
+        else if (!(offset >= 0.0 && length > 0.0 && offset + length <= double(have)))
+            bad = "its byteOffset and byteLength do not fit in its buffer";
+        else if (!(count >= 0.0 && stride >= 1.0 && stride <= 256.0 && stride * count <= double(max_meshopt_bytes)))
+            bad = "its count and byteStride are missing or decode to more than 1 GiB";
+        else if (mode == "ATTRIBUTES" ? int(stride) % 4 != 0
+                 : mode == "TRIANGLES" || mode == "INDICES" ? (stride != 2.0 && stride != 4.0) ||
+                                                                  (mode == "TRIANGLES" && int64_t(count) % 3 != 0)
+                                                            : true)
+            bad = "its mode and byteStride do not go together (ATTRIBUTES: a multiple of 4; TRIANGLES, INDICES: 2 "
+                  "or 4)";
+        else if (filter != "NONE" && (mode != "ATTRIBUTES" ||
+                                      (filter == "OCTAHEDRAL" ? stride != 4.0 && stride != 8.0
+                                       : filter == "QUATERNION" ? stride != 8.0
+                                       : filter != "EXPONENTIAL")))
+            bad = "its filter is unknown or does not fit its mode and byteStride";
+        if (bad)
+            return rtk_error(RTK_ERR_PARSE, "%s: buffer view %zu: %s: %s", path, i, meshopt_extension, bad);
+        const size_t n = size_t(count), size = size_t(stride);
+        std::vector<unsigned char> out(n * size);
+        int rc = -1;
+#ifdef RTK_HAVE_MESHOPT
+        const unsigned char *src = model->buffers[size_t(buffer)].data.data() + size_t(offset);
+        if (mode == "ATTRIBUTES")
+            rc = meshopt_decodeVertexBuffer(out.data(), n, size, src, size_t(length));
+        else if (mode == "TRIANGLES")
+            rc = meshopt_decodeIndexBuffer(out.data(), n, size, src, size_t(length));
+        else
+            rc = meshopt_decodeIndexSequence(out.data(), n, size, src, size_t(length));
+        if (rc == 0 && filter == "OCTAHEDRAL")
+            meshopt_decodeFilterOct(out.data(), n, size);
+        else if (rc == 0 && filter == "QUATERNION")
+            meshopt_decodeFilterQuat(out.data(), n, size);
+        else if (rc == 0 && filter == "EXPONENTIAL")
+            meshopt_decodeFilterExp(out.data(), n, size);
+#endif
+        if (rc != 0)
+            return rtk_error(RTK_ERR_PARSE, "%s: buffer view %zu: %s: the data does not decode (meshoptimizer says %d)",
+                             path, i, meshopt_extension, rc);
+        tinygltf::Buffer decoded;
+        decoded.data.swap(out);
+        model->buffers.push_back(std::move(decoded));
+        bv.buffer = int(model->buffers.size() - 1);
+        bv.byteOffset = 0;
+        bv.byteLength = model->buffers.back().data.size();
+    }
     return RTK_OK;
 }
 
@@ -1763,6 +1917,8 @@ rtk_status load(const char *path, rtk_scene *scene)
     log_warnings(path, warn);
     if (!ok)
         return rtk_error(RTK_ERR_PARSE, "%s: %s", path, one_line(err).c_str());
+    if ((status = decode_meshopt(path, &model)) != RTK_OK)
+        return status;
     Loader loader(path, scene, model);
     return loader.run();
 }

@@ -15,6 +15,10 @@
 
 #include "../check.h"
 
+#ifdef RTK_HAVE_MESHOPT
+#include <meshoptimizer.h>
+#endif
+
 #ifndef RTK_SOURCE_ROOT
 #define RTK_SOURCE_ROOT "."
 #endif
@@ -115,10 +119,13 @@ static void put_u32(unsigned char *p, uint32_t v)
         p[k] = (unsigned char)(v >> (8 * k));
 }
 
-/* Writes a .glb: header of version, one JSON chunk. */
-static const char *write_glb(const char *name, uint32_t version, const char *json)
+/* Writes a .glb: header of version, a JSON chunk and a BIN chunk of
+ * bin_size bytes when bin is not NULL. */
+static const char *write_glb_bin(const char *name, uint32_t version, const char *json, const void *bin,
+                                 size_t bin_size)
 {
-    size_t n = (strlen(json) + 3) & ~(size_t)3, total = 20 + n;
+    size_t n = (strlen(json) + 3) & ~(size_t)3, padded = (bin_size + 3) & ~(size_t)3;
+    size_t total = 20 + n + (bin ? 8 + padded : 0);
     unsigned char *out = calloc(1, total);
     memcpy(out, "glTF", 4);
     put_u32(out + 4, version);
@@ -127,9 +134,19 @@ static const char *write_glb(const char *name, uint32_t version, const char *jso
     memcpy(out + 16, "JSON", 4);
     memset(out + 20, ' ', n);
     memcpy(out + 20, json, strlen(json));
+    if (bin) {
+        put_u32(out + 20 + n, (uint32_t)padded);
+        memcpy(out + 24 + n, "BIN\0", 4);
+        memcpy(out + 28 + n, bin, bin_size);
+    }
     const char *path = write_bytes(name, out, total);
     free(out);
     return path;
+}
+
+static const char *write_glb(const char *name, uint32_t version, const char *json)
+{
+    return write_glb_bin(name, version, json, NULL, 0);
 }
 
 static rtk_scene *load(const char *path, uint32_t needs)
@@ -260,9 +277,16 @@ static void test_refusals(void)
                           "\"bufferViews\":[{\"buffer\":0,\"byteLength\":4,\"extensions\":{\"EXT_meshopt_compression\":"
                           "{\"buffer\":0,\"byteLength\":4,\"byteStride\":4,\"count\":1,\"mode\":\"ATTRIBUTES\"}}}],"
                           "\"accessors\":[{\"bufferView\":7,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}],"
-                          "\"buffers\":[{\"byteLength\":4}]}";
-    expect_refused("EXT_meshopt_compression", write_bytes("meshopt.gltf", meshopt, strlen(meshopt)),
+                          "\"buffers\":[{\"byteLength\":4,\"uri\":\"data:application/octet-stream;base64,AAAAAA==\"}]}";
+#ifdef RTK_HAVE_MESHOPT
+    /* Decoded once tinygltf has parsed the file: four zero bytes are no
+     * meshopt vertex stream. */
+    expect_refused("EXT_meshopt_compression", write_bytes("meshopt_bad.gltf", meshopt, strlen(meshopt)),
+                   RTK_ERR_PARSE, "buffer view 0: EXT_meshopt_compression: the data does not decode", NULL);
+#else
+    expect_refused("EXT_meshopt_compression", write_bytes("meshopt_bad.gltf", meshopt, strlen(meshopt)),
                    RTK_ERR_UNSUPPORTED, "EXT_meshopt_compression", NULL);
+#endif
     free(g);
 }
 
@@ -845,6 +869,93 @@ static void test_draco(void)
     free(g);
 }
 
+/* ---- EXT_meshopt_compression ---- */
+
+static void test_meshopt(void)
+{
+    printf("EXT_meshopt_compression\n");
+    /* A quad: positions (ATTRIBUTES, stride 12), indices (TRIANGLES,
+     * stride 2), normals as octahedral bytes (ATTRIBUTES, OCTAHEDRAL
+     * filter, stride 4); compressed into buffer 0, the views naming the
+     * fallback buffer 1, which has no data (as gltfpack writes it). */
+    const float pos[12] = {0, 0, 0, 2, 0, 0, 2, 1, 0, 0, 1, 0};
+    const unsigned idx[6] = {0, 1, 2, 0, 2, 3};
+    const float normals[16] = {0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0};
+    unsigned char packed[512];
+    size_t sizes[3] = {0, 0, 0};
+#ifdef RTK_HAVE_MESHOPT
+    int8_t oct[16];
+    meshopt_encodeFilterOct(oct, 4, 4, 8, normals);
+    sizes[0] = meshopt_encodeVertexBuffer(packed, 160, pos, 4, 12);
+    sizes[1] = meshopt_encodeIndexBuffer(packed + 160, 160, idx, 6);
+    sizes[2] = meshopt_encodeVertexBuffer(packed + 320, 160, oct, 4, 4);
+#else
+    (void)pos, (void)idx, (void)normals;
+    memset(packed, 0, sizeof packed);
+    sizes[0] = sizes[1] = sizes[2] = 8;
+#endif
+    char json[4096];
+    const char *uri_or_glb[2] = {"\"uri\":\"meshopt.bin\",", ""};
+    for (int glb = 0; glb < 2; glb++) {
+        snprintf(json, sizeof json,
+                 "{\"asset\":{\"version\":\"2.0\"},"
+                 "\"extensionsUsed\":[\"EXT_meshopt_compression\",\"KHR_mesh_quantization\"],"
+                 "\"extensionsRequired\":[\"EXT_meshopt_compression\",\"KHR_mesh_quantization\"],"
+                 "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+                 "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":2},\"indices\":1}]}],"
+                 "\"buffers\":[{%s\"byteLength\":480},"
+                 "{\"byteLength\":76,\"extensions\":{\"EXT_meshopt_compression\":{\"fallback\":true}}}],"
+                 "\"bufferViews\":["
+                 "{\"buffer\":1,\"byteLength\":48,\"byteStride\":12,\"extensions\":{\"EXT_meshopt_compression\":"
+                 "{\"buffer\":0,\"byteLength\":%zu,\"byteStride\":12,\"count\":4,\"mode\":\"ATTRIBUTES\"}}},"
+                 "{\"buffer\":1,\"byteOffset\":48,\"byteLength\":12,\"extensions\":{\"EXT_meshopt_compression\":"
+                 "{\"buffer\":0,\"byteOffset\":160,\"byteLength\":%zu,\"byteStride\":2,\"count\":6,"
+                 "\"mode\":\"TRIANGLES\"}}},"
+                 "{\"buffer\":1,\"byteOffset\":60,\"byteLength\":16,\"byteStride\":4,\"extensions\":"
+                 "{\"EXT_meshopt_compression\":{\"buffer\":0,\"byteOffset\":320,\"byteLength\":%zu,"
+                 "\"byteStride\":4,\"count\":4,\"mode\":\"ATTRIBUTES\",\"filter\":\"OCTAHEDRAL\"}}}],"
+                 "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\","
+                 "\"min\":[0,0,0],\"max\":[2,1,0]},"
+                 "{\"bufferView\":1,\"componentType\":5123,\"count\":6,\"type\":\"SCALAR\"},"
+                 "{\"bufferView\":2,\"componentType\":5120,\"normalized\":true,\"count\":4,\"type\":\"VEC3\"}]}",
+                 uri_or_glb[glb], sizes[0], sizes[1], sizes[2]);
+        const char *path;
+        if (glb) {
+            path = write_glb_bin("meshopt.glb", 2, json, packed, 480);
+        } else {
+            write_bytes("meshopt.bin", packed, 480);
+            path = write_bytes("meshopt.gltf", json, strlen(json));
+        }
+        const char *what = glb ? "meshopt .glb" : "meshopt .gltf";
+#ifdef RTK_HAVE_MESHOPT
+        rtk_scene *s = load(path, ALL_NEEDS);
+        if (s && s->triangle_count == 2) {
+            int ok = 1;
+            for (uint32_t t = 0; t < 2; t++)
+                for (int c = 0; c < 3; c++) {
+                    const float *p = corner_pos(s, t, c), *want = pos + 3 * idx[3 * t + (unsigned)c];
+                    ok &= p[0] == want[0] && p[1] == want[1] && p[2] == want[2];
+                    ok &= near(s->normals[9 * t + 3 * (unsigned)c + 2], 1.0, 1e-6);
+                }
+            check(ok, "%s: the quad's corners bit for bit, its octahedral normals +z", what);
+        } else {
+            check(0, "%s: two triangles", what);
+        }
+        rtk_scene_free(s);
+#else
+        expect_refused(what, path, RTK_ERR_UNSUPPORTED, "EXT_meshopt_compression", "built without meshoptimizer",
+                       NULL);
+#endif
+    }
+#ifdef RTK_HAVE_MESHOPT
+    /* Data that does not decode: rtk's message, naming the view. */
+    memset(packed, 0xff, sizeof packed);
+    write_bytes("meshopt.bin", packed, 480);
+    expect_refused("meshopt data that does not decode", in_tmp("meshopt.gltf"), RTK_ERR_PARSE,
+                   "buffer view 0: EXT_meshopt_compression: the data does not decode", NULL);
+#endif
+}
+
 /* ---- the Khronos sample models, when ../shared/data is present ---- */
 
 static const char *sample(const char *rel)
@@ -959,6 +1070,7 @@ int main(void)
     test_double_sided();
     test_blend_coverage();
     test_draco();
+    test_meshopt();
     test_samples();
     rtk_params_destroy(builder_params);
     rtk_registry_destroy(reg);
