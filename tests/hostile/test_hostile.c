@@ -96,7 +96,8 @@ static void test_obj_indices(void)
     rtk_scene_free(s);
     path = write_text("ok.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf -3 -2 -1\nf 1/0/0 2 3\n");
     st = rtk_scene_load(path, 0, &s);
-    check(st == RTK_OK && s && s->triangle_count == 3, "indices that fit still load (%s)", rtk_error_message());
+    check(st == RTK_OK && s && s->triangle_count == 3, "indices that fit still load (%s)",
+          st == RTK_OK ? "loaded" : rtk_error_message());
     rtk_scene_free(s);
 }
 
