@@ -622,8 +622,9 @@ static rtk_status load_scene(bench *b, const char *path, rtk_registry *reg)
     if (has_suffix(mesh, ".obj")) {
         st = rtk_bench_read_obj(mesh, &b->scene);
     } else {
-        /* glTF: the kernel's loader, which drops zero-area triangles. */
-        st = rtk_scene_load(mesh, 0, &b->scene);
+        /* glTF: the kernel's loader, which drops zero-area triangles; a
+         * config's scene reads files as rendering it would. */
+        st = b->config ? rtk_config_load_scene(b->config, 0, &b->scene) : rtk_scene_load(mesh, 0, &b->scene);
     }
     if (st == RTK_OK && b->config && b->config->instance_count)
         st = rtk_config_place_instances(b->config, b->scene);

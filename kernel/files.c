@@ -214,17 +214,22 @@ static void add_roots(const char *dir, char **roots, int *count)
     char *canon = rtk_path_canonical(dir);
     if (!canon)
         return;
-    roots[(*count)++] = canon;
     char *parent = rtk_path_dirname(canon);
-    if (!parent)
-        return;
     const char *home = getenv("HOME");
     char *home_canon = home && home[0] ? rtk_path_canonical(home) : NULL;
-    int holds_home = home_canon && path_under(home_canon, parent);
+    int holds_home = home_canon && parent && path_under(home_canon, parent);
     free(home_canon);
-    if (path_depth(parent) >= 2 && !holds_home && strcmp(parent, canon) != 0)
-        roots[(*count)++] = parent;
-    else
+    char *found[2] = {canon, parent && path_depth(parent) >= 2 && !holds_home ? parent : NULL};
+    for (int f = 0; f < 2; f++) {
+        int seen = !found[f];
+        for (int i = 0; i < *count && !seen; i++)
+            seen = strcmp(roots[i], found[f]) == 0;
+        if (!seen)
+            roots[(*count)++] = found[f];
+        else
+            free(found[f]);
+    }
+    if (!found[1])
         free(parent);
 }
 

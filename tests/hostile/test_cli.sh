@@ -57,6 +57,12 @@ expect "a buffer outside the scene's folders is refused, naming the flag" fail \
 expect "--allow-outside-files lets it be read" 0 -- \
     "$rtk" render "$tmp/scene/a/b/tri.cfg" -o "$tmp/out.png" -q --allow-outside-files
 
+expect "rtk bench keeps the boundary" fail "lies outside the folders" "--allow-outside-files" -- \
+    "$rtk" bench "$tmp/scene/a/b/tri.cfg" --accel median --threads 1 --runs 1 --width 8 --height 8
+expect "rtk bench --allow-outside-files lets it be read" 0 "median" -- \
+    "$rtk" bench "$tmp/scene/a/b/tri.cfg" --accel median --threads 1 --runs 1 --width 8 --height 8 \
+    --allow-outside-files
+
 # The config's folder is readable: the same buffer with the config beside it.
 cat >"$tmp/outside/tri.cfg" <<CFG
 scene = "../scene/a/b/tri.gltf";
