@@ -206,6 +206,37 @@ static void test_image_formats(void)
     free(bytes);
 }
 
+/* Every format on the allow-list is read back through its own reader
+ * (OpenImageIO from memory, by name); a TGA only from a .tga file. */
+static void test_allowed_formats(void)
+{
+    static const char *const exts[] = {"png", "jpg", "exr", "hdr", "tif", "tga", "bmp", "ppm"};
+    float px[5 * 3 * 3];
+    for (size_t i = 0; i < sizeof px / sizeof px[0]; i++)
+        px[i] = (float)(i % 7) / 7.0f;
+    for (size_t k = 0; k < sizeof exts / sizeof exts[0]; k++) {
+        char name[32];
+        snprintf(name, sizeof name, "fmt.%s", exts[k]);
+        const char *path = in_tmp(name);
+        rtk_status st = rtk_image_write(path, 5, 3, 3, NULL, px, 0);
+        rtk_image img = {0};
+        if (st == RTK_OK)
+            st = rtk_image_read(path, NULL, 0, 1, &img);
+        check(st == RTK_OK && img.width == 5 && img.height == 3, ".%s is written and read back (%s)", exts[k],
+              st == RTK_OK ? "5x3" : rtk_error_message());
+        free(img.rgba);
+    }
+    unsigned char *bytes;
+    size_t count;
+    if (rtk_file_read(in_tmp("fmt.tga"), "image", 1 << 20, &bytes, &count) == RTK_OK) {
+        rtk_image img;
+        rtk_status st = rtk_image_read("embedded", bytes, count, 1, &img);
+        check(st == RTK_ERR_PARSE && has(rtk_error_message(), "not in a format"),
+              "TGA bytes without a .tga name are not guessed at");
+        free(bytes);
+    }
+}
+
 static void test_special_files(void)
 {
     rtk_image img;
@@ -592,6 +623,7 @@ int main(void)
     test_obj_indices();
     test_polygons();
     test_image_formats();
+    test_allowed_formats();
     test_special_files();
     test_gltf_files();
     test_gltf_images();
