@@ -844,6 +844,10 @@ struct rtk_config {
     rtk_plugin_slot integrator, accelerator, filter;
 };
 
+/* Files the last rtk_config_load on this thread read to check the config's
+ * text: each once, however often it is @included (tests count work). */
+unsigned rtk_config_files_read(void);
+
 /* ---- film (film.c) ---- */
 
 /* Accumulates filtered samples in double precision. */
@@ -861,7 +865,3 @@ typedef struct rtk_film {
 RTK_EXTERN_C_END
 
 #endif
-/* Files the last rtk_config_load on this thread read to check the config's
- * text: each once, however often it is @included (tests count work). */
-unsigned rtk_config_files_read(void);
-

@@ -270,9 +270,9 @@ static rtk_status load_config(sweep *s, const char *const *extra, size_t extra_c
     memset(&co, 0, sizeof co);
     co.size = sizeof co;
     co.allow_config_plugins = s->o.allow_config_plugins;
-    co.overrides = all;
     co.allow_outside_files = s->o.allow_outside_files;
     co.oversubscribe = s->o.oversubscribe;
+    co.overrides = all;
     co.override_count = n;
     rtk_status st = rtk_config_load(s->path, s->registry, &co, cfg);
     free(all);

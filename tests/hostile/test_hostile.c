@@ -544,7 +544,8 @@ static const char *zero_png(const char *name, uint32_t w, uint32_t h)
         deflate_into(f, &z, row, (size_t)w + 1, Z_NO_FLUSH, out, sizeof out);
     deflate_into(f, &z, row, 0, Z_FINISH, out, sizeof out);
     deflateEnd(&z);
-    write_chunk(f, "IEND", NULL, 0);
+    static const unsigned char none[1];
+    write_chunk(f, "IEND", none, 0);
     free(row);
     fclose(f);
     return path;
