@@ -1465,11 +1465,9 @@ static rtk_status check_include(text_check *tc, uint32_t self, const char *shown
     size_t e = q + 1;
     while (q < len && text[q] == '"' && e < len && text[e] != '"' && text[e] != '\n')
         e++;
-    if (q >= len || text[q] != '"' || e >= len || text[e] != '"') {
-        *at = q;
-        place->prev = '?'; /* not an @include libconfig reads: its syntax error comes first */
-        return RTK_OK;
-    }
+    if (q >= len || text[q] != '"' || e >= len || text[e] != '"')
+        return rtk_error(RTK_ERR_PARSE, "%s:%u: @include needs a file name in double quotes on its line: "
+                         "@include \"other.cfg\"", shown, line);
     *at = e + 1;
     const int name_len = (int)(e + 1 - q);
     if (++tc->include_lines > INCLUDE_COUNT_MAX)
@@ -1580,7 +1578,7 @@ static rtk_status check_text(text_check *tc, uint32_t self, const char *shown, i
                 return rtk_error(RTK_ERR_PARSE, "%s:%u: the string opened here is not closed in this file", shown,
                                  start);
             i++;
-            if (!value_place && prev != 'S' && prev != '?')
+            if (!value_place && prev != 'S')
                 return rtk_error(RTK_ERR_PARSE,
                                  "%s:%u: syntax error at the string %.*s%s: a string is a value, after '=' or ':' "
                                  "(name = \"text\";) or in [ ] or ( ) after a comma",
@@ -1609,7 +1607,9 @@ static rtk_status check_text(text_check *tc, uint32_t self, const char *shown, i
             continue;
         }
         int sign = c == '-' || c == '+';
-        if (isdigit((unsigned char)c) || (sign && i + 1 < len && isdigit((unsigned char)text[i + 1]))) {
+        /* 7, -7, 1.5, .5, -.5 */
+        size_t digit = i + (size_t)sign + (i + (size_t)sign < len && text[i + (size_t)sign] == '.');
+        if (digit < len && isdigit((unsigned char)text[digit]) && (digit == i || sign || c == '.')) {
             rtk_status status = check_number_literal(text, len, &i, shown, line);
             if (status != RTK_OK)
                 return status;
@@ -1638,7 +1638,14 @@ static rtk_status check_text(text_check *tc, uint32_t self, const char *shown, i
         } else if (sign && value_place) {
             place.prev = '-'; /* a sign before a name: -inf */
         } else {
-            place.prev = '?'; /* libconfig's syntax error comes first */
+            /* libconfig would stop here too, but leak a string it scanned past this point. */
+            char what[16];
+            if (isgraph((unsigned char)c))
+                snprintf(what, sizeof what, "'%c'", c);
+            else
+                snprintf(what, sizeof what, "byte 0x%02x", (unsigned char)c);
+            return rtk_error(RTK_ERR_PARSE, "%s:%u: syntax error at %s: a config holds names, numbers, \"strings\", "
+                             "= : ; , { } [ ] ( ) and comments", shown, line, what);
         }
     }
     if (level > 0) {

@@ -472,6 +472,18 @@ static void test_string_places(void)
     write_file("inc_end.cfg", "cache = \"off\";\n");
     p = write_file("str_inc_end.cfg", "scene = \"m.obj\";\n@include \"inc_end.cfg\"\n\"oops\" = 1;\n");
     expect_error(__LINE__, p, NULL, "str_inc_end.cfg:3", "syntax error at the string \"oops\"", NULL);
+    /* A character outside libconfig's syntax before a string (found by tests/fuzz: libconfig leaked the string). */
+    p = write_file("str_garbage.cfg", "scene = \"m.obj\";\naccelerator = { plugin =. \"sah\"; };\n");
+    expect_error(__LINE__, p, NULL, "str_garbage.cfg:2", "syntax error at '.'", NULL);
+    p = write_file("str_byte.cfg", "scene = \"m.obj\";\ncache = \x01 \"off\";\n");
+    expect_error(__LINE__, p, NULL, "str_byte.cfg:2", "syntax error at byte 0x01", NULL);
+    p = write_file("bad_include.cfg", "scene = \"m.obj\";\n@include inc_end.cfg\n");
+    expect_error(__LINE__, p, NULL, "bad_include.cfg:2", "@include needs a file name in double quotes", NULL);
+    /* Floats that start with a point are numbers, not stray characters. */
+    p = write_file("point_float.cfg", "scene = \"m.obj\";\nintegrator = { plugin = \"ao\"; distance = .5; };\n"
+                                      "camera = { position = [-.5, +.25, 1.]; look_at = [0.0, 0.0, 0.0]; };\n");
+    cfg = expect_ok(__LINE__, p, NULL);
+    rtk_config_destroy(cfg);
 }
 
 /* @include: each file read once however often it is included (a chain of
