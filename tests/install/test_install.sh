@@ -65,6 +65,9 @@ run pkg-config --cflags rtk
 check "pkg-config --cflags: the moved prefix's include directory" [ $status -eq 0 -a -f "$(sed -n 's/^-I\([^ ]*\).*/\1/p' <<<"$out")/rtk/rtk.h" ]
 plugindir=$(realpath -m "$(pkg-config --variable=plugindir rtk)")
 check "pkg-config plugindir: the shipped plugins are there" [ -f "$plugindir/box.so" ]
+run ldd "$plugindir/box.so"
+check "an installed plugin's RPATH finds the installed librtk" has "$p/"
+check "an installed plugin needs nothing ldd cannot find" lacks "not found"
 
 run "$rtk" plugins
 check "installed rtk plugins: runs (RPATH finds librtk)" succeeded
