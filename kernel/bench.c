@@ -1,4 +1,5 @@
-/* `rtk bench`: accelerators compared on BENCH.md's standard recipe. The
+/* `rtk bench`: accelerators compared on the standard recipe
+ * (docs/bench-vs-embree.md). The
  * mesh, camera, primary and AO rays are made exactly as the recipe says
  * (double precision, no FMA contraction: this file is compiled with
  * -ffp-contract=off), so every tracer traces bit-identical primary rays

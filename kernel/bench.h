@@ -1,5 +1,5 @@
 /* The pieces of `rtk bench` (bench.c) that tests check one by one: the
- * standard recipe of BENCH.md for meshes, cameras, primary and AO rays.
+ * standard recipe (docs/bench-vs-embree.md) for meshes, cameras, primary and AO rays.
  * All set-up arithmetic is double precision without FMA contraction
  * (bench.c is compiled with -ffp-contract=off), then rounded to float, so
  * every tracer that follows the recipe traces bit-identical primary rays. */

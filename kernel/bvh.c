@@ -380,8 +380,7 @@ _Static_assert(offsetof(rtk_bvh_node, offset) == 12 && offsetof(rtk_bvh_node, up
  * atomics: walks on threads meet the same byte only in a broken tree,
  * which the counts and the final scan then catch (see rtk_bvh_validate).
  * Primitives, met in no order, are marked in a bit set of the walk's own
- * (bytes shared by threads cost the showroom's two-thread validation 15
- * of its 50 ms, its cache lines going back and forth). */
+ * (bytes shared by threads would pass cache lines back and forth). */
 typedef struct tree_walk {
     const rtk_build_args *a;
     int leaf_bounds, quiet;
@@ -976,9 +975,7 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
         inputs && want_vertices ? (rtk_vec3 *)(void *)(inputs + (sizeof(rtk_bounds) + sizeof(rtk_vec3)) * (size_t)n)
                                 : NULL;
     /* Not cleared: a builder writes the nodes it reports and every slot of
-     * prim_order, and validation reads nothing else (clearing bunny's 4.8
-     * MB took 2-3% of an lbvh build, and as much of Embree's, which uses
-     * neither). */
+     * prim_order, and validation reads nothing else, so clearing would be pure cost. */
     /* Node arrays over 32 MiB, glibc's largest threshold for mapping an
      * allocation of its own, are fresh memory every build: in huge pages
      * (rtk_alloc_large), they fault 512 times less often (the showroom's

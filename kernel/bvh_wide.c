@@ -329,7 +329,7 @@ static void plan_costs(collapser *c, uint32_t id, const double *left, const doub
      * j - lr made infinite: those above ll cost no less than k = ll
      * (left[] is flat from index ll - 1 on, and right[] does not increase
      * with its index), so they never win: the same plan as a loop over
-     * the allowed k alone, 12% less time planning the showroom. Values
+     * the allowed k alone, in less time. Values
      * of j beyond lmax are computed and unused. */
     double dist[RTK_WIDE + 1];
     int kbest[RTK_WIDE + 1];
@@ -388,7 +388,7 @@ static void plan_scratch_init(plan_scratch *w, const collapser *c, uint32_t set)
  * depth is bounded (below; about 80 KB of stack at the deepest), each
  * level's frame holds its children's costs, and the calls cost fewer
  * instructions and mispredicted branches than a loop over a stack of its
- * own (bunny's sah tree: wide build 5% faster in one process). Inner nodes at depth frontier are not entered: their triangle
+ * own. Inner nodes at depth frontier are not entered: their triangle
  * counts are known and their costs are taken from known[*next], in this
  * order. With c->check, each node is checked before its children are
  * read (depth counted from 1 at the binary root; inner nodes at frontier
@@ -1204,9 +1204,7 @@ RTK_INLINE float widen(float tmax)
 }
 
 /* The node an inner reference names: its byte offset from the first
- * node, so that the node loop adds it to the base without a shift (AO
- * rays 1% faster on dragon and 1.4% on bunny than with the index
- * shifted, tools/ab-trace run both ways). */
+ * node, so that the node loop adds it to the base without a shift. */
 RTK_INLINE const rtk_wide_node *wide_node_at(const rtk_wide_node *nodes, uint32_t ref)
 {
     return (const rtk_wide_node *)(const void *)((const char *)nodes + ref);
@@ -1337,9 +1335,8 @@ RTK_INLINE float min_ps(float a, float b)
  *   boxes pass, never fewer; tests/wide counts the rays whose work
  *   changes).
  * Rays with a direction component below FLT_MIN in magnitude (or 0) take
- * the SSE path's float reductions instead. On dragon's AO rays, one
- * process (tools/ab-trace), the integer reductions took 0.98 of the float
- * ones' time. */
+ * the SSE path's float reductions instead. Integer max and min have a
+ * shorter latency than float ones. */
 RTK_INLINE int box_int_ok(const rtk_ray *r)
 {
     return fabsf(r->dir.x) >= FLT_MIN && fabsf(r->dir.y) >= FLT_MIN && fabsf(r->dir.z) >= FLT_MIN;
@@ -1467,8 +1464,7 @@ RTK_INLINE void tri_prepare(const rtk_ray *ray, tri_ray *r)
  * constant) takes the lanes near the origin through the range check
  * without a branch: where rays leave a surface, the first block of a
  * leaf often holds the triangle left behind, and whether its t is within
- * the float bound of 0 is a coin toss for the branch predictor (dragon's
- * AO rays: a tenth of the blocks; 0.975 of the time with the branch). */
+ * the float bound of 0 is a coin toss for the branch predictor. */
 RTK_INLINE int tri_test4(const rtk_wide_tris *b, const tri_ray *r, float tmin, float tmax, __m128 *t_out,
                          __m128 *u_out, __m128 *v_out, int *scalar, int flat)
 {
@@ -1725,9 +1721,8 @@ static int sse_any_work(const rtk_scene *s, const rtk_ray *r, rtk_trace_work *wk
  * were hit: for each 8-bit hit mask, the lanes of its set bits but the
  * lowest, in order, 3 bits each from bit 0. One permutation packs those
  * children, one store pushes them (all eight lanes; the stack has room),
- * and the lowest hit child is traversed next: the order of the loop this
- * replaces, whose branches on the number of hits the predictor missed
- * (AO 5-7 percent faster on the meshes, measured with tools/ab-trace).
+ * and the lowest hit child is traversed next: a branch on the number of
+ * hits would be mispredicted on random AO directions.
  * The table is made by the compiler: the j-th set bit of r, at lane l,
  * contributes l << 3 j, j being the number of r's set bits below l. */
 #define PACK_BIT(r, l) (((r) >> (l)) & 1u)
@@ -1934,7 +1929,7 @@ RTK_INLINE RTK_TARGET_AVX int RTK_AVX(traverse)(const rtk_scene *s, const rtk_ra
      * register and popped from it, highest lane first (the order of the
      * stack): a leaf that misses is mostly followed by a pop of the
      * children its parent just pushed, which from memory waits for the
-     * store (AO 1-2% faster on the meshes). */
+     * store. */
     __m256i pend = _mm256_setzero_si256();
     int pcount = 0;
     uint32_t cur = 0;
@@ -1962,8 +1957,8 @@ RTK_INLINE RTK_TARGET_AVX int RTK_AVX(traverse)(const rtk_scene *s, const rtk_ra
                 goto pop;
             if (any) {
                 /* See pack_lanes. No prefetch of the next pop: occlusion's
-                 * rays are short and end early, and it cost 1-2.6% of
-                 * their time on the meshes (none on the showroom). */
+                 * rays are short and end early, so a prefetch costs
+                 * more than it hides. */
                 const __m256i kids = _mm256_load_si256((const __m256i *)(const void *)n->child);
 #if RTK_AVX512
                 /* The hit children but the lowest, packed in one instruction. */

@@ -2,7 +2,7 @@
  * exactly as the renderer does and runs the checks of its kind. Every
  * check prints one line ("ok" or "FAIL" and the name, which carries the
  * counts); lines starting with '#' are notes (timings); the last line is
- * "N passed, N failed". Accelerators also get the hard cases of issue 3
+ * "N passed, N failed". Accelerators also get the hard cases
  * (see "accelerator hard cases" below and conform_hard.h). */
 #include "bvh_cache.h"
 #include "conform_hard.h"
@@ -287,7 +287,7 @@ static rtk_ray random_ray(const rtk_scene *s, rtk_pcg32 *rng, int i)
     return r;
 }
 
-/* ---- accelerator hard cases (issue 3, item 11) ----
+/* ---- accelerator hard cases ----
  *
  * Each case states an exact pass criterion. Where the criterion needs the
  * true answer it comes from one of three places:

@@ -31,9 +31,8 @@ void *rtk_alloc_large(size_t size)
     /* From 8 MiB on, whole huge pages (at most 2 MiB more, under 25%);
      * below, whole cache lines: an array that small fits the reach of the
      * TLB in 4 KiB pages, and a huge page fault may stall on compaction
-     * (THP defrag "madvise", Debian's default): bunny's build inputs took
-     * 1-12 ms and its wide tree 3-39 ms with the advice, 2-4 and 4-7 ms
-     * without. aligned_alloc wants the size a multiple of the alignment. */
+     * (THP defrag "madvise", Debian's default), which would cost small
+     * arrays more than the TLB saves. aligned_alloc wants the size a multiple of the alignment. */
     size_t align = 64, bytes = (size + 63) / 64 * 64;
     if (size >= 4 * huge)
         align = huge, bytes = (size + huge - 1) / huge * huge;

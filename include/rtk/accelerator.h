@@ -82,8 +82,7 @@ enum {
      * regions of which it fills a small part (a fifth or less) before it
      * closes the gaps. The kernel then keeps a large node array in 4 KiB
      * pages, where huge pages would be faulted in whole for the few
-     * nodes in each (ABI 3.2 kernels from 2026-11-26 on; others ignore
-     * it). */
+     * nodes in each (read by ABI 3.2 kernels and later; older ones ignore it). */
     RTK_BUILD_SPARSE_NODES = 4u
 };
 

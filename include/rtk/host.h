@@ -148,8 +148,8 @@ typedef struct rtk_bench_options {
     int oversubscribe;                /* as in rtk_config_options */
 } rtk_bench_options;
 
-/* Benchmarks accelerators on a mesh (.obj, read as BENCH.md's standard
- * recipe says) or a config's scene (.cfg) with the recipe's primary and
+/* Benchmarks accelerators on a mesh (.obj, read as the standard recipe
+ * says, docs/bench-vs-embree.md) or a config's scene (.cfg) with the recipe's primary and
  * AO rays: builds each through the kernel, traces on each thread count,
  * prints a table (and ratios to embree when it is among them) to out. */
 RTK_API rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk_bench_options *options,

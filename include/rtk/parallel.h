@@ -1,7 +1,7 @@
 /* Teams of threads for plugins and the kernel: the kernel keeps its
  * worker threads between teams, so a build that runs several parallel
- * phases does not pay for starting threads in each (about 0.1-0.2 ms a
- * thread on a virtual machine, a tenth of a small mesh's build).
+ * phases does not pay for starting threads in each (on a small mesh,
+ * as much as the phase's work).
  *
  * A team's members run at the same time, each on its own thread, so they
  * may wait for each other (rtk_team_sync). A member that starts a team of

@@ -2,7 +2,7 @@
  * (LoadObjWithCallback), converted to the scene builder calls as the file
  * is read. Polygons are triangulated here rather than by tinyobjloader:
  * its ear clipping (2.0.0rc10) drops triangles of many n-gons (8,295 in
- * ../shared/data/showroom), and without triangulation it stores vertex
+ * the showroom mesh), and without triangulation it stores vertex
  * counts in 8 bits, so faces of more than 255 corners come out corrupt.
  * Every function called from C catches all exceptions. */
 #include "../internal.h"

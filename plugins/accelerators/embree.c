@@ -68,8 +68,7 @@ static rtk_status embree_create(const rtk_params *params, void **state)
 
 /* The device outlives the builds: an application makes one device and
  * builds many scenes with it, and a fresh device per build would charge
- * the start of Embree's threads to every timed build (0.6-4 ms a build,
- * measured on 75,000 triangles). Embree's thread count is process-wide
+ * the start of Embree's threads to every timed build. Embree's thread count is process-wide
  * (its tasking library follows the device made last: with a 1-thread and
  * a 2-thread device alive, a "1-thread" build used two), so one device is
  * kept, for the last thread count asked for, and replaced when another is

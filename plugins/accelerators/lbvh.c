@@ -16,19 +16,14 @@
  * Example: accelerator = { plugin = "lbvh"; morton = "63"; collapse = true; };
  *
  * Leaves of up to 8 by default, as Embree LOW's: lbvh is the builder for
- * when build time counts most. Against max_leaf = 4 (the default before
- * 2026-11-25), one-thread builds took 0.66-0.79 of the time on the four
- * meshes and the showroom, primary rays were 2-3% faster on the meshes
- * (2% slower on the showroom) and AO rays 4-7% slower (6% faster on the
- * showroom); docs/bench-vs-embree.md has the figures. max_leaf = 4 gives
- * the better trees where tracing dominates.
+ * when build time counts most. max_leaf = 4 gives the better trees where
+ * tracing dominates.
  *
  * The sort is stable, so equal codes keep index order whichever way it
  * runs: least significant digit first over the whole array below 2^17
  * primitives (in cache), and above, one pass by the top digit over
  * memory, then each of its 2048 buckets by the remaining bits where it
- * stays in cache (the showroom's build: 0.89-0.91 of the time on one
- * thread, 0.87-0.91 on two).
+ * stays in cache: one pass over memory instead of three.
  *
  * Depth is at most the code bits plus 33 levels of halving. The tree does
  * not depend on thread_count. Its slots hold the children pairs in
@@ -42,9 +37,8 @@
  * above it move down by as much, which leaves the same slots as one
  * thread. The moves run on the threads too, taken in slot order, each
  * once the moves whose slots it overwrites are done: their destinations
- * are mostly pages touched for the first time, which made one thread's
- * 12-15 ms of a 130 ms build of the showroom on two threads (7 ms on
- * both). A region's nodes fill about a fifth of it, so the build
+ * are mostly pages touched for the first time, too slow for one thread
+ * alone. A region's nodes fill about a fifth of it, so the build
  * declares RTK_BUILD_SPARSE_NODES: in huge pages the kernel's node array
  * would be faulted in whole.
  */
@@ -451,8 +445,8 @@ static inline __attribute__((always_inline)) void sort_codes_msd(build *b, rtk_t
     rtk_team_sync(team);
 }
 
-/* The large inputs' sort, out of line: the small ones' stays as it was
- * compiled before it (2.5% of a bunny build otherwise). */
+/* The large inputs' sort, out of line, so that it does not change how
+ * the small inputs' sort is compiled. */
 static __attribute__((noinline)) void sort_codes_large(build *b, rtk_team *team, uint32_t t, uint32_t size)
 {
     if (b->opt->bits == 63)

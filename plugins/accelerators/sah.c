@@ -272,8 +272,7 @@ static void write_node(rtk_bvh_node *n, const vbox *b, uint32_t offset, uint32_t
 /* Bins per axis of a node over count primitives: 4 + count / 20, at
  * most the option (as Embree's binner): a node of a hundred primitives
  * has little to gain from 16 bins and pays for clearing and sweeping
- * them (13% fewer instructions over the elephant's build, SAH cost
- * 0.5% higher). */
+ * them. */
 static uint32_t node_bins(const sah *o, uint32_t count)
 {
     uint32_t nb = 4 + count / 20;

@@ -1,4 +1,5 @@
-"""An independent implementation of BENCH.md's standard recipe in Python.
+"""An independent implementation of rtk bench's standard recipe in Python
+(docs/bench-vs-embree.md).
 
 Python floats are IEEE doubles and are never fused, so the primary rays
 below are bit-identical to any correct implementation; `rtk bench` must

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""`rtk bench` against an independent implementation of BENCH.md's recipe.
+"""`rtk bench` against an independent implementation of the standard recipe
+(docs/bench-vs-embree.md).
 
 usage: test_bench.py RTK_EXE SOURCE_ROOT recipe|bunny
 
@@ -8,7 +9,7 @@ threads: the counts and primary_ray_hash must equal recipe.py's exactly
 (scenes are checked to have no ray too close to call), the hash must be
 equal across accelerators, the CSV must hold one row per accelerator x
 threads; bad OBJ files must be refused with file:line.
-bunny: the shared bunny at 1024x768 (BENCH.md's table); skipped (77)
+bunny: the shared bunny at 1024x768 (the recipe's reference counts); skipped (77)
 without ../shared/data. Nothing here depends on wall-clock speed.
 """
 import csv
@@ -158,7 +159,7 @@ def test_recipe(rtk):
         check(proc.returncode == 1 and "nosuch" in proc.stderr, "an unknown accelerator is refused")
 
 
-# BENCH.md's table, and the hash of the bunny's primary rays at 1024x768
+# The recipe's reference counts, and the hash of the bunny's primary rays at 1024x768
 # computed once by recipe.py (pure Python doubles; about ten seconds).
 BUNNY_HASH = "0xbc3a6e195057cb77"
 

@@ -8,7 +8,7 @@
  * scene), or, for "embree", the embree plugin through
  * rtk_bvh_any / rtk_bvh_closest (A then goes through them too).
  *
- * The rays are BENCH.md's recipe (rtk bench's own functions): primary
+ * The rays are the standard bench recipe's (rtk bench's own functions): primary
  * rays at 512x384, 8 AO rays per hit. Each round times A and B, in
  * alternating order, on one eighth of the AO rays and one quarter of the
  * primary rays, in thread CPU time; the ratios B/A of the rounds are

@@ -5,7 +5,7 @@
 # kernel's flags, its external symbols renamed rtk_* -> B_*, and linked
 # beside BUILD_DIR's kernel (A). "embree" compares ACCEL (default sah)
 # with the embree plugin. Environment: AB_CAMERA=EX,EY,EZ,LX,LY,LZ,FOV
-# (default: BENCH.md's recipe camera), AB_REBUILD=1 (the variant builds
+# (default: the bench recipe's camera), AB_REBUILD=1 (the variant builds
 # its own wide tree, for changes to the collapse), AB_SET=KEY=VALUE (a
 # parameter of ACCEL for the variant's tree, with AB_REBUILD), AB_BUILD=1
 # (time the wide builds, one thread, instead of the tracing; the trees
