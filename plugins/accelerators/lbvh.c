@@ -644,7 +644,7 @@ static void plan_moves(build *b)
 /* A member's share of the moves plan_moves planned: each taken in slot
  * order, made once the moves it overwrites have read their slots. The
  * destination's pages are mostly touched for the first time here, which
- * is most of the cost, now on every member. */
+ * is most of the cost, so every member shares it. */
 static void run_moves(build *b)
 {
     rtk_bvh_node *nodes = b->a->nodes;
