@@ -143,7 +143,7 @@ static const cli_command commands[] = {
     {"plugins", "[NAME] [options]", "list plugins, or show one plugin's parameters", no_options, NULL, run_plugins},
     {"conform", "PLUGIN [options]", "run the conformance checks on a plugin (.so path or name)", no_options, NULL,
      run_conform},
-    {"bench", "MESH.obj|CONFIG.cfg [options]", "time accelerators on BENCH.md's standard recipe", bench_options,
+    {"bench", "MESH.obj|CONFIG.cfg [options]", "time accelerators on the standard recipe (docs/bench-vs-embree.md)", bench_options,
      NULL, run_bench},
     {"diff", "A B [options]", "compare an image with a reference: RMSE, relMSE, PSNR and more per channel",
      diff_options,
