@@ -1,5 +1,5 @@
 /* Safe outputs: temporary siblings renamed into place, the registry of live
- * temporaries that the SIGINT/SIGTERM handler removes, the phase an
+ * temporaries that a SIGINT/SIGTERM handler removes, the phase an
  * interrupt reports, and the removal of temporaries a killed run left.
  * The registry and the phase are read by a signal handler: fixed arrays of
  * lock-free atomics and plain bytes, nothing allocated. */
@@ -30,7 +30,6 @@ static struct {
 static _Atomic(const char *) current_phase;
 static atomic_int output_set;
 static char current_output[PATH_MAX];
-static atomic_flag handling = ATOMIC_FLAG_INIT;
 
 int rtk_temp_register(const char *tmp)
 {
@@ -95,12 +94,8 @@ static void put(char *buf, size_t *len, size_t cap, const char *s)
         buf[(*len)++] = *s++;
 }
 
-static void on_signal(int sig)
+RTK_API void rtk_interrupt_cleanup(int sig)
 {
-    /* A second signal (on another thread) waits for the first to finish. */
-    if (atomic_flag_test_and_set(&handling))
-        for (;;)
-            pause();
     for (int i = 0; i < TEMP_SLOTS; i++)
         if (atomic_load(&temps[i].state) == SLOT_LIVE)
             unlink(temps[i].path);
@@ -123,35 +118,6 @@ static void on_signal(int sig)
     line[len++] = '\n';
     ssize_t unused = write(STDERR_FILENO, line, len);
     (void)unused;
-    /* Die of the signal itself, so that shells see 128 + sig (130, 143)
-     * and stop a loop running rtk; _exit is the fallback. */
-    signal(sig, SIG_DFL);
-    sigset_t set;
-    sigemptyset(&set);
-    sigaddset(&set, sig);
-    pthread_sigmask(SIG_UNBLOCK, &set, NULL);
-    raise(sig);
-    _exit(128 + sig);
-}
-
-RTK_API rtk_status rtk_interrupt_install(void)
-{
-    static const int sigs[] = {SIGINT, SIGTERM};
-    for (size_t i = 0; i < sizeof sigs / sizeof *sigs; i++) {
-        struct sigaction old, sa;
-        if (sigaction(sigs[i], NULL, &old) != 0)
-            return rtk_error(RTK_ERR_IO, "cannot read the action of signal %d: %s", sigs[i], strerror(errno));
-        if (!(old.sa_flags & SA_SIGINFO) && old.sa_handler == SIG_IGN)
-            continue; /* nohup and background jobs keep ignoring it */
-        memset(&sa, 0, sizeof sa);
-        sa.sa_handler = on_signal;
-        sigemptyset(&sa.sa_mask);
-        sigaddset(&sa.sa_mask, SIGINT);
-        sigaddset(&sa.sa_mask, SIGTERM);
-        if (sigaction(sigs[i], &sa, NULL) != 0)
-            return rtk_error(RTK_ERR_IO, "cannot handle signal %d: %s", sigs[i], strerror(errno));
-    }
-    return RTK_OK;
 }
 
 /* SIGXFSZ is ignored while any temporary is open, so that a file size

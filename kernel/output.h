@@ -4,7 +4,7 @@
  * old file or the complete new one. Rules for callers:
  * - every temporary is registered (rtk_temp_register) from before it is
  *   created until after it is renamed or removed, so that the SIGINT and
- *   SIGTERM handlers of rtk_interrupt_install can remove it;
+ *   SIGTERM handler (through rtk_interrupt_cleanup) can remove it;
  * - while a temporary is open SIGXFSZ is ignored, so that a file size limit
  *   is a write error (EFBIG) like a full disk (ENOSPC), not a kill;
  * - rtk_temp_open removes temporaries of the same target left by processes

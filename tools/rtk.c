@@ -4,6 +4,8 @@
 #include <rtk/host.h>
 
 #include <math.h>
+#include <signal.h>
+#include <stdatomic.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -1055,6 +1057,45 @@ static int find_command_word(int argc, char **argv, int *status)
     return argc;
 }
 
+static atomic_flag interrupted = ATOMIC_FLAG_INIT;
+
+/* SIGINT/SIGTERM: librtk removes its temporaries and says what was
+ * interrupted, then rtk dies of the signal itself, so that a shell reads
+ * 128 + sig (130, 143) and stops a loop running rtk. */
+static void on_interrupt(int sig)
+{
+    if (atomic_flag_test_and_set(&interrupted))
+        for (;;)
+            pause(); /* a second signal, on another thread, waits for the first */
+    rtk_interrupt_cleanup(sig);
+    signal(sig, SIG_DFL);
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, sig);
+    pthread_sigmask(SIG_UNBLOCK, &set, NULL);
+    raise(sig);
+    _exit(128 + sig);
+}
+
+/* Handles SIGINT and SIGTERM, except one the process ignores (nohup,
+ * background jobs keep ignoring it). */
+static void install_interrupt_handlers(void)
+{
+    static const int sigs[] = {SIGINT, SIGTERM};
+    for (size_t i = 0; i < sizeof sigs / sizeof *sigs; i++) {
+        struct sigaction old, sa;
+        if (sigaction(sigs[i], NULL, &old) != 0 || (!(old.sa_flags & SA_SIGINFO) && old.sa_handler == SIG_IGN))
+            continue;
+        memset(&sa, 0, sizeof sa);
+        sa.sa_handler = on_interrupt;
+        sigemptyset(&sa.sa_mask);
+        sigaddset(&sa.sa_mask, SIGINT);
+        sigaddset(&sa.sa_mask, SIGTERM);
+        if (sigaction(sigs[i], &sa, NULL) != 0)
+            fprintf(stderr, "rtk: warning: cannot handle signal %d; an interrupt may leave temporary files\n", sigs[i]);
+    }
+}
+
 int main(int argc, char **argv)
 {
     rtk_registry *reg = NULL;
@@ -1063,7 +1104,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "rtk: out of memory\n");
         return 1;
     }
-    rtk_interrupt_install(); /* SIGINT/SIGTERM: temporaries removed, one line said, exit 130/143 */
+    install_interrupt_handlers();
     int status = 0;
     int word = find_command_word(argc, argv, &status);
     if (status == 0 && word == argc) {

@@ -288,15 +288,14 @@ typedef enum rtk_sweep_reach {
 RTK_API rtk_sweep_reach rtk_sweep_time_to_error(const double *seconds, const double *error, size_t n,
                                                 double target, double *out);
 
-/* Opt-in for programs that render to files (the rtk command calls it
- * first): SIGINT and SIGTERM then remove rtk's temporary files (the
- * previous outputs stay as they were), print one line to stderr saying
- * what was interrupted ("rtk: interrupted by SIGINT while rendering;
- * 'out.png' was not written") and end the process by the same signal, so
- * that its exit status reads 130 or 143 in a shell. A signal the process
- * ignores (nohup, background jobs) stays ignored. librtk never installs
- * signal handlers by itself. [main thread, before other threads start] */
-RTK_API rtk_status rtk_interrupt_install(void);
+/* For a program's SIGINT/SIGTERM handler: removes rtk's temporary files
+ * (the previous outputs stay as they were) and prints one line to stderr
+ * saying what was interrupted ("rtk: interrupted by SIGINT while rendering;
+ * 'out.png' was not written"). It returns; ending the process is the
+ * program's choice (the rtk command re-raises the signal, so that a shell
+ * reads 130 or 143). librtk never installs signal handlers itself.
+ * [async-signal-safe] */
+RTK_API void rtk_interrupt_cleanup(int sig);
 
 RTK_EXTERN_C_END
 
