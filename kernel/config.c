@@ -1358,36 +1358,6 @@ unsigned rtk_config_files_read(void)
     return files_read;
 }
 
-/* Reads the whole regular file at path into *text (NUL-terminated). */
-static rtk_status read_whole(const char *path, char **text, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return rtk_error(RTK_ERR_IO, "cannot read %s: %s", path, strerror(errno));
-    size_t cap = 4096, n = 0, got;
-    char *buf = rtk_alloc(cap);
-    while (buf && (got = fread(buf + n, 1, cap - n - 1, f)) > 0) {
-        n += got;
-        if (n + 1 == cap) {
-            char *more = cap > SIZE_MAX / 2 ? NULL : rtk_realloc_array(buf, cap, 2);
-            if (!more)
-                free(buf);
-            buf = more, cap *= 2;
-        }
-    }
-    int failed = ferror(f);
-    fclose(f);
-    if (!buf)
-        return RTK_ERR_NOMEM;
-    if (failed) {
-        free(buf);
-        return rtk_error(RTK_ERR_IO, "cannot read %s", path);
-    }
-    buf[n] = '\0';
-    *text = buf;
-    *len = n;
-    return RTK_OK;
-}
 /* Checks the number starting at text[*at] (a sign, then digits, letters
  * and dots), moving *at past it: an integer must fit where libconfig puts
  * it (32 bits, or 64 with L). */
@@ -1682,9 +1652,10 @@ static rtk_status check_file(text_check *tc, const char *path, const char *shown
         return RTK_ERR_NOMEM;
     uint32_t self = tc->count++;
     tc->files[self] = (checked_file){.dev = st.st_dev, .ino = st.st_ino, .entry = entry, .exit_prev = entry.prev};
-    char *text = NULL;
+    unsigned char *bytes = NULL;
     size_t len = 0;
-    rtk_status status = read_whole(path, &text, &len);
+    rtk_status status = rtk_file_read(path, "config file", INCLUDE_BYTES_MAX, &bytes, &len);
+    char *text = (char *)bytes;
     if (status != RTK_OK)
         return status;
     files_read++;

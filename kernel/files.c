@@ -107,6 +107,7 @@ rtk_status rtk_file_read(const char *path, const char *what, uint64_t limit, uns
         free(data);
         return rtk_error(RTK_ERR_IO, "cannot read %s '%s': it changed size while being read", what, path);
     }
+    data[got] = 0;
     *bytes = data;
     *count = got;
     return RTK_OK;

@@ -593,7 +593,8 @@ rtk_status rtk_scene_file_allowed(const rtk_scene *scene, const char *path, cons
 /* Opens a regular file for reading (never blocks on a FIFO; a directory,
  * FIFO or device is an error naming it); *size its size. [caller closes] */
 rtk_status rtk_file_open(const char *path, const char *what, int *fd, uint64_t *size);
-/* Reads all of the regular file path, refusing one above limit bytes.
+/* Reads all of the regular file path, refusing one above limit bytes;
+ * (*bytes)[*count] is a 0 byte, so text can be read as a string.
  * [caller frees *bytes] */
 rtk_status rtk_file_read(const char *path, const char *what, uint64_t limit, unsigned char **bytes, size_t *count);
 /* rtk_scene_file_allowed, then rtk_file_read. */

@@ -1729,23 +1729,20 @@ struct SceneFiles {
     }
 };
 
-/* The whole file; only a regular file of less than 4 GiB (tinygltf takes
- * 32-bit lengths). */
+/* The whole file; only a regular file (rtk_file_open) of less than 4 GiB
+ * (tinygltf takes 32-bit lengths). */
 rtk_status read_whole(const char *path, std::vector<unsigned char> *out)
 {
-    /* Non-blocking open: a FIFO is refused below instead of waiting for a writer. */
-    const int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
-    if (fd < 0)
-        return rtk_error(RTK_ERR_IO, "%s: cannot open: %s", path, std::strerror(errno));
-    struct stat st;
-    rtk_status status = RTK_OK;
-    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))
-        status = rtk_error(RTK_ERR_IO, "%s: not a regular file; rtk reads glTF only from regular files", path);
-    else if (uint64_t(st.st_size) >= (uint64_t(1) << 32))
-        status = rtk_error(RTK_ERR_UNSUPPORTED, "%s: %lld bytes; rtk reads glTF files of less than 4 GiB", path,
-                           (long long)st.st_size);
+    int fd;
+    uint64_t size;
+    rtk_status status = rtk_file_open(path, "glTF file", &fd, &size);
+    if (status != RTK_OK)
+        return status;
+    if (size >= (uint64_t(1) << 32))
+        status = rtk_error(RTK_ERR_UNSUPPORTED, "%s: %llu bytes; rtk reads glTF files of less than 4 GiB", path,
+                           (unsigned long long)size);
     if (status == RTK_OK) {
-        out->resize(size_t(st.st_size));
+        out->resize(size_t(size));
         size_t done = 0;
         while (done < out->size()) {
             const ssize_t got = ::read(fd, out->data() + done, out->size() - done);
