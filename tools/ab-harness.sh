@@ -9,7 +9,7 @@ src=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=$(cd "$1" && pwd)
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-inc=(-I"$build/kernel" -I"$src/kernel" -I"$build/include" -I"$src/include")
+inc=(-I"$build/kernel" -I"$src/kernel" -I"$src/tools" -I"$build/include" -I"$src/include")
 
 ab_compile() {
     cc "${inc[@]}" -std=c11 -O2 -g -D_GNU_SOURCE -pthread -c "$1" -o "$out/ab.o"
@@ -17,6 +17,8 @@ ab_compile() {
 
 ab_link() {
     c++ -o "$out/ab" "$out/ab.o" "$@" -Wl,--whole-archive "$build/kernel/librtk_static.a" \
-        -Wl,--no-whole-archive "$build/kernel/librtk_bench.a" -Wl,--export-dynamic -lm -pthread -ldl \
-        $(pkg-config --libs tinygltf tinyobjloader libconfig 2>/dev/null || echo -ltinygltf -ltinyobjloader -lconfig)
+        -Wl,--no-whole-archive "$build/tools/librtk_tools.a" -Wl,--export-dynamic -lm -pthread -ldl \
+        $(pkg-config --libs tinygltf tinyobjloader libconfig 2>/dev/null || echo -ltinygltf -ltinyobjloader -lconfig) \
+        $(grep -q RTK_HAVE_DRACO "$build/build.ninja" && pkg-config --libs draco) \
+        $(grep -q RTK_HAVE_MESHOPT "$build/build.ninja" && echo -lmeshoptimizer)
 }

@@ -3,6 +3,8 @@
  * its parser, its help (rtk help CMD) and its "did you mean" all read. */
 #include <rtk/host.h>
 
+#include "tools.h"
+
 #include <math.h>
 #include <signal.h>
 #include <stdatomic.h>

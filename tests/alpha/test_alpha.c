@@ -7,7 +7,9 @@
  *   on the quad, on a stack of cut quads, and on smallpine (glTF BLEND
  *   foliage atlas) when ../shared/data is there;
  * - scenes without cutout materials keep no materials or uvs for it. */
-#include "bvh_wide.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 
 #include <math.h>
 #include <stdarg.h>

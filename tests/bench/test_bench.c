@@ -2,7 +2,7 @@
  * the reference generator's published output, the ray hash and primary
  * rays against values computed by recipe.py (Python doubles), the AO
  * basis. test_bench.py checks the whole `rtk bench` command. */
-#include "bench.h"
+#include "bench/bench.h"
 
 #include <math.h>
 #include <stdio.h>

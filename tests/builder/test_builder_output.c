@@ -13,8 +13,10 @@
  * RTK_BUILD_NO_BOUNDS no bounds either (every builder gets the scene's
  * indexed mesh); one that declares neither, or whose table predates
  * build_flags, is given every triangle's corners. */
-#include "conform_hard.h"
-#include "internal.h"
+#include "conform/conform.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 
 #include <math.h>
 #include <stddef.h>

@@ -2,9 +2,9 @@
  * traces the same; every kind of damaged, stale or hostile cache file is
  * refused with exactly one warning naming the file and the reason, the
  * build falls back to the plugin, and the rewritten file loads next time. */
-#include "bvh_cache.h"
-#include "bvh_wide.h"
-#include "internal.h"
+#include "render/render.h"
+#include "config/config.h"
+#include "image/image.h"
 
 #include <dirent.h>
 #include <dlfcn.h>

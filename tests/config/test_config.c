@@ -2,7 +2,9 @@
  * config is written to a temporary directory (so line numbers are known)
  * and the error must name the file, the line and the key at fault. The
  * broken configs in scenes/bad/ are checked the same way. */
-#include "internal.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 
 #include <dirent.h>
 #include <math.h>

@@ -1,6 +1,8 @@
 /* Tests of kernel/params.c: defaults, text parsing with type, range and
  * choice checks, the typed getters, schema checks and suggestions. */
-#include "internal.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -3,7 +3,10 @@
  * that differ, missing files, error images) through files written with
  * rtk_image_write to a fresh directory under $TMPDIR.
  * `test_diff --fixtures DIR` only writes the images test_diff_cli.sh uses. */
-#include "internal.h"
+#include "tools.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 
 #include <dirent.h>
 #include <math.h>

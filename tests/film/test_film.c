@@ -8,7 +8,8 @@
  * - a pixel whose signed weights cancel resolves with |weights|: never
  *   outside the range of its samples;
  * - the filter sampler's weights f / pdf average to the filter's integral. */
-#include "film.h"
+#include "config/config.h"
+#include "render/render.h"
 
 #include <math.h>
 #include <stdarg.h>

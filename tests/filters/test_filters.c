@@ -12,8 +12,9 @@
  *  - every shipped filter: finite for NaN, inf and huge offsets, and a
  *    constant-radiance render gives the constant in every pixel, borders
  *    included. */
-#include "film.h"
-#include "internal.h"
+#include "render/render.h"
+#include "config/config.h"
+#include "image/image.h"
 
 #include <float.h>
 #include <math.h>

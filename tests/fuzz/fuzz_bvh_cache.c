@@ -7,7 +7,8 @@
  * checksum instead of stopping at it. */
 #include "fuzz_common.h"
 
-#include "bvh_cache.h"
+#include "config/config.h"
+#include "render/render.h"
 
 #include <math.h>
 #include <sys/stat.h>

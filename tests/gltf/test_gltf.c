@@ -4,7 +4,9 @@
  * - refusals before tinygltf parses: JSON nested past the limit (.gltf
  *   and .glb), glTF 1.0 binaries, unsupported required extensions (Draco,
  *   EXT_meshopt_compression) named by rtk's own message. */
-#include "bvh_cache.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -9,8 +9,9 @@
  *                                (RTK_SIMD), so that each traversal path sees
  *                                them, not only the best
  * Output is rtk conform's: one line per check, then "N passed, N failed". */
-#include "conform_hard.h"
-#include "film.h"
+#include "config/config.h"
+#include "conform/conform.h"
+#include "render/render.h"
 
 #include <math.h>
 #include <stdio.h>

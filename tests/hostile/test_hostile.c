@@ -2,7 +2,9 @@
  * kernel/io/obj.cpp, kernel/io/gltf.cpp, kernel/texture.c, kernel/log.c):
  * each input is made here, small, in a temporary folder. A watchdog
  * (alarm) turns a hang into a failure instead of a stuck test. */
-#include "internal.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 #include "../check.h"
 
 #include <errno.h>

@@ -1,7 +1,9 @@
 /* Tests for kernel/io/image.cpp and kernel/texture.c: exact round trips,
  * channel names, atomic writes, sRGB decoding, texture lookups and broken
  * or hostile files. Files go to a fresh directory under $TMPDIR. */
-#include "internal.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 #include "oiio_check.h"
 
 #include <dirent.h>

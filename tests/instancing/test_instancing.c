@@ -16,9 +16,8 @@
  * - config: instances entries are checked with file and line;
  * - several accelerators' trees held at once (rtk_accel_set, as `rtk
  *   bench` holds them): swapped out and back in, each traces as built. */
-#include "bvh_cache.h"
-#include "bvh_wide.h"
-#include "lights.h"
+#include "config/config.h"
+#include "render/render.h"
 
 #include <float.h>
 #include <math.h>

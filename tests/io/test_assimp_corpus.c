@@ -3,7 +3,9 @@
  * .glb must either load or be refused with a message; only a crash or a
  * hang (meson's timeout) fails. One line per file on stdout.
  * Usage: test_assimp_corpus [folder]   (default /usr/share/assimp/models) */
-#include "internal.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 
 #include <ftw.h>
 #include <stdio.h>

@@ -1,7 +1,9 @@
 /* Scene loaders (kernel/scene_build.c, kernel/io/obj.cpp, kernel/io/gltf.cpp):
  * small OBJ and glTF files written here into a temporary folder, then the
  * meshes of ../shared/data when that folder is present. */
-#include "internal.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 
 #include <ftw.h>
 #include <math.h>

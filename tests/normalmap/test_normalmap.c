@@ -4,7 +4,9 @@
  * of the image (OpenGL convention); rotated and mirrored uv mappings turn
  * the frame with them; the back side sees the mirror of the front; a grey
  * image given as map_bump is a height map, warned about and ignored. */
-#include "internal.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 
 #include <math.h>
 #include <stdarg.h>

@@ -5,8 +5,10 @@
  * SIGXFSZ's action is back to what it was afterwards; the registry hands
  * out each slot once. */
 #include "../check.h"
-#include "internal.h"
-#include "output.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
+#include "core/core.h"
 
 #include <dirent.h>
 #include <errno.h>

@@ -4,7 +4,9 @@
  * own team has one member; two threads running teams at once both get
  * whole teams (one on the pool, one on threads of its own); members that
  * sleep at the barrier are woken. */
-#include "../../kernel/internal.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 #include "../check.h"
 
 #include <pthread.h>

@@ -2,8 +2,9 @@
  * headlight on a quad facing the camera gives Kd x cos exactly; the shared
  * meshes and glTF scenes render with the image statistics asserted; a
  * render that needs no textures decodes none. */
-#include "film.h"
-#include "internal.h"
+#include "render/render.h"
+#include "config/config.h"
+#include "image/image.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -16,8 +16,9 @@
  *  - the config accepts the three types and rtk_render warns once, naming
  *    the config, when sobol gets a spp that is not a power of two;
  *  - convergence on an integral with a closed form (see test_convergence). */
-#include "film.h"
-#include "internal.h"
+#include "render/render.h"
+#include "config/config.h"
+#include "image/image.h"
 
 #include <fcntl.h>
 #include <math.h>

@@ -4,6 +4,8 @@
  * out by hand), and every case where no answer may be made up. */
 #include <rtk/host.h>
 
+#include "tools.h"
+
 #include <math.h>
 #include <stdio.h>
 

@@ -19,7 +19,9 @@
  * References here are written from the definitions, in double; the
  * tolerances are float rounding (the level of detail comes out of float
  * geometry within about 1e-6 of the exact integer). */
-#include "bvh_cache.h"
+#include "config/config.h"
+#include "image/image.h"
+#include "render/render.h"
 
 #include <math.h>
 #include <stdarg.h>

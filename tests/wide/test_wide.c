@@ -5,7 +5,8 @@
  * rays with every combination of +-0 direction components, origins on
  * and next to box faces, and rays with tmin > 0 or < 0. Work counts are
  * the same on every wide path. */
-#include "bvh_wide.h"
+#include "config/config.h"
+#include "render/render.h"
 
 #include <math.h>
 #include <stdarg.h>

@@ -19,7 +19,7 @@
  * quartiles printed. Slow drifts of a shared host hit both sides of a
  * round alike: the median resolves differences of a few percent where
  * separate processes vary by 10%. */
-#include "bench.h"
+#include "bench/bench.h"
 
 #include <dlfcn.h>
 #include <stdio.h>

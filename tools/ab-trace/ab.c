@@ -28,8 +28,8 @@
  * set-up and the boxes around the origin; 10: far past the recipe's
  * length), AB_REPEAT=K traces each ray K times in a row (caches and
  * branch history warm after the first). */
-#include "bench.h"
-#include "bvh_wide.h"
+#include "bench/bench.h"
+#include "accel/accel.h"
 
 #include <stdio.h>
 #include <stdlib.h>

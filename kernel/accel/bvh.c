@@ -1,0 +1,1088 @@
+/* The kernel's BVH: ray/triangle and ray/box tests, robust ray offsets,
+ * closest-hit and any-hit traversal, and the checked hand-off to builder
+ * plugins. Builders only emit nodes; everything here is shared by all. */
+#include "accel.h"
+#include "slab.h"
+
+#include <assert.h>
+#include <float.h>
+#include <math.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+
+static float axis(rtk_vec3 v, int k)
+{
+    return k == 0 ? v.x : k == 1 ? v.y : v.z;
+}
+
+/* Bound on the rounding error of the float t below (Pharr, Jakob,
+ * Humphreys, pbrt-v4 section 6.8.7): t carries error proportional to the
+ * vertices' distance from the origin, not to t itself. */
+static float t_error_bound(float U, float V, float W, float ax, float ay, float bx, float by, float cx, float cy,
+                           float az, float bz, float cz, float rcp)
+{
+    const float g2 = 2.0f * 0.5f * FLT_EPSILON / (1.0f - 2.0f * 0.5f * FLT_EPSILON);
+    const float g3 = 3.0f * 0.5f * FLT_EPSILON / (1.0f - 3.0f * 0.5f * FLT_EPSILON);
+    const float g5 = 5.0f * 0.5f * FLT_EPSILON / (1.0f - 5.0f * 0.5f * FLT_EPSILON);
+    float max_z = fmaxf(fabsf(az), fmaxf(fabsf(bz), fabsf(cz)));
+    float max_x = fmaxf(fabsf(ax), fmaxf(fabsf(bx), fabsf(cx)));
+    float max_y = fmaxf(fabsf(ay), fmaxf(fabsf(by), fabsf(cy)));
+    float dz = g3 * max_z, dx = g5 * (max_x + max_z), dy = g5 * (max_y + max_z);
+    float de = 2.0f * (g2 * max_x * max_y + dy * max_x + dx * max_y);
+    float max_e = fmaxf(fabsf(U), fmaxf(fabsf(V), fabsf(W)));
+    return 3.0f * (g3 * max_e * max_z + de * max_z + dz * max_e) * fabsf(rcp);
+}
+
+static double axis_d(rtk_vec3 v, int k)
+{
+    return k == 0 ? v.x : k == 1 ? v.y : v.z;
+}
+
+/* The same ray-space computation of t, in double. */
+static double exact_distance(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, int kx, int ky, int kz)
+{
+    double dz = axis_d(ray->dir, kz);
+    double sx = axis_d(ray->dir, kx) / dz, sy = axis_d(ray->dir, ky) / dz, sz = 1.0 / dz;
+    double A[3], B[3], C[3];
+    for (int k = 0; k < 3; k++) {
+        A[k] = axis_d(a, k) - axis_d(ray->org, k);
+        B[k] = axis_d(b, k) - axis_d(ray->org, k);
+        C[k] = axis_d(c, k) - axis_d(ray->org, k);
+    }
+    double ax = A[kx] - sx * A[kz], ay = A[ky] - sy * A[kz];
+    double bx = B[kx] - sx * B[kz], by = B[ky] - sy * B[kz];
+    double cx = C[kx] - sx * C[kz], cy = C[ky] - sy * C[kz];
+    double U = cx * by - cy * bx, V = ax * cy - ay * cx, W = bx * ay - by * ax;
+    double det = U + V + W;
+    if (det == 0.0)
+        return -1.0;
+    return (U * sz * A[kz] + V * sz * B[kz] + W * sz * C[kz]) / det;
+}
+
+RTK_API int rtk_intersect_triangle(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, float *t_out,
+                                   float *u_out, float *v_out)
+{
+    /* Woop, Benthin, Wald 2013: shear into ray space with z the dominant axis. */
+    const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
+    int kx, ky, kz;
+    rtk_shear_axes(d, &kx, &ky, &kz);
+    float dz = d[kz];
+    float sx = d[kx] / dz, sy = d[ky] / dz, sz = 1.0f / dz;
+    rtk_vec3 A = rtk_vec3_sub(a, ray->org), B = rtk_vec3_sub(b, ray->org), C = rtk_vec3_sub(c, ray->org);
+    float ax = axis(A, kx) - sx * axis(A, kz), ay = axis(A, ky) - sy * axis(A, kz);
+    float bx = axis(B, kx) - sx * axis(B, kz), by = axis(B, ky) - sy * axis(B, kz);
+    float cx = axis(C, kx) - sx * axis(C, kz), cy = axis(C, ky) - sy * axis(C, kz);
+    float U = cx * by - cy * bx, V = ax * cy - ay * cx, W = bx * ay - by * ax;
+    if (U == 0.0f || V == 0.0f || W == 0.0f) {
+        /* On an edge in float: decide in double so neighbours agree. The
+         * signs come from the doubles: their float roundings may underflow
+         * to 0 (origins a denormal away from a vertex's coordinate). */
+        double Ud = (double)cx * by - (double)cy * bx;
+        double Vd = (double)ax * cy - (double)ay * cx;
+        double Wd = (double)bx * ay - (double)by * ax;
+        if ((Ud < 0.0 || Vd < 0.0 || Wd < 0.0) && (Ud > 0.0 || Vd > 0.0 || Wd > 0.0))
+            return 0;
+        U = (float)Ud, V = (float)Vd, W = (float)Wd;
+    }
+    if ((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f))
+        return 0;
+    float det = U + V + W;
+    if (det == 0.0f)
+        return 0;
+    float az = sz * axis(A, kz), bz = sz * axis(B, kz), cz = sz * axis(C, kz);
+    float T = U * az + V * bz + W * cz;
+    float rcp = 1.0f / det;
+    float t = T * rcp;
+    float err = t_error_bound(U, V, W, ax, ay, bx, by, cx, cy, az, bz, cz, rcp);
+    if (!(err < RTK_T_TOLERANCE * fabsf(t))) {
+        /* Outside the range even with the error (a ray leaving a surface
+         * meets it behind its origin): no need for double. */
+        if (t + err < ray->tmin || t - err > ray->tmax)
+            return 0;
+        /* The float t may be off by more than traversal allows (grazing or
+         * thin triangles), or too close to the origin for float to tell
+         * its sign (a ray leaving a large triangle would otherwise meet it
+         * or its coplanar neighbours again; t = 0, or a bound that
+         * underflowed): decide in double, range check included, so that
+         * the answer does not depend on a tmax another triangle set. */
+        double td = exact_distance(ray, a, b, c, kx, ky, kz);
+        t = (float)td;
+        if (!(t >= ray->tmin && t <= ray->tmax) || (ray->tmin >= 0.0f && !(td > 0.0)))
+            return 0;
+    } else if (!(t >= ray->tmin && t <= ray->tmax)) {
+        return 0;
+    }
+    *t_out = t;
+    *u_out = V * rcp;
+    *v_out = W * rcp;
+    return 1;
+}
+
+static float offset_component(float p, float n)
+{
+    /* Waechter and Binder 2019 (Ray Tracing Gems ch. 6). */
+    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
+    if (fabsf(p) < origin)
+        return p + float_scale * n;
+    int32_t of = (int32_t)(int_scale * n);
+    int32_t bits;
+    memcpy(&bits, &p, sizeof bits);
+    bits += p < 0.0f ? -of : of;
+    float out;
+    memcpy(&out, &bits, sizeof out);
+    return out;
+}
+
+RTK_API rtk_vec3 rtk_offset_ray_origin(rtk_vec3 p, rtk_vec3 n)
+{
+    return rtk_vec3_make(offset_component(p.x, n.x), offset_component(p.y, n.y), offset_component(p.z, n.z));
+}
+
+int rtk_ray_valid(const rtk_ray *r)
+{
+    if (!isfinite(r->org.x) || !isfinite(r->org.y) || !isfinite(r->org.z))
+        return 0;
+    if (!isfinite(r->dir.x) || !isfinite(r->dir.y) || !isfinite(r->dir.z))
+        return 0;
+    if (r->dir.x == 0.0f && r->dir.y == 0.0f && r->dir.z == 0.0f)
+        return 0;
+    if (isnan(r->tmin) || isnan(r->tmax) || !(r->tmin <= r->tmax))
+        return 0;
+    return 1;
+}
+
+static int leaf_hit(const rtk_scene *s, uint32_t slot, const rtk_ray *ray, float *t, float *u, float *v)
+{
+    float tv[9];
+    rtk_slot_corners(s, slot, tv);
+    return rtk_intersect_triangle(ray, rtk_vec3_make(tv[0], tv[1], tv[2]), rtk_vec3_make(tv[3], tv[4], tv[5]),
+                                  rtk_vec3_make(tv[6], tv[7], tv[8]), t, u, v);
+}
+
+/* Closest hit on the binary tree; counts into work when not NULL. */
+static inline __attribute__((always_inline)) int binary_closest(const rtk_scene *s, const rtk_ray *ray_in,
+                                                                 rtk_hit *hit, rtk_trace_work *work)
+{
+    if (s->node_count == 0)
+        return 0;
+    rtk_ray ray = *ray_in;
+    rtk_slab_ray p;
+    rtk_slab_prepare(&ray, &p);
+    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
+    int top = 0;
+    uint32_t node = 0;
+    if (rtk_slab_entry(&s->nodes[0], &p, ray.tmin, ray.tmax) == INFINITY)
+        return 0;
+    for (;;) {
+        const rtk_bvh_node *n = &s->nodes[node];
+        if (n->count > 0) {
+            if (work)
+                work->triangles += n->count;
+            for (uint32_t i = 0; i < n->count; i++) {
+                uint32_t slot = n->offset + i;
+                float t, u, v;
+                if (!leaf_hit(s, slot, &ray, &t, &u, &v))
+                    continue;
+                uint32_t prim = s->prim_ids[slot];
+                if (s->has_cutouts && !rtk_alpha_opaque(s, &ray, prim, u, v))
+                    continue;
+                /* Equal distances go to the lowest id, whatever the tree. */
+                if (t < ray.tmax || (t == ray.tmax && prim < hit->prim)) {
+                    ray.tmax = t;
+                    hit->t = t, hit->u = u, hit->v = v, hit->prim = prim;
+                }
+            }
+        } else {
+            if (work)
+                work->nodes++;
+            uint32_t c0 = n->offset, c1 = n->offset + 1;
+            float t0 = rtk_slab_entry(&s->nodes[c0], &p, ray.tmin, ray.tmax);
+            float t1 = rtk_slab_entry(&s->nodes[c1], &p, ray.tmin, ray.tmax);
+            if (t0 != INFINITY && t1 != INFINITY) {
+                if (t1 < t0) {
+                    uint32_t tmp = c0;
+                    c0 = c1;
+                    c1 = tmp;
+                }
+                stack[top++] = c1;
+                node = c0;
+                continue;
+            }
+            if (t0 != INFINITY) {
+                node = c0;
+                continue;
+            }
+            if (t1 != INFINITY) {
+                node = c1;
+                continue;
+            }
+        }
+        if (top == 0)
+            break;
+        node = stack[--top];
+    }
+    return hit->prim != RTK_INVALID_ID;
+}
+
+/* Any hit on the binary tree; counts into work when not NULL. */
+static inline __attribute__((always_inline)) int binary_any(const rtk_scene *s, const rtk_ray *ray,
+                                                             rtk_trace_work *work)
+{
+    if (s->node_count == 0)
+        return 0;
+    rtk_slab_ray p;
+    rtk_slab_prepare(ray, &p);
+    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        const rtk_bvh_node *n = &s->nodes[stack[--top]];
+        if (rtk_slab_entry(n, &p, ray->tmin, ray->tmax) == INFINITY)
+            continue;
+        if (n->count > 0) {
+            for (uint32_t i = 0; i < n->count; i++) {
+                float t, u, v;
+                if (work)
+                    work->triangles++;
+                if (leaf_hit(s, n->offset + i, ray, &t, &u, &v) &&
+                    (!s->has_cutouts || rtk_alpha_opaque(s, ray, s->prim_ids[n->offset + i], u, v)))
+                    return 1;
+            }
+        } else {
+            if (work)
+                work->nodes++;
+            stack[top++] = n->offset + 1;
+            stack[top++] = n->offset;
+        }
+    }
+    return 0;
+}
+
+/* The wide tree serves rays with tmin >= 0 (its box test widens exit
+ * distances through the reciprocal, which assumes it); the binary tree
+ * the rest, and everything when RTK_SIMD=binary. A plugin's own traversal
+ * takes every ray. */
+static int use_wide(const rtk_scene *s, const rtk_ray *ray)
+{
+    return s->wide && s->wide->path != RTK_SIMD_BINARY && ray->tmin >= 0.0f && !s->own_traversal;
+}
+
+int rtk_bvh_closest_own(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
+{
+    if (work)
+        work->nodes = work->triangles = 0;
+    if (use_wide(s, ray))
+        return rtk_wide_closest(s, s->wide->path, ray, hit, work);
+    hit->prim = RTK_INVALID_ID;
+    hit->t = ray->tmax;
+    hit->u = hit->v = 0.0f;
+    if (s->own_traversal)
+        return s->own_traversal->closest(s->own_state, ray, hit) && hit->prim < s->triangle_count;
+    return work ? binary_closest(s, ray, hit, work) : binary_closest(s, ray, hit, NULL);
+}
+
+int rtk_bvh_any_own(const rtk_scene *s, const rtk_ray *ray, rtk_trace_work *work)
+{
+    if (work)
+        work->nodes = work->triangles = 0;
+    if (s->own_traversal)
+        return s->own_traversal->any(s->own_state, ray);
+    if (use_wide(s, ray))
+        return rtk_wide_any(s, s->wide->path, ray, work);
+    return work ? binary_any(s, ray, work) : binary_any(s, ray, NULL);
+}
+
+int rtk_bvh_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
+{
+    if (s->instance_count)
+        return rtk_instances_closest(s, ray, hit, NULL);
+    hit->inst = RTK_INVALID_ID;
+    if (use_wide(s, ray))
+        return rtk_wide_closest_path[s->wide->path](s, ray, hit);
+    return rtk_bvh_closest_own(s, ray, hit, NULL);
+}
+
+int rtk_bvh_any(const rtk_scene *s, const rtk_ray *ray)
+{
+    if (s->instance_count)
+        return rtk_instances_any(s, ray, NULL);
+    if (use_wide(s, ray))
+        return rtk_wide_any_path[s->wide->path](s, ray);
+    return rtk_bvh_any_own(s, ray, NULL);
+}
+
+int rtk_bvh_closest_measure(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
+{
+    if (s->instance_count)
+        return rtk_instances_closest(s, ray, hit, work);
+    hit->inst = RTK_INVALID_ID;
+    return rtk_bvh_closest_own(s, ray, hit, work);
+}
+
+int rtk_bvh_any_measure(const rtk_scene *s, const rtk_ray *ray, rtk_trace_work *work)
+{
+    if (s->instance_count)
+        return rtk_instances_any(s, ray, work);
+    return rtk_bvh_any_own(s, ray, work);
+}
+
+static int box_contains(const float lo[3], const float hi[3], const float clo[3], const float chi[3])
+{
+    for (int k = 0; k < 3; k++)
+        if (!(lo[k] <= clo[k] && chi[k] <= hi[k]))
+            return 0;
+    return 1;
+}
+
+/* Node p's box encloses node c's (box_contains; any NaN fails), and
+ * whether node n's bounds hold a NaN: in SSE, a node's lower corner and
+ * its offset, then its upper corner and its count, each one 16-byte load
+ * whose fourth lane is ignored. */
+#if defined(__SSE2__)
+static int node_encloses(const rtk_bvh_node *p, const rtk_bvh_node *c)
+{
+    const float *pf = (const float *)(const void *)p, *cf = (const float *)(const void *)c;
+    __m128 ok = _mm_and_ps(_mm_cmple_ps(_mm_loadu_ps(pf), _mm_loadu_ps(cf)),
+                           _mm_cmple_ps(_mm_loadu_ps(cf + 4), _mm_loadu_ps(pf + 4)));
+    return (_mm_movemask_ps(ok) & 7) == 7;
+}
+
+static int node_has_nan(const rtk_bvh_node *n)
+{
+    const float *f = (const float *)(const void *)n;
+    return (_mm_movemask_ps(_mm_cmpunord_ps(_mm_loadu_ps(f), _mm_loadu_ps(f + 4))) & 7) != 0;
+}
+#else
+static int node_encloses(const rtk_bvh_node *p, const rtk_bvh_node *c)
+{
+    return box_contains(p->lower, p->upper, c->lower, c->upper);
+}
+
+static int node_has_nan(const rtk_bvh_node *n)
+{
+    int nan = 0;
+    for (int k = 0; k < 3; k++)
+        nan |= isnan(n->lower[k]) || isnan(n->upper[k]);
+    return nan;
+}
+#endif
+static_assert(offsetof(rtk_bvh_node, offset) == 12 && offsetof(rtk_bvh_node, upper) == 16 &&
+                   offsetof(rtk_bvh_node, count) == 28,
+               "node_encloses reads a corner and the word after it as four floats");
+
+/* One walk of validation: from a node down, marking what it meets. Quiet
+ * walks (on threads) report only that something is wrong; a loud walk
+ * says what, through rtk_error. Marks of nodes and slots are relaxed
+ * atomics: walks on threads meet the same byte only in a broken tree,
+ * which the counts and the final scan then catch (see rtk_bvh_validate).
+ * Primitives, met in no order, are marked in a bit set of the walk's own
+ * (bytes shared by threads would pass cache lines back and forth). */
+typedef struct tree_walk {
+    const rtk_build_args *a;
+    int leaf_bounds, quiet;
+    rtk_tree_check check;
+    rtk_tree_tally tally;
+    uint32_t stop_depth;             /* inner nodes this deep are left in roots (0: none) */
+    uint32_t *roots, root_count;     /* (node, depth) pairs left for the threads */
+} tree_walk;
+
+#define VALIDATION_ROOTS_DEPTH 8 /* up to 128 subtrees for the threads */
+
+static int mark(uint8_t *seen)
+{
+    uint8_t was = __atomic_load_n(seen, __ATOMIC_RELAXED);
+    __atomic_store_n(seen, 1, __ATOMIC_RELAXED);
+    return was;
+}
+
+/* Sets bit i of bits; returns whether it was set. */
+static int mark_bit(uint64_t *bits, uint32_t i)
+{
+    const uint64_t bit = 1ull << (i & 63);
+    const int was = (bits[i >> 6] & bit) != 0;
+    bits[i >> 6] |= bit;
+    return was;
+}
+
+int rtk_tree_check_init(rtk_tree_check *c, const rtk_bvh_node *nodes, uint32_t node_count, const uint32_t *prim_order,
+                        uint32_t prim_count, uint32_t sets)
+{
+    memset(c, 0, sizeof *c);
+    c->nodes = nodes, c->node_count = node_count;
+    c->prim_order = prim_order, c->prim_count = prim_count;
+    c->words = ((size_t)prim_count + 63) / 64;
+    c->sets = sets;
+    c->seen_node = rtk_calloc(node_count ? node_count : 1, 1);
+    c->seen_slot = rtk_calloc(prim_count ? prim_count : 1, 1);
+    c->prim_bits = rtk_calloc(c->words * sets + 1, sizeof *c->prim_bits);
+    if (c->seen_node && c->seen_slot && c->prim_bits)
+        return 1;
+    rtk_tree_check_free(c);
+    return 0;
+}
+
+void rtk_tree_check_free(rtk_tree_check *c)
+{
+    free(c->seen_node);
+    free(c->seen_slot);
+    free(c->prim_bits);
+    c->seen_node = c->seen_slot = NULL;
+    c->prim_bits = NULL;
+}
+
+void rtk_tree_tally_init(const rtk_tree_check *c, uint32_t set, rtk_tree_tally *t)
+{
+    memset(t, 0, sizeof *t);
+    t->prim_bits = c->prim_bits + (size_t)set * c->words;
+}
+
+/* The checks of one node, in order; the first that fails is returned,
+ * with the slot or child concerned in *what. */
+enum {
+    FAULT_NONE,
+    FAULT_TWICE,    /* reached before */
+    FAULT_DEPTH,    /* deeper than RTK_BVH_MAX_DEPTH */
+    FAULT_NAN,      /* NaN bounds */
+    FAULT_RANGE,    /* leaf slots past the primitives */
+    FAULT_SLOT,     /* slot *what (or its primitive) met twice or out of range */
+    FAULT_CHILDREN, /* children outside 1 .. node_count - 1 */
+    FAULT_ENCLOSE,  /* child *what outside the node's box */
+};
+
+static int check_node(const rtk_tree_check *c, rtk_tree_tally *t, uint32_t id, uint32_t depth, uint32_t *what)
+{
+    const rtk_bvh_node *n = &c->nodes[id];
+    if (mark(&c->seen_node[id]))
+        return FAULT_TWICE;
+    t->reached++;
+    if (depth > t->max_depth)
+        t->max_depth = depth;
+    if (depth > RTK_BVH_MAX_DEPTH)
+        return FAULT_DEPTH;
+    if (node_has_nan(n))
+        return FAULT_NAN;
+    if (n->count > 0) {
+        if (n->offset > c->prim_count || n->count > c->prim_count - n->offset)
+            return FAULT_RANGE;
+        for (uint32_t i = n->offset; i < n->offset + n->count; i++) {
+            uint32_t prim = c->prim_order[i];
+            if (mark(&c->seen_slot[i]) || prim >= c->prim_count || mark_bit(t->prim_bits, prim)) {
+                *what = i;
+                return FAULT_SLOT;
+            }
+        }
+        t->covered += n->count;
+        return FAULT_NONE;
+    }
+    if (n->offset == 0 || n->offset >= c->node_count - 1)
+        return FAULT_CHILDREN;
+    for (uint32_t k = n->offset; k <= n->offset + 1; k++) {
+        if (!node_encloses(n, &c->nodes[k])) {
+            *what = k;
+            return FAULT_ENCLOSE;
+        }
+    }
+    return FAULT_NONE;
+}
+
+int rtk_tree_check_node(const rtk_tree_check *c, rtk_tree_tally *t, uint32_t id, uint32_t depth)
+{
+    uint32_t what;
+    return check_node(c, t, id, depth, &what) == FAULT_NONE;
+}
+
+#define WALK_FAIL(...) return w->quiet ? RTK_ERR_PLUGIN : rtk_error(RTK_ERR_PLUGIN, __VA_ARGS__)
+
+/* stack: 2 * (RTK_BVH_MAX_DEPTH + 2) entries. */
+static rtk_status walk_tree(tree_walk *w, uint32_t root, uint32_t root_depth, uint32_t *stack)
+{
+    const rtk_build_args *a = w->a;
+    int top = 0;
+    stack[top++] = root, stack[top++] = root_depth; /* pairs (node, depth) */
+    while (top > 0) {
+        uint32_t depth = stack[--top], id = stack[--top];
+        const rtk_bvh_node *n = &a->nodes[id];
+        if (depth == w->stop_depth && n->count == 0) {
+            w->roots[w->root_count++] = id, w->roots[w->root_count++] = depth;
+            continue;
+        }
+        uint32_t what = 0;
+        switch (check_node(&w->check, &w->tally, id, depth, &what)) {
+        case FAULT_NONE:
+            break;
+        case FAULT_TWICE:
+            WALK_FAIL("builder output: node %u is reached twice (the tree has a cycle or shared node)", id);
+        case FAULT_DEPTH:
+            WALK_FAIL("builder output: tree deeper than %d levels", RTK_BVH_MAX_DEPTH);
+        case FAULT_NAN:
+            WALK_FAIL("builder output: node %u has NaN bounds", id);
+        case FAULT_RANGE:
+            WALK_FAIL("builder output: leaf %u covers slots %u..%u beyond %u primitives", id, n->offset,
+                      n->offset + n->count - 1, a->prim_count);
+        case FAULT_SLOT:
+            WALK_FAIL("builder output: slot %u (primitive %u) is referenced twice or out of range", what,
+                      a->prim_order[what]);
+        case FAULT_CHILDREN:
+            WALK_FAIL("builder output: inner node %u points to children %u, %u outside 1 .. %u", id, n->offset,
+                      n->offset + 1, a->node_count - 1);
+        default:
+            WALK_FAIL("builder output: node %u does not enclose its child %u", id, what);
+        }
+        if (n->count > 0) {
+            for (uint32_t i = n->offset; w->leaf_bounds && i < n->offset + n->count; i++) {
+                const uint32_t prim = a->prim_order[i];
+                const rtk_bounds *b = &a->prim_bounds[prim];
+                const float plo[3] = {b->lower.x, b->lower.y, b->lower.z};
+                const float phi[3] = {b->upper.x, b->upper.y, b->upper.z};
+                if (!box_contains(n->lower, n->upper, plo, phi))
+                    WALK_FAIL("builder output: leaf %u does not enclose primitive %u", id, prim);
+            }
+        } else {
+            stack[top++] = n->offset, stack[top++] = depth + 1;
+            stack[top++] = n->offset + 1, stack[top++] = depth + 1;
+        }
+    }
+    return RTK_OK;
+}
+
+#undef WALK_FAIL
+
+/* The subtrees left by the top walk, taken one at a time by each thread. */
+typedef struct walk_job {
+    const tree_walk *top;
+    uint32_t next;                        /* next root pair, atomic */
+    uint32_t max_depth, covered, reached; /* sums and maximum, atomic */
+    int failed;                           /* atomic */
+} walk_job;
+
+void rtk_tree_tally_add(const rtk_tree_tally *t, uint32_t *covered, uint32_t *reached, uint32_t *max_depth)
+{
+    __atomic_fetch_add(covered, t->covered, __ATOMIC_RELAXED);
+    __atomic_fetch_add(reached, t->reached, __ATOMIC_RELAXED);
+    uint32_t seen = __atomic_load_n(max_depth, __ATOMIC_RELAXED);
+    while (t->max_depth > seen &&
+           !__atomic_compare_exchange_n(max_depth, &seen, t->max_depth, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED))
+        ;
+}
+
+static void walk_worker(void *ctx, uint32_t begin, uint32_t end)
+{
+    (void)end;
+    walk_job *j = ctx;
+    uint32_t stack[2 * (RTK_BVH_MAX_DEPTH + 2)];
+    tree_walk w = *j->top;
+    w.stop_depth = 0, w.roots = NULL, w.root_count = 0, w.quiet = 1;
+    rtk_tree_tally_init(&w.check, begin + 1, &w.tally);
+    for (;;) {
+        uint32_t k = __atomic_fetch_add(&j->next, 2, __ATOMIC_RELAXED);
+        if (k >= j->top->root_count || __atomic_load_n(&j->failed, __ATOMIC_RELAXED))
+            break;
+        if (walk_tree(&w, j->top->roots[k], j->top->roots[k + 1], stack) != RTK_OK) {
+            __atomic_store_n(&j->failed, 1, __ATOMIC_RELAXED);
+            break;
+        }
+    }
+    rtk_tree_tally_add(&w.tally, &j->covered, &j->reached, &j->max_depth);
+}
+
+static int all_set(const uint8_t *seen, uint32_t n)
+{
+    /* Marks are 0 or 1: eight at a time (a byte loop is not vectorised
+     * at -O2, 5 instructions a byte). */
+    uint64_t all = 0x0101010101010101ull;
+    uint32_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+        uint64_t word;
+        memcpy(&word, seen + i, sizeof word);
+        all &= word;
+    }
+    uint8_t tail = 1;
+    for (; i < n; i++)
+        tail &= seen[i];
+    return all == 0x0101010101010101ull && tail;
+}
+
+/* Whether the sets of bits (count of them, words each) are disjoint and
+ * together hold every one of bits 0 .. n - 1 (and none above). */
+static int bits_partition(const uint64_t *bits, uint32_t count, size_t words, uint32_t n)
+{
+    uint64_t overlap = 0, missing = 0;
+    for (size_t k = 0; k < words; k++) {
+        uint64_t all = 0;
+        for (uint32_t t = 0; t < count; t++) {
+            overlap |= all & bits[t * words + k];
+            all |= bits[t * words + k];
+        }
+        const uint32_t left = n - (uint32_t)(64 * k);
+        missing |= all ^ (left >= 64 ? ~0ull : (1ull << left) - 1);
+    }
+    return !overlap && !missing;
+}
+
+int rtk_tree_check_whole(const rtk_tree_check *c, uint32_t reached, uint32_t covered)
+{
+    return reached == c->node_count && covered == c->prim_count && all_set(c->seen_node, c->node_count) &&
+           all_set(c->seen_slot, c->prim_count) && bits_partition(c->prim_bits, c->sets, c->words, c->prim_count);
+}
+
+/* Below this many nodes the walk stays on one thread. */
+#define VALIDATION_PARALLEL_NODES 16384u
+
+/* RTK_ERR_PLUGIN (error set) unless a builder's node_count is 1 .. max_nodes. */
+static rtk_status check_node_count(const rtk_build_args *a)
+{
+    if (a->node_count == 0 || a->node_count > a->max_nodes)
+        return rtk_error(RTK_ERR_PLUGIN, "builder returned %u nodes (expected 1 .. %u)", a->node_count,
+                         a->max_nodes);
+    return RTK_OK;
+}
+
+rtk_status rtk_bvh_validate(const rtk_build_args *a, int leaf_bounds, uint32_t *depth_out)
+{
+    if (check_node_count(a) != RTK_OK)
+        return RTK_ERR_PLUGIN;
+    tree_walk w;
+    memset(&w, 0, sizeof w);
+    w.a = a, w.leaf_bounds = leaf_bounds;
+    int parallel = a->thread_count > 1 && a->node_count >= VALIDATION_PARALLEL_NODES;
+    const uint32_t threads = a->thread_count < RTK_TREE_CHECK_MAX_SETS - 1 ? a->thread_count
+                                                                           : RTK_TREE_CHECK_MAX_SETS - 1;
+    uint32_t *stack = rtk_alloc(sizeof(uint32_t) * 2 * (RTK_BVH_MAX_DEPTH + 2));
+    uint32_t roots[2 << VALIDATION_ROOTS_DEPTH];
+    rtk_status st = RTK_OK;
+    if (!stack || !rtk_tree_check_init(&w.check, a->nodes, a->node_count, a->prim_order, a->prim_count,
+                                       parallel ? threads + 1 : 1)) {
+        st = RTK_ERR_NOMEM;
+        goto done;
+    }
+    rtk_tree_tally_init(&w.check, 0, &w.tally);
+    if (parallel) {
+        /* The top levels here, quietly; the subtrees below on threads.
+         * In a sound tree the walks meet no byte twice, and every node,
+         * slot and primitive is marked once: the counts equal the totals
+         * and no mark is missing. Anything else (a shared node or slot
+         * two threads both took for new included) fails one of those, and
+         * the walk is done again on one thread for the message. */
+        w.quiet = 1, w.stop_depth = VALIDATION_ROOTS_DEPTH, w.roots = roots;
+        int ok = walk_tree(&w, 0, 1, stack) == RTK_OK;
+        if (ok) {
+            walk_job job = {&w, 0, w.tally.max_depth, w.tally.covered, w.tally.reached, 0};
+            rtk_parallel_ranges(threads, threads, 1, walk_worker, &job);
+            ok = !job.failed && rtk_tree_check_whole(&w.check, job.reached, job.covered);
+            w.tally.max_depth = job.max_depth;
+        }
+        if (ok) {
+            *depth_out = w.tally.max_depth;
+            goto done;
+        }
+        memset(w.check.seen_node, 0, a->node_count);
+        memset(w.check.seen_slot, 0, a->prim_count);
+        memset(w.check.prim_bits, 0, w.check.words * sizeof *w.check.prim_bits);
+        rtk_tree_tally_init(&w.check, 0, &w.tally);
+    }
+    w.quiet = 0, w.stop_depth = 0, w.roots = NULL, w.root_count = 0;
+    st = walk_tree(&w, 0, 1, stack);
+    if (st != RTK_OK)
+        goto done;
+    if (w.tally.covered != a->prim_count) {
+        st = rtk_error(RTK_ERR_PLUGIN, "builder output: leaves hold %u of %u primitives", w.tally.covered,
+                       a->prim_count);
+        goto done;
+    }
+    if (w.tally.reached != a->node_count) {
+        st = rtk_error(RTK_ERR_PLUGIN, "builder output: %u of the %u nodes reported are not reachable from the root "
+                       "(node_count must count the nodes of the tree only)", a->node_count - w.tally.reached,
+                       a->node_count);
+        goto done;
+    }
+    if (parallel) { /* the threads saw a fault one thread does not: never */
+        st = rtk_error(RTK_ERR_PLUGIN, "builder output: the tree failed validation on threads only");
+        goto done;
+    }
+    *depth_out = w.tally.max_depth;
+done:
+    rtk_tree_check_free(&w.check);
+    free(stack);
+    return st;
+}
+
+rtk_status rtk_bvh_validate_scene(const rtk_scene *s, uint32_t threads, uint32_t *depth)
+{
+    rtk_build_args a;
+    memset(&a, 0, sizeof a);
+    a.size = sizeof a;
+    a.nodes = s->nodes;
+    a.node_count = s->node_count;
+    a.max_nodes = s->triangle_count ? 2 * s->triangle_count - 1 : 0;
+    a.prim_order = s->prim_ids;
+    a.prim_count = s->triangle_count;
+    a.thread_count = threads ? threads : 1;
+    return rtk_bvh_validate(&a, 0, depth);
+}
+
+void rtk_bvh_release(rtk_scene *s)
+{
+    rtk_wide_free(s);
+    if (s->own_traversal && s->own_state)
+        s->own_traversal->destroy(s->own_state);
+    s->own_traversal = NULL;
+    s->own_state = NULL;
+}
+
+/* Exchanges scene s's tree with slot's. */
+static void swap_tree(rtk_scene *s, rtk_tree_slot *slot)
+{
+    const rtk_tree_slot mine = {s->nodes, s->node_count, s->bvh_depth, s->prim_ids, s->own_traversal, s->own_state,
+                                s->wide};
+    s->nodes = slot->nodes, s->node_count = slot->node_count, s->bvh_depth = slot->bvh_depth;
+    s->prim_ids = slot->prim_ids;
+    s->own_traversal = slot->own_traversal, s->own_state = slot->own_state;
+    s->wide = slot->wide;
+    *slot = mine;
+}
+
+rtk_status rtk_accel_set_init(rtk_accel_set *set, const rtk_scene *s)
+{
+    memset(set, 0, sizeof *set);
+    set->trees = rtk_calloc((size_t)s->mesh_count + 1, sizeof *set->trees);
+    if (!set->trees)
+        return RTK_ERR_NOMEM;
+    set->tree_count = s->mesh_count + 1;
+    return RTK_OK;
+}
+
+void rtk_accel_swap(rtk_scene *s, rtk_accel_set *set)
+{
+    for (uint32_t i = 0; i < set->tree_count && i <= s->mesh_count; i++)
+        swap_tree(i == 0 ? s : s->meshes[i - 1], &set->trees[i]);
+    rtk_bvh_node *nodes = s->tlas_nodes;
+    uint32_t count = s->tlas_node_count, depth = s->tlas_depth, *order = s->tlas_order;
+    s->tlas_nodes = set->tlas_nodes, s->tlas_node_count = set->tlas_node_count, s->tlas_depth = set->tlas_depth;
+    s->tlas_order = set->tlas_order;
+    set->tlas_nodes = nodes, set->tlas_node_count = count, set->tlas_depth = depth, set->tlas_order = order;
+}
+
+void rtk_accel_set_free(rtk_accel_set *set)
+{
+    for (uint32_t i = 0; i < set->tree_count; i++) {
+        rtk_tree_slot *t = &set->trees[i];
+        rtk_wide_destroy(t->wide);
+        if (t->own_traversal && t->own_state)
+            t->own_traversal->destroy(t->own_state);
+        free(t->nodes);
+        free(t->prim_ids);
+    }
+    free(set->trees);
+    free(set->tlas_nodes);
+    free(set->tlas_order);
+    memset(set, 0, sizeof *set);
+}
+
+/* The plugin's own traversal functions, if its table is new enough to
+ * have them and sets both. */
+static const rtk_accelerator_fns *own_traversal(const rtk_accelerator_fns *fns)
+{
+    if (fns->size < offsetof(rtk_accelerator_fns, any) + sizeof fns->any)
+        return NULL;
+    return fns->closest && fns->any ? fns : NULL;
+}
+
+int rtk_accelerator_traverses_itself(const rtk_plugin *accelerator)
+{
+    return own_traversal(accelerator->functions) != NULL;
+}
+
+uint32_t rtk_accelerator_build_flags(const rtk_plugin *accelerator)
+{
+    const rtk_accelerator_fns *fns = accelerator->functions;
+    return fns->size >= offsetof(rtk_accelerator_fns, build_flags) + sizeof fns->build_flags ? fns->build_flags : 0;
+}
+
+/* The builder's inputs (corners, bounds, centroids of every triangle),
+ * split over threads. */
+typedef struct prep_job {
+    const rtk_scene *s;
+    rtk_bounds *bounds;
+    rtk_vec3 *centroids;
+    rtk_vec3 *vertices;
+} prep_job;
+
+/* Positions are finite (the scene checks them), so plain comparisons
+ * give fminf / fmaxf without their calls. */
+#define RTK_MINF(a, b) ((b) < (a) ? (b) : (a))
+#define RTK_MAXF(a, b) ((b) > (a) ? (b) : (a))
+
+static void prep_range(void *ctx, uint32_t begin, uint32_t end)
+{
+    const prep_job *j = ctx;
+    const uint32_t *indices = j->s->indices;
+    const float *positions = j->s->positions;
+    for (uint32_t i = begin; i < end; i++) {
+        const uint32_t *idx = indices + 3 * (size_t)i;
+        const float *p = positions + 3 * (size_t)idx[0], *q = positions + 3 * (size_t)idx[1],
+                    *r = positions + 3 * (size_t)idx[2];
+        if (j->vertices) {
+            memcpy(j->vertices + 3 * (size_t)i, p, 3 * sizeof(float));
+            memcpy(j->vertices + 3 * (size_t)i + 1, q, 3 * sizeof(float));
+            memcpy(j->vertices + 3 * (size_t)i + 2, r, 3 * sizeof(float));
+        }
+        if (!j->bounds)
+            continue;
+#if defined(__SSE2__)
+        /* A corner is one 16-byte load (a float more follows the last
+         * vertex); the boxes and centroid go out as 8 + 4 bytes each, so
+         * that no store reaches past its own triangle's (another thread
+         * may own the next). The same operations as below, lane by lane. */
+        const __m128 a = _mm_loadu_ps(p), b = _mm_loadu_ps(q), c = _mm_loadu_ps(r);
+        /* RTK_MINF(a, b) is _mm_min_ps(b, a), ties (+0 and -0) to a */
+        const __m128 lo = _mm_min_ps(c, _mm_min_ps(b, a)), hi = _mm_max_ps(c, _mm_max_ps(b, a));
+        const __m128 mid = _mm_mul_ps(_mm_add_ps(lo, hi), _mm_set1_ps(0.5f));
+#define RTK_STORE3(dst, val) \
+    (_mm_storel_pi((__m64 *)(void *)&(dst).x, val), _mm_store_ss(&(dst).z, _mm_movehl_ps(val, val)))
+        RTK_STORE3(j->bounds[i].lower, lo);
+        RTK_STORE3(j->bounds[i].upper, hi);
+        RTK_STORE3(j->centroids[i], mid);
+#undef RTK_STORE3
+#else
+        /* Scalars, not arrays filled in a loop: the boxes' 8-byte stores
+         * then read registers, not two 4-byte stores on the stack, which
+         * the CPU cannot forward (a stall of every triangle). */
+        const float lx = RTK_MINF(RTK_MINF(p[0], q[0]), r[0]), hx = RTK_MAXF(RTK_MAXF(p[0], q[0]), r[0]);
+        const float ly = RTK_MINF(RTK_MINF(p[1], q[1]), r[1]), hy = RTK_MAXF(RTK_MAXF(p[1], q[1]), r[1]);
+        const float lz = RTK_MINF(RTK_MINF(p[2], q[2]), r[2]), hz = RTK_MAXF(RTK_MAXF(p[2], q[2]), r[2]);
+        j->bounds[i].lower = rtk_vec3_make(lx, ly, lz);
+        j->bounds[i].upper = rtk_vec3_make(hx, hy, hz);
+        j->centroids[i] = rtk_vec3_make((lx + hx) * 0.5f, (ly + hy) * 0.5f, (lz + hz) * 0.5f);
+#endif
+    }
+}
+
+void rtk_bvh_prepare_inputs(const rtk_scene *s, uint32_t threads, rtk_bounds *bounds, rtk_vec3 *centroids,
+                            rtk_vec3 *vertices)
+{
+    prep_job prep = {s, bounds, centroids, vertices};
+    rtk_parallel_ranges(s->triangle_count, threads, 8192, prep_range, &prep);
+}
+
+/* Every leaf's box against its triangles' corners: the check validation
+ * skips. */
+typedef struct leaf_check {
+    const rtk_scene *s;
+    uint32_t bad_node; /* lowest failing node (UINT32_MAX: none) */
+} leaf_check;
+
+/* The first slot of leaf n of s whose corners leave its box, or the end. */
+static uint32_t first_outside(const rtk_scene *s, const rtk_bvh_node *n)
+{
+    uint32_t slot = n->offset;
+    for (; slot < n->offset + n->count; slot++) {
+        float v[9];
+        rtk_slot_corners(s, slot, v);
+        int inside = 1;
+        for (int k = 0; k < 9; k++)
+            inside &= n->lower[k % 3] <= v[k] && v[k] <= n->upper[k % 3];
+        if (!inside)
+            break;
+    }
+    return slot;
+}
+
+static void leaf_check_range(void *ctx, uint32_t begin, uint32_t end)
+{
+    leaf_check *c = ctx;
+    for (uint32_t id = begin; id < end; id++) {
+        const rtk_bvh_node *n = &c->s->nodes[id];
+        if (n->count == 0 || first_outside(c->s, n) == n->offset + n->count)
+            continue;
+        /* Ranges run concurrently: keep the lowest node, as one thread
+         * would report. */
+        uint32_t seen = __atomic_load_n(&c->bad_node, __ATOMIC_RELAXED);
+        while (id < seen &&
+               !__atomic_compare_exchange_n(&c->bad_node, &seen, id, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED))
+            ;
+        return;
+    }
+}
+
+rtk_status rtk_bvh_leaf_error(const rtk_scene *s, uint32_t leaf)
+{
+    return rtk_error(RTK_ERR_PLUGIN, "builder output: leaf %u does not enclose primitive %u", leaf,
+                     s->prim_ids[first_outside(s, &s->nodes[leaf])]);
+}
+
+rtk_status rtk_bvh_check_leaves(const rtk_scene *s, uint32_t threads)
+{
+    leaf_check c = {s, UINT32_MAX};
+    rtk_parallel_ranges(s->node_count, threads, 65536, leaf_check_range, &c);
+    return c.bad_node == UINT32_MAX ? RTK_OK : rtk_bvh_leaf_error(s, c.bad_node);
+}
+
+rtk_status rtk_bvh_finish(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes, int validated)
+{
+    rtk_status st;
+    if (s->own_traversal) {
+        free(spare);
+    } else {
+        st = rtk_wide_build(s, threads, spare, spare_bytes, !validated);
+        if (st == RTK_OK || st == RTK_ERR_PLUGIN)
+            return st;
+        rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
+    }
+    if (!validated && (st = rtk_bvh_validate_scene(s, threads, &s->bvh_depth)) != RTK_OK)
+        return st;
+    return rtk_bvh_check_leaves(s, threads);
+}
+
+rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads)
+{
+    rtk_bvh_release(s);
+    free(s->nodes);
+    free(s->prim_ids);
+    s->nodes = NULL, s->prim_ids = NULL;
+    s->node_count = 0, s->bvh_depth = 0;
+    uint32_t n = s->triangle_count;
+    if (n == 0)
+        return RTK_OK;
+    if (n > (UINT32_MAX - 1) / 2)
+        return rtk_error(RTK_ERR_NOMEM, "%u triangles are more than one BVH can index", n);
+    rtk_build_args a;
+    memset(&a, 0, sizeof a);
+    a.size = sizeof a;
+    a.prim_count = n;
+    a.max_nodes = 2 * n - 1;
+    a.thread_count = threads ? threads : 1;
+    double t0 = rtk_now();
+    /* The builder's inputs (bounds, centroids, corners: 72 bytes a
+     * triangle) share one block, dead once the tree is built: the wide
+     * tree is written there, in memory already faulted in rather than in
+     * a fresh array (first touches are costly). Only what the builder
+     * reads is computed (RTK_BUILD_NO_*: the block keeps its size, for the
+     * wide tree); a builder that reads none of it gets the whole block as
+     * scratch, and an accelerator that traverses itself no block at all. */
+    const rtk_accelerator_fns *fns = plugin->functions;
+    const uint32_t flags = rtk_accelerator_build_flags(plugin);
+    const int want_bounds = !(flags & RTK_BUILD_NO_BOUNDS), want_vertices = !(flags & RTK_BUILD_NO_VERTICES);
+    const size_t input_bytes = (sizeof(rtk_bounds) + sizeof(rtk_vec3) * 4) * (size_t)n;
+    const int want_block = want_bounds || want_vertices || !own_traversal(fns);
+    char *inputs = want_block ? rtk_alloc_large(input_bytes) : NULL;
+    rtk_bounds *bounds = inputs && want_bounds ? (rtk_bounds *)(void *)inputs : NULL;
+    rtk_vec3 *centroids = bounds ? (rtk_vec3 *)(void *)(inputs + sizeof(rtk_bounds) * (size_t)n) : NULL;
+    rtk_vec3 *vertices =
+        inputs && want_vertices ? (rtk_vec3 *)(void *)(inputs + (sizeof(rtk_bounds) + sizeof(rtk_vec3)) * (size_t)n)
+                                : NULL;
+    /* Not cleared: a builder writes the nodes it reports and every slot of
+     * prim_order, and validation reads nothing else, so clearing would be pure cost. */
+    /* Node arrays over 32 MiB, glibc's largest threshold for mapping an
+     * allocation of its own, are fresh memory every build: in huge pages
+     * (rtk_alloc_large), they fault 512 times less often (the showroom's
+     * 141 MB: 16,000 faults a build, 1.6 us each on a virtual machine),
+     * unless the builder on threads leaves most of them unwritten
+     * (RTK_BUILD_SPARSE_NODES: lbvh writes a fifth of each subtree's
+     * region, and all 141 MB would be faulted in). Smaller arrays come
+     * back from the heap already faulted in, and aligned there they
+     * faulted more (bunny, elephant). */
+    const size_t node_bytes = sizeof *a.nodes * (size_t)a.max_nodes;
+    const int huge_nodes =
+        node_bytes >= RTK_FRESH_ALLOC_BYTES && (a.thread_count == 1 || !(flags & RTK_BUILD_SPARSE_NODES));
+    a.nodes = huge_nodes ? rtk_alloc_large(node_bytes) : rtk_alloc(node_bytes);
+    a.prim_order = rtk_alloc(sizeof *a.prim_order * (size_t)n);
+    rtk_status st = RTK_OK;
+    void *state = NULL;
+    if ((want_block && !inputs) || !a.nodes || !a.prim_order) {
+        st = RTK_ERR_NOMEM;
+        goto fail;
+    }
+    if (bounds || vertices)
+        rtk_bvh_prepare_inputs(s, a.thread_count, bounds, centroids, vertices);
+    a.prim_bounds = bounds;
+    double t1 = rtk_now();
+    a.centroids = centroids;
+    a.vertices = vertices;
+    a.indices = s->indices;
+    a.positions = s->positions;
+    a.vertex_count = s->vertex_count;
+    if (inputs && !vertices) {
+        /* The block's unused part (the corners', or all of it): the
+         * builder's scratch, faulted in once for it and the wide tree after. */
+        const size_t at = bounds ? ((sizeof(rtk_bounds) + sizeof(rtk_vec3)) * (size_t)n + 63) / 64 * 64 : 0;
+        if (at < input_bytes)
+            a.scratch = inputs + at, a.scratch_bytes = input_bytes - at;
+    }
+    st = fns->create(params, &state);
+    if (st != RTK_OK) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", rtk_error_message());
+        st = rtk_error(st, "accelerator '%s' failed to start: %s", plugin->name, msg);
+        goto fail;
+    }
+    st = fns->build(state, &a);
+    const rtk_accelerator_fns *own = own_traversal(fns);
+    if (st != RTK_OK || !own)
+        fns->destroy(state);
+    if (st != RTK_OK) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", rtk_error_message());
+        st = rtk_error(st, "accelerator '%s' failed: %s", plugin->name, msg);
+        goto fail;
+    }
+    if (own && s->has_cutouts)
+        rtk_warn_once("own traversal cutouts", "accelerator '%s' traverses with its own code, which does not test "
+                      "alpha: cutout materials (foliage, fences) render as solid; pick median, sah or lbvh to see "
+                      "through them", plugin->name);
+    if (own) {
+        /* The plugin answers every trace; a tree it also emitted is checked
+         * and kept for statistics only. */
+        s->own_traversal = own;
+        s->own_state = state;
+        if (a.node_count == 0) {
+            free(inputs);
+            free(a.nodes);
+            free(a.prim_order);
+            rtk_log(RTK_LOG_DEBUG, "BVH build (%s, %u threads): %u triangles, own traversal (inputs %.2f ms, builder %.2f ms)",
+                    plugin->name, a.thread_count, n, 1e3 * (t1 - t0), 1e3 * (rtk_now() - t1));
+            return RTK_OK;
+        }
+    }
+    double t2 = rtk_now();
+    /* The structure is validated as the wide tree plans its collapse, the
+     * leaves' boxes against the corners as it gathers them. */
+    st = check_node_count(&a);
+    if (st == RTK_OK) {
+        /* The capacity past the tree, in huge pages a builder on threads
+         * may have touched (its gaps, closed): back to the system. */
+        if (huge_nodes)
+            rtk_release_tail(a.nodes, sizeof *a.nodes * (size_t)a.node_count, node_bytes);
+        s->nodes = a.nodes;
+        s->node_count = a.node_count;
+        s->prim_ids = a.prim_order;
+        st = rtk_bvh_finish(s, a.thread_count, inputs, input_bytes, 0);
+        inputs = NULL; /* taken */
+        if (st != RTK_OK) {
+            s->nodes = NULL, s->prim_ids = NULL;
+            s->node_count = 0, s->bvh_depth = 0;
+        }
+    }
+    if (st == RTK_ERR_PLUGIN) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", rtk_error_message());
+        st = rtk_error(st, "accelerator '%s' produced an invalid tree: %s", plugin->name, msg);
+    }
+    if (st != RTK_OK)
+        goto fail;
+    rtk_log(RTK_LOG_DEBUG,
+            "BVH build (%s, %u threads): %u triangles, %u nodes (inputs %.2f ms, builder %.2f ms, "
+            "wide tree with validation and leaf check %.2f ms)",
+            plugin->name, a.thread_count, n, s->node_count, 1e3 * (t1 - t0), 1e3 * (t2 - t1), 1e3 * (rtk_now() - t2));
+    return RTK_OK;
+fail:
+    rtk_bvh_release(s);
+    free(inputs);
+    free(a.nodes);
+    free(a.prim_order);
+    return st;
+}

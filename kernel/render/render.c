@@ -1,0 +1,562 @@
+/* One render, start to finish: load what the plugins need, build the BVH,
+ * render tiles on a thread pool, write the image atomically, report. */
+#include "render.h"
+#include "../config/config.h"
+#include "../image/image.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#define TILE_SIZE 16
+
+/* Shared state of the render workers. */
+typedef struct render_job {
+    const rtk_scene *scene;
+    rtk_camera camera;
+    const rtk_integrator_fns *integrator;
+    const void *istate;
+    const rtk_filter_fns *filter;
+    const void *fstate;
+    float radius;
+    uint32_t spp;
+    rtk_sampler_type sampler;
+    rtk_reconstruction recon;
+    rtk_filter_sampler fsampler; /* RTK_RECON_IMPORTANCE */
+    uint64_t seed;
+    rtk_film film;
+    uint32_t tiles_x, tiles_y, tile_count;
+    atomic_uint next_tile;
+    atomic_uint tiles_done;
+    /* Deterministic merge: finished tiles wait here for their turn. */
+    pthread_mutex_t merge_lock;
+    rtk_film_tile *pending;
+    uint8_t *ready;
+    uint32_t merge_cursor;
+    rtk_status status; /* first failure, under merge_lock */
+    atomic_int failed;  /* set with status, read by workers without the lock */
+    char error[1024];
+    /* Totals over all workers, added under merge_lock. */
+    uint64_t rays, invalid_rays, bad_samples;
+} render_job;
+
+static void merge_ready(render_job *job)
+{
+    while (job->merge_cursor < job->tile_count && job->ready[job->merge_cursor]) {
+        rtk_film_tile *t = &job->pending[job->merge_cursor];
+        rtk_film_merge(&job->film, t);
+        rtk_film_tile_free(t);
+        job->merge_cursor++;
+    }
+}
+
+static void fail(render_job *job, rtk_status st)
+{
+    pthread_mutex_lock(&job->merge_lock);
+    if (job->status == RTK_OK) {
+        job->status = st;
+        atomic_store(&job->failed, 1);
+        snprintf(job->error, sizeof job->error, "%s", rtk_error_message());
+    }
+    pthread_mutex_unlock(&job->merge_lock);
+}
+
+static void render_tile(render_job *job, uint32_t index, rtk_ctx *ctx, uint64_t *bad)
+{
+    uint32_t tx = index % job->tiles_x, ty = index / job->tiles_x;
+    uint32_t x0 = tx * TILE_SIZE, y0 = ty * TILE_SIZE;
+    uint32_t x1 = x0 + TILE_SIZE < job->film.width ? x0 + TILE_SIZE : job->film.width;
+    uint32_t y1 = y0 + TILE_SIZE < job->film.height ? y0 + TILE_SIZE : job->film.height;
+    rtk_film_tile tile;
+    rtk_status st = rtk_film_tile_init(&tile, &job->film, x0, y0, x1, y1, job->radius);
+    if (st != RTK_OK) {
+        fail(job, st);
+        return;
+    }
+    float values[RTK_FILM_CHANNELS];
+    for (uint32_t y = y0; y < y1; y++) {
+        for (uint32_t x = x0; x < x1; x++) {
+            uint64_t pixel = (uint64_t)y * job->film.width + x;
+            for (uint32_t s = 0; s < job->spp; s++) {
+                rtk_ctx_start_sample(ctx, pixel, s);
+                rtk_vec2 jitter = rtk_sample_2d(ctx);
+                float fx = (float)x + jitter.x, fy = (float)y + jitter.y, fw = 1.0f;
+                if (job->recon == RTK_RECON_IMPORTANCE) {
+                    /* The filter places the sample around the pixel centre. */
+                    float dx, dy;
+                    rtk_filter_sampler_sample(&job->fsampler, jitter, &dx, &dy, &fw);
+                    fx = (float)x + 0.5f + dx;
+                    fy = (float)y + 0.5f + dy;
+                }
+                rtk_ray ray = rtk_camera_ray(&job->camera, fx, fy);
+                ctx->film_x = fx, ctx->film_y = fy; /* for rtk_ctx_camera_differential */
+                ctx->camera_ray = ray;              /* for rtk_trace's single-sided test */
+                rtk_li_result r;
+                memset(&r, 0, sizeof r);
+                r.depth = INFINITY;
+                job->integrator->li(job->istate, ctx, &ray, &r);
+                if (!isfinite(r.radiance.r) || !isfinite(r.radiance.g) || !isfinite(r.radiance.b)) {
+                    (*bad)++;
+                    continue;
+                }
+                values[0] = r.radiance.r, values[1] = r.radiance.g, values[2] = r.radiance.b;
+                values[3] = r.albedo.r, values[4] = r.albedo.g, values[5] = r.albedo.b;
+                values[6] = r.normal.x, values[7] = r.normal.y, values[8] = r.normal.z;
+                values[9] = isfinite(r.depth) ? r.depth : 0.0f;
+                if (job->recon == RTK_RECON_IMPORTANCE)
+                    rtk_film_tile_add(&tile, (int)x, (int)y, fw, values);
+                else
+                    rtk_film_tile_splat(&tile, &job->film, fx, fy, values, job->filter, job->fstate, job->radius);
+            }
+        }
+    }
+    pthread_mutex_lock(&job->merge_lock);
+    job->pending[index] = tile;
+    job->ready[index] = 1;
+    merge_ready(job);
+    pthread_mutex_unlock(&job->merge_lock);
+    atomic_fetch_add(&job->tiles_done, 1);
+}
+
+static void *worker(void *arg)
+{
+    render_job *job = arg;
+    rtk_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.scene = job->scene;
+    ctx.camera = &job->camera;
+    rtk_ctx_set_sampler(&ctx, job->sampler, job->seed, job->spp);
+    uint64_t bad = 0;
+    for (;;) {
+        uint32_t i = atomic_fetch_add(&job->next_tile, 1);
+        if (i >= job->tile_count || atomic_load(&job->failed))
+            break;
+        render_tile(job, i, &ctx, &bad);
+    }
+    pthread_mutex_lock(&job->merge_lock);
+    job->rays += ctx.rays;
+    job->invalid_rays += ctx.invalid_rays;
+    job->bad_samples += bad;
+    pthread_mutex_unlock(&job->merge_lock);
+    return NULL;
+}
+
+static void draw_progress(uint32_t done, uint32_t total, double elapsed)
+{
+    int width = 40;
+    int filled = total ? (int)((uint64_t)done * (uint64_t)width / total) : width;
+    char bar[64];
+    for (int i = 0; i < width; i++)
+        bar[i] = i < filled ? '#' : '.';
+    bar[width] = '\0';
+    double eta = done ? elapsed * (double)(total - done) / (double)done : 0.0;
+    fprintf(stderr, "\rrender [%s] %3u%%  %.1f s, %.1f s left ", bar, total ? 100u * done / total : 100u, elapsed, eta);
+    fflush(stderr);
+}
+
+/* Renders job->film on threads; main thread draws the progress bar. */
+static rtk_status run_workers(render_job *job, uint32_t threads, int progress)
+{
+    pthread_t *ids = rtk_calloc(threads, sizeof *ids);
+    job->pending = rtk_calloc(job->tile_count, sizeof *job->pending);
+    job->ready = rtk_calloc(job->tile_count, 1);
+    if (!ids || !job->pending || !job->ready) {
+        free(ids);
+        return RTK_ERR_NOMEM;
+    }
+    uint32_t started = 0;
+    for (; started < threads; started++)
+        if (pthread_create(&ids[started], NULL, worker, job) != 0)
+            break;
+    if (started == 0) {
+        free(ids);
+        return rtk_error(RTK_ERR_NOMEM, "cannot start render threads");
+    }
+    double t0 = rtk_now();
+    if (progress) {
+        while (atomic_load(&job->tiles_done) < job->tile_count && !atomic_load(&job->failed)) {
+            draw_progress(atomic_load(&job->tiles_done), job->tile_count, rtk_now() - t0);
+            struct timespec ts = {0, 100 * 1000 * 1000};
+            nanosleep(&ts, NULL);
+        }
+    }
+    for (uint32_t i = 0; i < started; i++)
+        pthread_join(ids[i], NULL);
+    if (progress) {
+        draw_progress(atomic_load(&job->tiles_done), job->tile_count, rtk_now() - t0);
+        fputc('\n', stderr);
+    }
+    free(ids);
+    for (uint32_t i = job->merge_cursor; i < job->tile_count; i++)
+        if (job->ready[i])
+            rtk_film_tile_free(&job->pending[i]);
+    free(job->pending);
+    free(job->ready);
+    job->pending = NULL;
+    job->ready = NULL;
+    if (job->status != RTK_OK)
+        return rtk_error(job->status, "%s", job->error);
+    return RTK_OK;
+}
+
+rtk_status rtk_render_film(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
+                           const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
+                           uint64_t seed, uint32_t threads, int progress, float *pixels, rtk_render_stats *stats)
+{
+    return rtk_render_film_sampled(scene, camera, ifn, istate, ffn, fstate, spp, RTK_SAMPLER_INDEPENDENT, seed,
+                                   threads, progress, pixels, stats);
+}
+
+rtk_status rtk_render_film_sampled(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
+                                   const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
+                                   rtk_sampler_type sampler, uint64_t seed, uint32_t threads, int progress,
+                                   float *pixels, rtk_render_stats *stats)
+{
+    return rtk_render_film_mode(scene, camera, ifn, istate, ffn, fstate, spp, sampler, RTK_RECON_SPLAT, seed, threads,
+                                progress, pixels, stats);
+}
+
+rtk_status rtk_render_film_mode(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
+                                const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
+                                rtk_sampler_type sampler, rtk_reconstruction recon, uint64_t seed, uint32_t threads,
+                                int progress, float *pixels, rtk_render_stats *stats)
+{
+    render_job job;
+    memset(&job, 0, sizeof job);
+    pthread_mutex_init(&job.merge_lock, NULL);
+    job.radius = ffn->radius(fstate);
+    rtk_status st = RTK_OK;
+    if (!(job.radius > 0.0f && job.radius <= 64.0f)) {
+        st = rtk_error(RTK_ERR_PLUGIN, "filter reports radius %g, expected (0, 64]", job.radius);
+        goto done;
+    }
+    job.recon = recon;
+    if (recon == RTK_RECON_IMPORTANCE && (st = rtk_filter_sampler_init(&job.fsampler, ffn, fstate, job.radius)) != RTK_OK)
+        goto done;
+    /* Negative lobes (and importance sampling, whose weights f / pdf take
+     * the sign of f) can cancel a pixel's weights: keep |weight| sums. */
+    st = rtk_film_init(&job.film, camera->width, camera->height, RTK_FILM_CHANNELS,
+                       rtk_filter_has_negative_lobes(ffn, fstate, job.radius));
+    if (st != RTK_OK)
+        goto done;
+    job.scene = scene;
+    job.camera = *camera;
+    job.integrator = ifn;
+    job.istate = istate;
+    job.filter = ffn;
+    job.fstate = fstate;
+    job.spp = spp;
+    job.sampler = sampler;
+    job.seed = seed;
+    job.tiles_x = (camera->width + TILE_SIZE - 1) / TILE_SIZE;
+    job.tiles_y = (camera->height + TILE_SIZE - 1) / TILE_SIZE;
+    job.tile_count = job.tiles_x * job.tiles_y;
+    st = run_workers(&job, threads ? threads : 1, progress);
+    if (st != RTK_OK)
+        goto done;
+    rtk_film_resolve(&job.film, pixels);
+    if (stats) {
+        stats->rays = job.rays;
+        stats->invalid_rays = job.invalid_rays;
+        stats->bad_samples = job.bad_samples;
+    }
+done:
+    rtk_film_free(&job.film);
+    rtk_filter_sampler_free(&job.fsampler);
+    pthread_mutex_destroy(&job.merge_lock);
+    return st;
+}
+
+/* 1 when the caller's report (of report->size bytes) has the field that
+ * ends at offset end: the struct only grows at the end. */
+static int report_has(const rtk_render_report *report, size_t end)
+{
+    return report->size >= end;
+}
+
+static int has_extension(const char *path, const char *ext)
+{
+    const char *dot = strrchr(path, '.');
+    return dot && strcasecmp(dot, ext) == 0;
+}
+
+/* Prefixes the current error with context. */
+static rtk_status with_context(rtk_status st, const char *what)
+{
+    char msg[2048];
+    snprintf(msg, sizeof msg, "%s", rtk_error_message());
+    return rtk_error(st, "%s: %s", what, msg);
+}
+
+/* Images the scene and its meshes refer to, and how many were decoded
+ * (each file once: glTF meshes share their file's textures). */
+static void count_textures(const rtk_scene *s, uint32_t *total, uint32_t *decoded)
+{
+    *total = *decoded = 0;
+    for (uint32_t m = 0; m <= s->mesh_count; m++) {
+        const rtk_scene *x = m == 0 ? s : s->meshes[m - 1];
+        if (m > 0 && x->owner)
+            continue;
+        for (uint32_t i = 0; i < x->texture_count; i++) {
+            ++*total;
+            *decoded += x->textures[i].decoded && !x->textures[i].missing;
+        }
+    }
+}
+
+RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *options, rtk_render_report *report)
+{
+    rtk_render_options defaults;
+    memset(&defaults, 0, sizeof defaults);
+    if (!options)
+        options = &defaults;
+    uint32_t report_size = report->size ? report->size : (uint32_t)sizeof *report;
+    memset(report, 0, report_size < sizeof *report ? report_size : sizeof *report);
+    report->size = report_size;
+    int want_aovs = cfg->aov_albedo || cfg->aov_normal || cfg->aov_depth;
+    if (want_aovs && !has_extension(cfg->output, ".exr"))
+        return rtk_error(RTK_ERR_INVALID, "%s: film.aovs needs an EXR output (film.output = \"%s\"): use a .exr name",
+                         cfg->path, cfg->output);
+    /* The output's folder, permissions and format are checked before
+     * anything is loaded, so a bad film.output never costs a render. */
+    int out_channels = 3 + 3 * (cfg->aov_albedo != 0) + 3 * (cfg->aov_normal != 0) + (cfg->aov_depth != 0);
+    rtk_status out_st = rtk_image_check_output(cfg->output, (int)cfg->width, (int)cfg->height, out_channels);
+    if (out_st != RTK_OK) {
+        char where[1100];
+        snprintf(where, sizeof where, "%s: film.output (-o)", cfg->path);
+        return with_context(out_st, where);
+    }
+
+    rtk_sampler_type sampler = RTK_SAMPLER_INDEPENDENT;
+    if (cfg->sampler_type && !rtk_sampler_type_from_name(cfg->sampler_type, &sampler))
+        return rtk_error(RTK_ERR_INVALID, "%s: sampler.type = \"%s\": expected independent, stratified or sobol",
+                         cfg->path, cfg->sampler_type);
+    if (sampler == RTK_SAMPLER_SOBOL && (cfg->spp & (cfg->spp - 1)) != 0) {
+        uint32_t below = 1;
+        while (below <= cfg->spp / 2)
+            below *= 2;
+        char key[1100];
+        snprintf(key, sizeof key, "sobol spp %u %s", cfg->spp, cfg->path);
+        rtk_warn_once(key,
+                      "%s: sampler.type = \"sobol\" with film.spp = %u, not a power of two: only whole "
+                      "power-of-two runs of a pixel's samples are stratified nets; use %u or %u",
+                      cfg->path, cfg->spp, below, below * 2);
+    }
+    const rtk_integrator_fns *ifn = cfg->integrator.plugin->functions;
+    const rtk_filter_fns *ffn = cfg->filter.plugin->functions;
+    void *istate = NULL, *fstate = NULL;
+    rtk_scene *scene = NULL;
+    float *pixels = NULL;
+    rtk_camera camera;
+    rtk_status st = ifn->create(cfg->integrator.params, &istate);
+    if (st != RTK_OK) {
+        st = with_context(st, cfg->integrator.plugin->name);
+        istate = NULL;
+        goto done;
+    }
+    st = ffn->create(cfg->filter.params, &fstate);
+    if (st != RTK_OK) {
+        st = with_context(st, cfg->filter.plugin->name);
+        fstate = NULL;
+        goto done;
+    }
+    uint32_t threads = cfg->threads ? cfg->threads : rtk_core_count();
+
+    double t = rtk_now();
+    uint32_t needs = ifn->needs(istate);
+    rtk_interrupt_phase("loading the scene", cfg->output);
+    st = rtk_config_load_scene(cfg, needs, &scene);
+    for (uint32_t i = 0; st == RTK_OK && i < cfg->light_count; i++)
+        st = rtk_scene_add_punctual(scene, &cfg->lights[i]);
+    if (st == RTK_OK && cfg->instance_count)
+        st = rtk_config_place_instances(cfg, scene);
+    if (st == RTK_OK)
+        st = rtk_scene_set_texture_filter(scene, cfg->texture_filter);
+    if (st != RTK_OK)
+        goto done;
+    report->load_seconds = rtk_now() - t;
+    report->triangles = scene->triangle_count;
+    if (report_has(report, offsetof(rtk_render_report, instance_bytes) + sizeof report->instance_bytes)) {
+        report->instances = scene->instance_count;
+        report->meshes = scene->mesh_count;
+        report->placed_triangles = 0;
+        for (uint32_t i = 0; i < scene->instance_count; i++)
+            report->placed_triangles += scene->meshes[scene->instances[i].mesh]->triangle_count;
+        for (uint32_t i = 0; i < scene->mesh_count; i++)
+            report->triangles += scene->meshes[i]->triangle_count;
+    }
+    if (report_has(report, offsetof(rtk_render_report, textures_decoded) + sizeof report->textures_decoded))
+        count_textures(scene, &report->textures, &report->textures_decoded);
+
+    t = rtk_now();
+    rtk_interrupt_phase("building the BVH", cfg->output);
+    struct timespec build_start;
+    clock_gettime(CLOCK_REALTIME, &build_start);
+    rtk_bvh_cache_use cache;
+    st = rtk_bvh_build_cached(scene, cfg->accelerator.plugin, cfg->accelerator.params, threads, cfg->cache_dir,
+                              &cache);
+    if (st != RTK_OK)
+        goto done;
+    report->build_seconds = rtk_now() - t;
+    if (cfg->cache_dir && cfg->cache_limit) {
+        /* The trees this render used or saved are newer than build_start
+         * and stay: less two seconds, for file times from a coarse clock
+         * (a tick behind) or stored in whole seconds (two on FAT). */
+        build_start.tv_sec -= 2;
+        uint64_t freed = 0;
+        uint32_t removed = rtk_bvh_cache_prune(cfg->cache_dir, cfg->cache_limit, build_start, &freed);
+        if (removed)
+            rtk_log(RTK_LOG_INFO, "BVH cache %s: removed %u old file%s (%.1f MB) to stay within cache_limit = %llu MB",
+                    cfg->cache_dir, removed, removed == 1 ? "" : "s",
+                    (double)freed / (1024.0 * 1024.0), (unsigned long long)(cfg->cache_limit >> 20));
+    }
+    if (report_has(report, offsetof(rtk_render_report, bvh_cache_file) + sizeof report->bvh_cache_file)) {
+        report->bvh_from_cache = cache.from_cache;
+        snprintf(report->bvh_cache_file, sizeof report->bvh_cache_file, "%s", cache.file);
+    }
+    report->bvh_nodes = scene->node_count;
+    report->bvh_depth = scene->bvh_depth;
+    if (report_has(report, offsetof(rtk_render_report, instance_bytes) + sizeof report->instance_bytes)) {
+        for (uint32_t i = 0; i < scene->mesh_count; i++) {
+            report->bvh_nodes += scene->meshes[i]->node_count;
+            if (scene->meshes[i]->bvh_depth + scene->tlas_depth + 1 > report->bvh_depth)
+                report->bvh_depth = scene->meshes[i]->bvh_depth + scene->tlas_depth + 1;
+        }
+        report->bvh_nodes += scene->tlas_node_count;
+        rtk_scene_memory(scene, &report->geometry_bytes, &report->bvh_bytes, &report->instance_bytes);
+    }
+
+    rtk_camera_desc cam;
+    if (cfg->has_camera)
+        cam = cfg->camera;
+    else if (scene->has_camera)
+        cam = scene->camera;
+    else
+        cam = rtk_camera_frame(scene->bounds, 39.3f, (float)cfg->width / (float)cfg->height);
+    st = rtk_camera_init(&camera, &cam, cfg->width, cfg->height);
+    if (st != RTK_OK) {
+        st = with_context(st, cfg->path);
+        goto done;
+    }
+    if (ifn->prepare) {
+        st = ifn->prepare(istate, scene);
+        if (st != RTK_OK) {
+            st = with_context(st, cfg->integrator.plugin->name);
+            goto done;
+        }
+    }
+    size_t npix = (size_t)cfg->width * cfg->height;
+    pixels = rtk_alloc(npix * RTK_FILM_CHANNELS * sizeof(float));
+    if (!pixels) {
+        st = RTK_ERR_NOMEM;
+        goto done;
+    }
+    rtk_render_stats stats;
+    t = rtk_now();
+    rtk_interrupt_phase("rendering", cfg->output);
+    st = rtk_render_film_mode(scene, &camera, ifn, istate, ffn, fstate, cfg->spp, sampler,
+                              cfg->importance ? RTK_RECON_IMPORTANCE : RTK_RECON_SPLAT, cfg->seed, threads,
+                              options->progress && !options->quiet, pixels, &stats);
+    if (st != RTK_OK) {
+        st = with_context(st, cfg->path);
+        goto done;
+    }
+    report->render_seconds = rtk_now() - t;
+    report->rays = stats.rays;
+    report->invalid_rays = stats.invalid_rays;
+    report->bad_samples = stats.bad_samples;
+    report->width = cfg->width;
+    report->height = cfg->height;
+    report->spp = cfg->spp;
+    report->threads = threads;
+
+    double mean[3] = {0, 0, 0};
+    for (size_t i = 0; i < npix; i++)
+        for (int c = 0; c < 3; c++)
+            mean[c] += pixels[i * RTK_FILM_CHANNELS + c];
+    for (int c = 0; c < 3; c++)
+        report->mean[c] = npix ? mean[c] / (double)npix : 0.0;
+
+    /* Keep only the channels asked for, in place. */
+    const char *names[10] = {"R", "G", "B"};
+    int keep[10] = {0, 1, 2};
+    int nch = 3;
+    if (cfg->aov_albedo) {
+        names[nch] = "albedo.R", keep[nch++] = 3;
+        names[nch] = "albedo.G", keep[nch++] = 4;
+        names[nch] = "albedo.B", keep[nch++] = 5;
+    }
+    if (cfg->aov_normal) {
+        names[nch] = "normal.X", keep[nch++] = 6;
+        names[nch] = "normal.Y", keep[nch++] = 7;
+        names[nch] = "normal.Z", keep[nch++] = 8;
+    }
+    if (cfg->aov_depth)
+        names[nch] = "Z", keep[nch++] = 9;
+    for (size_t i = 0; i < npix; i++)
+        for (int c = 0; c < nch; c++)
+            pixels[i * (size_t)nch + (size_t)c] = pixels[i * RTK_FILM_CHANNELS + (size_t)keep[c]];
+    t = rtk_now();
+    rtk_interrupt_phase("writing the image", cfg->output);
+    st = rtk_image_write(cfg->output, (int)cfg->width, (int)cfg->height, nch, names, pixels, cfg->half);
+    rtk_interrupt_phase(NULL, NULL);
+    if (st != RTK_OK)
+        goto done;
+    report->write_seconds = rtk_now() - t;
+    snprintf(report->output, sizeof report->output, "%s", cfg->output);
+    if (stats.bad_samples)
+        rtk_log(RTK_LOG_WARN, "%llu NaN/Inf samples from integrator '%s' were dropped",
+                (unsigned long long)stats.bad_samples, cfg->integrator.plugin->name);
+    if (stats.invalid_rays)
+        rtk_log(RTK_LOG_WARN, "%llu invalid rays (NaN, zero direction or empty interval) were rejected",
+                (unsigned long long)stats.invalid_rays);
+done:
+    rtk_interrupt_phase(NULL, NULL);
+    report->peak_rss_bytes = rtk_peak_rss();
+    free(pixels);
+    if (istate)
+        ifn->destroy(istate);
+    if (fstate)
+        ffn->destroy(fstate);
+    rtk_scene_free(scene);
+    return st;
+}
+
+RTK_API void rtk_render_report_print(const rtk_render_report *r, FILE *f)
+{
+    double total = r->render_seconds > 0.0 ? r->render_seconds : 1e-9;
+    int has_memory = report_has(r, offsetof(rtk_render_report, instance_bytes) + sizeof r->instance_bytes);
+    fprintf(f, "load    %8.3f s   %u triangles", r->load_seconds, r->triangles);
+    if (has_memory && r->instances)
+        fprintf(f, "; %u instance%s of %u mesh%s place %llu triangles", r->instances, r->instances == 1 ? "" : "s",
+                r->meshes, r->meshes == 1 ? "" : "es", (unsigned long long)r->placed_triangles);
+    if (report_has(r, offsetof(rtk_render_report, textures_decoded) + sizeof r->textures_decoded) && r->textures)
+        fprintf(f, "; %u of %u textures decoded", r->textures_decoded, r->textures);
+    fputc('\n', f);
+    const char *cache = "";
+    if (report_has(r, offsetof(rtk_render_report, bvh_cache_file) + sizeof r->bvh_cache_file) &&
+        r->bvh_cache_file[0])
+        cache = r->bvh_from_cache ? "from cache " : "saved to cache ";
+    fprintf(f, "build   %8.3f s   %u nodes, depth %u", r->build_seconds, r->bvh_nodes, r->bvh_depth);
+    if (cache[0])
+        fprintf(f, " (%s%.1023s)", cache, r->bvh_cache_file);
+    fputc('\n', f);
+    fprintf(f, "render  %8.3f s   %ux%u, %u spp, %u threads\n", r->render_seconds, r->width, r->height, r->spp,
+            r->threads);
+    fprintf(f, "write   %8.3f s   %s\n", r->write_seconds, r->output);
+    fprintf(f, "rays    %llu (%.2f Mrays/s), %llu invalid, %llu NaN/Inf samples dropped\n",
+            (unsigned long long)r->rays, (double)r->rays / total * 1e-6, (unsigned long long)r->invalid_rays,
+            (unsigned long long)r->bad_samples);
+    fprintf(f, "mean    %.6f %.6f %.6f (linear RGB)\n", r->mean[0], r->mean[1], r->mean[2]);
+    const double mib = 1024.0 * 1024.0;
+    fprintf(f, "memory  %.1f MiB peak", (double)r->peak_rss_bytes / mib);
+    if (has_memory)
+        fprintf(f, "; geometry %.1f MiB, BVH %.1f MiB, instances %.2f MiB", (double)r->geometry_bytes / mib,
+                (double)r->bvh_bytes / mib, (double)r->instance_bytes / mib);
+    fputc('\n', f);
+}

@@ -1,0 +1,396 @@
+/* Textures: decoded once at load time, then looked up from any thread.
+ * Lookups use the glTF convention: (u, v) = (0, 0) is the top-left corner of
+ * the image and v grows downwards (row = v * height). The OBJ loader flips
+ * v to 1 - v on load, so that OBJ/OpenGL uvs (v up) fit this convention.
+ *
+ * Filtering (config textures.filter): nearest and bilinear read level 0;
+ * trilinear reads a MIP pyramid, built when the filter is set or the image
+ * decoded, whichever comes last, never while rendering. Each level halves
+ * the one above (odd sizes round down, to 1 at least) by an exact box
+ * filter: a texel of the smaller level is the area-weighted mean of the
+ * texels it covers, so every level keeps the image's mean. */
+#include "scene.h"
+#include "../image/image.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static rtk_status build_mip(rtk_texture *tex);
+static void free_mip(rtk_texture *tex);
+
+void rtk_texture_decode(rtk_texture *tex)
+{
+    rtk_texture_decode_within(tex, NULL);
+}
+
+/* Bytes a decoded texture of w x h takes: float RGBA, and a third more
+ * for the MIP levels under trilinear filtering. */
+static uint64_t decoded_bytes(int w, int h, int trilinear)
+{
+    uint64_t bytes = (uint64_t)w * (uint64_t)h * 16u;
+    return trilinear ? bytes + bytes / 3 : bytes;
+}
+
+/* Opens the texture's image and checks it against the budget: 0 (warned,
+ * marked missing) when it cannot be decoded. */
+static int open_within(rtk_texture *tex, const char *name, rtk_scene_files *files, rtk_image_source *src)
+{
+    const char *source = tex->bytes ? name : tex->path;
+    rtk_status status = RTK_ERR_INVALID;
+    if (tex->problem)
+        rtk_error(RTK_ERR_IO, "%s", tex->problem);
+    else if (source)
+        status = rtk_image_source_open(source, tex->bytes, tex->byte_count, src);
+    else
+        rtk_error(RTK_ERR_INVALID, "it has neither a file nor embedded data");
+    if (status != RTK_OK) {
+        rtk_log(RTK_LOG_WARN, "texture '%s' cannot be read (%s): rendering without it", name, rtk_error_message());
+        return 0;
+    }
+    if (!files)
+        return 1;
+    int trilinear = files->trilinear || tex->filter == RTK_TEX_TRILINEAR;
+    uint64_t need = decoded_bytes(src->width, src->height, trilinear);
+    uint64_t left = files->texture_budget > files->texture_bytes ? files->texture_budget - files->texture_bytes : 0;
+    if (need > left) {
+        rtk_log(RTK_LOG_WARN, "texture '%s' (%s, %dx%d) would take %.1f MiB decoded%s, and the scene's texture "
+                "budget has %.1f of %.0f MiB left: rendering without it; raise textures.memory in the config or "
+                "make the image smaller", name, src->format_label, src->width, src->height, (double)need / 1048576.0,
+                trilinear ? " with its MIP levels" : "", (double)left / 1048576.0,
+                (double)files->texture_budget / 1048576.0);
+        return 0;
+    }
+    files->texture_bytes += need;
+    return 1;
+}
+
+void rtk_texture_decode_within(rtk_texture *tex, rtk_scene_files *files)
+{
+    if (!tex || tex->decoded)
+        return;
+    tex->decoded = 1;
+    tex->missing = 1;
+    const char *name = tex->name ? tex->name : tex->path ? tex->path : "(unnamed)";
+    rtk_image_source src;
+    memset(&src, 0, sizeof src);
+    if (!open_within(tex, name, files, &src)) {
+        rtk_image_source_close(&src);
+        return;
+    }
+    rtk_image image;
+    rtk_status status = rtk_image_source_decode(&src, tex->srgb, &image);
+    rtk_image_source_close(&src);
+    if (status != RTK_OK) {
+        rtk_log(RTK_LOG_WARN, "texture '%s' cannot be read (%s): rendering without it", name,
+                rtk_error_message());
+        return;
+    }
+    /* One NaN texel would spread through every pixel that samples it. */
+    size_t count = (size_t)image.width * (size_t)image.height * 4;
+    size_t bad = 0;
+    for (size_t i = 0; i < count; i++) {
+        if (!isfinite(image.rgba[i])) {
+            image.rgba[i] = 0.0f;
+            bad++;
+        }
+    }
+    if (bad)
+        rtk_log(RTK_LOG_WARN, "texture '%s' has %zu non-finite values: replaced by 0", name, bad);
+    tex->has_alpha = 0;
+    for (size_t i = 3; i < count && !tex->has_alpha; i += 4)
+        tex->has_alpha = image.rgba[i] < 1.0f;
+    tex->width = image.width;
+    tex->height = image.height;
+    tex->rgba = image.rgba;
+    tex->missing = 0;
+    if (tex->filter == RTK_TEX_TRILINEAR && build_mip(tex) != RTK_OK) {
+        rtk_log(RTK_LOG_WARN, "texture '%s': no memory for its MIP levels: filtered bilinearly", name);
+        tex->filter = RTK_TEX_BILINEAR;
+    }
+}
+
+/* Weight of source texel i in texel j of the level below, along an axis
+ * of n source and m = max(1, n / 2) texels: their overlap as a fraction
+ * of j's span. Counted in units of 1/m, i spans [i m, (i + 1) m) and j
+ * spans [j n, (j + 1) n), so the fractions are exact ratios of integers. */
+static double box_weight(int i, int j, int n, int m)
+{
+    long lo = (long)i * m > (long)j * n ? (long)i * m : (long)j * n;
+    long hi = (long)(i + 1) * m < (long)(j + 1) * n ? (long)(i + 1) * m : (long)(j + 1) * n;
+    return hi > lo ? (double)(hi - lo) / (double)n : 0.0;
+}
+
+/* The level below src: each texel the box-weighted mean of the 2x2 (an
+ * odd axis: 2 or 3) source texels it covers, summed in double. */
+static float *reduce(const rtk_texture_level *src, int w, int h)
+{
+    float *dst = rtk_calloc((size_t)w * (size_t)h * 4, sizeof(float));
+    if (!dst)
+        return NULL;
+    int sw = src->width, sh = src->height;
+    for (int y = 0; y < h; y++) {
+        int y0 = (int)((long)y * sh / h), y1 = (int)(((long)(y + 1) * sh - 1) / h);
+        for (int x = 0; x < w; x++) {
+            int x0 = (int)((long)x * sw / w), x1 = (int)(((long)(x + 1) * sw - 1) / w);
+            double sum[4] = {0.0, 0.0, 0.0, 0.0};
+            for (int k = y0; k <= y1; k++) {
+                double wy = box_weight(k, y, sh, h);
+                for (int i = x0; i <= x1; i++) {
+                    double wxy = box_weight(i, x, sw, w) * wy;
+                    const float *t = src->rgba + 4 * ((size_t)k * (size_t)sw + (size_t)i);
+                    for (int c = 0; c < 4; c++)
+                        sum[c] += wxy * t[c];
+                }
+            }
+            for (int c = 0; c < 4; c++)
+                dst[4 * ((size_t)y * (size_t)w + (size_t)x) + (size_t)c] = (float)sum[c];
+        }
+    }
+    return dst;
+}
+
+static void free_mip(rtk_texture *tex)
+{
+    for (int l = 1; l < tex->levels; l++)
+        free(tex->mip[l].rgba);
+    free(tex->mip);
+    tex->mip = NULL;
+    tex->levels = 0;
+}
+
+/* Levels 0 (the image itself) down to 1x1. */
+static rtk_status build_mip(rtk_texture *tex)
+{
+    if (tex->mip || !tex->rgba || tex->width <= 0 || tex->height <= 0)
+        return RTK_OK;
+    int levels = 1;
+    for (int w = tex->width, h = tex->height; w > 1 || h > 1; levels++) {
+        w = w > 1 ? w / 2 : 1;
+        h = h > 1 ? h / 2 : 1;
+    }
+    tex->mip = rtk_calloc((size_t)levels, sizeof *tex->mip);
+    if (!tex->mip)
+        return RTK_ERR_NOMEM;
+    tex->mip[0].width = tex->width;
+    tex->mip[0].height = tex->height;
+    tex->mip[0].rgba = tex->rgba;
+    tex->levels = 1;
+    for (int l = 1; l < levels; l++) {
+        const rtk_texture_level *up = &tex->mip[l - 1];
+        int w = up->width > 1 ? up->width / 2 : 1, h = up->height > 1 ? up->height / 2 : 1;
+        float *rgba = reduce(up, w, h);
+        if (!rgba) {
+            free_mip(tex);
+            return RTK_ERR_NOMEM;
+        }
+        tex->mip[l].width = w;
+        tex->mip[l].height = h;
+        tex->mip[l].rgba = rgba;
+        tex->levels = l + 1;
+    }
+    return RTK_OK;
+}
+
+rtk_status rtk_texture_set_filter(rtk_texture *tex, rtk_texture_filter filter)
+{
+    tex->filter = filter;
+    if (filter != RTK_TEX_TRILINEAR) {
+        free_mip(tex);
+        return RTK_OK;
+    }
+    if (!tex->decoded || tex->missing)
+        return RTK_OK;
+    rtk_status st = build_mip(tex);
+    if (st != RTK_OK)
+        tex->filter = RTK_TEX_BILINEAR;
+    return st;
+}
+
+rtk_status rtk_scene_set_texture_filter(rtk_scene *scene, rtk_texture_filter filter)
+{
+    for (uint32_t m = 0; m <= scene->mesh_count; m++) {
+        rtk_scene *s = m == 0 ? scene : scene->meshes[m - 1];
+        if (m > 0 && s->owner) /* a glTF mesh shares its file's textures */
+            continue;
+        for (uint32_t i = 0; i < s->texture_count; i++) {
+            rtk_status st = rtk_texture_set_filter(&s->textures[i], filter);
+            if (st != RTK_OK)
+                return rtk_error(st, "%s: no memory for the MIP levels of texture '%s'", s->path,
+                                 s->textures[i].name ? s->textures[i].name : "");
+        }
+    }
+    return RTK_OK;
+}
+
+int rtk_texture_filter_from_name(const char *name, rtk_texture_filter *filter)
+{
+    static const struct {
+        const char *name;
+        rtk_texture_filter filter;
+    } names[] = {{"nearest", RTK_TEX_NEAREST}, {"bilinear", RTK_TEX_BILINEAR}, {"trilinear", RTK_TEX_TRILINEAR}};
+    for (size_t i = 0; name && i < sizeof names / sizeof names[0]; i++) {
+        if (strcmp(name, names[i].name) == 0) {
+            *filter = names[i].filter;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+float rtk_texture_lod(const rtk_texture *tex, const rtk_uv_footprint *fp)
+{
+    double w = tex->width, h = tex->height;
+    double x = hypot((double)fp->dudx * w, (double)fp->dvdx * h);
+    double y = hypot((double)fp->dudy * w, (double)fp->dvdy * h);
+    double r = x > y ? x : y;
+    if (r == INFINITY)
+        return 1e30f;
+    if (!(r > 0.0))
+        return 0.0f;
+    return (float)log2(r);
+}
+
+/* Repeat: wraps t (finite) to a texel coordinate in [-0.5, size - 0.5)
+ * and splits it into the two neighbouring texel indices and the weight of
+ * the second. */
+static void wrap_axis(float t, int size, int *i0, int *i1, float *frac)
+{
+    double w = (double)t - floor((double)t);
+    if (!(w >= 0.0 && w < 1.0)) /* 1 - tiny rounds to 1 */
+        w = 0.0;
+    double x = w * size - 0.5;
+    double fx = floor(x);
+    int a = (int)fx;
+    if (a < 0)
+        a = size - 1;
+    else if (a > size - 1)
+        a = size - 1;
+    int b = a + 1 < size ? a + 1 : 0;
+    *i0 = a;
+    *i1 = b;
+    *frac = (float)(x - fx);
+}
+
+/* t (finite) folded into [0, 1] by clamp or mirrored repeat. */
+static double fold(float t, int wrap)
+{
+    if (wrap == RTK_WRAP_CLAMP)
+        return t < 0.0f ? 0.0 : t > 1.0f ? 1.0 : (double)t;
+    double m = (double)t - 2.0 * floor(0.5 * (double)t);
+    if (!(m >= 0.0 && m < 2.0))
+        m = 0.0;
+    return m > 1.0 ? 2.0 - m : m;
+}
+
+/* The two texels around t along an axis of size texels and the weight of
+ * the second. Clamp and mirror both end on the edge texel: past the edge
+ * of a mirrored image lies the edge texel again. */
+static void axis_linear(float t, int size, int wrap, int *i0, int *i1, float *frac)
+{
+    if (wrap != RTK_WRAP_CLAMP && wrap != RTK_WRAP_MIRROR) {
+        wrap_axis(t, size, i0, i1, frac);
+        return;
+    }
+    double x = fold(t, wrap) * size - 0.5;
+    double fx = floor(x);
+    int a = (int)fx;
+    *i0 = a < 0 ? 0 : a > size - 1 ? size - 1 : a;
+    *i1 = a + 1 < 0 ? 0 : a + 1 > size - 1 ? size - 1 : a + 1;
+    *frac = (float)(x - fx);
+}
+
+/* The texel containing t along an axis of size texels. */
+static int axis_nearest(float t, int size, int wrap)
+{
+    double w;
+    if (wrap == RTK_WRAP_CLAMP || wrap == RTK_WRAP_MIRROR) {
+        w = fold(t, wrap);
+    } else {
+        w = (double)t - floor((double)t);
+        if (!(w >= 0.0 && w < 1.0))
+            w = 0.0;
+    }
+    int i = (int)floor(w * size);
+    return i < 0 ? 0 : i > size - 1 ? size - 1 : i;
+}
+
+static void bilinear(const rtk_texture_level *l, rtk_tex_wrap wrap, float u, float v, float rgba[4])
+{
+    size_t width = (size_t)l->width;
+    int x0, x1, y0, y1;
+    float fx, fy;
+    axis_linear(u, l->width, wrap.s, &x0, &x1, &fx);
+    axis_linear(v, l->height, wrap.t, &y0, &y1, &fy);
+    const float *t00 = l->rgba + 4 * ((size_t)y0 * width + (size_t)x0);
+    const float *t10 = l->rgba + 4 * ((size_t)y0 * width + (size_t)x1);
+    const float *t01 = l->rgba + 4 * ((size_t)y1 * width + (size_t)x0);
+    const float *t11 = l->rgba + 4 * ((size_t)y1 * width + (size_t)x1);
+    float w00 = (1.0f - fx) * (1.0f - fy), w10 = fx * (1.0f - fy);
+    float w01 = (1.0f - fx) * fy, w11 = fx * fy;
+    for (int c = 0; c < 4; c++)
+        rgba[c] = w00 * t00[c] + w10 * t10[c] + w01 * t01[c] + w11 * t11[c];
+}
+
+void rtk_texture_sample(const rtk_texture *tex, rtk_tex_wrap wrap, float u, float v, float lod, float rgba[4])
+{
+    if (!tex || !tex->decoded || tex->missing || !tex->rgba || tex->width <= 0 || tex->height <= 0) {
+        rgba[0] = rgba[1] = rgba[2] = rgba[3] = 1.0f;
+        return;
+    }
+    if (!isfinite(u) || !isfinite(v)) {
+        memcpy(rgba, tex->rgba, 4 * sizeof(float));
+        return;
+    }
+    rtk_texture_level base = {tex->width, tex->height, tex->rgba};
+    if (tex->filter == RTK_TEX_NEAREST) {
+        int x = axis_nearest(u, tex->width, wrap.s), y = axis_nearest(v, tex->height, wrap.t);
+        memcpy(rgba, tex->rgba + 4 * ((size_t)y * (size_t)tex->width + (size_t)x), 4 * sizeof(float));
+        return;
+    }
+    if (tex->filter != RTK_TEX_TRILINEAR || tex->levels < 2 || !(lod > 0.0f)) {
+        bilinear(&base, wrap, u, v, rgba);
+        return;
+    }
+    int last = tex->levels - 1;
+    if (lod >= (float)last) {
+        bilinear(&tex->mip[last], wrap, u, v, rgba);
+        return;
+    }
+    int l = (int)floorf(lod);
+    float f = lod - (float)l, a[4], b[4];
+    bilinear(&tex->mip[l], wrap, u, v, a);
+    if (f == 0.0f) {
+        memcpy(rgba, a, sizeof a);
+        return;
+    }
+    bilinear(&tex->mip[l + 1], wrap, u, v, b);
+    for (int c = 0; c < 4; c++)
+        rgba[c] = (1.0f - f) * a[c] + f * b[c];
+}
+
+void rtk_texture_lookup(const rtk_texture *tex, float u, float v, float rgba[4])
+{
+    rtk_tex_wrap repeat = {RTK_WRAP_REPEAT, RTK_WRAP_REPEAT};
+    rtk_texture_sample(tex, repeat, u, v, 0.0f, rgba);
+}
+
+void rtk_texture_free(rtk_texture *tex)
+{
+    if (!tex)
+        return;
+    free(tex->name);
+    free(tex->path);
+    free(tex->bytes);
+    free(tex->problem);
+    tex->problem = NULL;
+    free_mip(tex);
+    free(tex->rgba);
+    tex->name = tex->path = NULL;
+    tex->bytes = NULL;
+    tex->rgba = NULL;
+    tex->byte_count = 0;
+    tex->width = tex->height = 0;
+    tex->decoded = 0;
+    tex->missing = 0;
+}
