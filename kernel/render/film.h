@@ -40,17 +40,29 @@ typedef struct rtk_render_stats {
     uint64_t rays, invalid_rays, bad_samples;
 } rtk_render_stats;
 
-/* Renders scene through camera into pixels (RTK_FILM_CHANNELS floats per
- * pixel, resolved) on threads; the integrator must be prepared. */
-RTK_KERNEL_API rtk_status rtk_render_film(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
-                                          const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
-                                          uint64_t seed, uint32_t threads, int progress, float *pixels, rtk_render_stats *stats);
+/* One render of a scene into a film, for rtk_render_film. Start from
+ * RTK_FILM_RENDER_DEFAULTS and set what differs. */
+typedef struct rtk_film_render {
+    const rtk_scene *scene;
+    const rtk_camera *camera;              /* the film's size is the camera's */
+    const rtk_integrator_fns *integrator;  /* prepared for scene */
+    const void *integrator_state;
+    const rtk_filter_fns *filter;
+    const void *filter_state;
+    uint32_t spp;                          /* samples per pixel; default 1 */
+    rtk_sampler_type sampler;              /* default independent */
+    rtk_reconstruction reconstruction;     /* default splatting */
+    uint64_t seed;                         /* default 0 */
+    uint32_t threads;                      /* default 1 */
+    int progress;                          /* 1: progress bar on stderr; default 0 */
+} rtk_film_render;
 
-/* rtk_render_film with a sampler and a reconstruction. */
-rtk_status rtk_render_film_mode(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
-                                const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
-                                rtk_sampler_type sampler, rtk_reconstruction recon, uint64_t seed, uint32_t threads,
-                                int progress, float *pixels, rtk_render_stats *stats);
+#define RTK_FILM_RENDER_DEFAULTS \
+    {.spp = 1, .sampler = RTK_SAMPLER_INDEPENDENT, .reconstruction = RTK_RECON_SPLAT, .threads = 1}
+
+/* Renders r into pixels (RTK_FILM_CHANNELS floats per pixel, resolved);
+ * stats (may be NULL) gets its counters. */
+RTK_KERNEL_API rtk_status rtk_render_film(const rtk_film_render *r, float *pixels, rtk_render_stats *stats);
 
 /* One tile's padded accumulation buffer. */
 typedef struct rtk_film_tile {

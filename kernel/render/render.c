@@ -204,59 +204,40 @@ static rtk_status run_workers(render_job *job, uint32_t threads, int progress)
     return RTK_OK;
 }
 
-rtk_status rtk_render_film(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
-                           const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
-                           uint64_t seed, uint32_t threads, int progress, float *pixels, rtk_render_stats *stats)
-{
-    return rtk_render_film_sampled(scene, camera, ifn, istate, ffn, fstate, spp, RTK_SAMPLER_INDEPENDENT, seed,
-                                   threads, progress, pixels, stats);
-}
-
-rtk_status rtk_render_film_sampled(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
-                                   const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
-                                   rtk_sampler_type sampler, uint64_t seed, uint32_t threads, int progress,
-                                   float *pixels, rtk_render_stats *stats)
-{
-    return rtk_render_film_mode(scene, camera, ifn, istate, ffn, fstate, spp, sampler, RTK_RECON_SPLAT, seed, threads,
-                                progress, pixels, stats);
-}
-
-rtk_status rtk_render_film_mode(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
-                                const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
-                                rtk_sampler_type sampler, rtk_reconstruction recon, uint64_t seed, uint32_t threads,
-                                int progress, float *pixels, rtk_render_stats *stats)
+rtk_status rtk_render_film(const rtk_film_render *r, float *pixels, rtk_render_stats *stats)
 {
     render_job job;
     memset(&job, 0, sizeof job);
     pthread_mutex_init(&job.merge_lock, NULL);
-    job.radius = ffn->radius(fstate);
+    job.radius = r->filter->radius(r->filter_state);
     rtk_status st = RTK_OK;
     if (!(job.radius > 0.0f && job.radius <= 64.0f)) {
         st = rtk_error(RTK_ERR_PLUGIN, "filter reports radius %g, expected (0, 64]", job.radius);
         goto done;
     }
-    job.recon = recon;
-    if (recon == RTK_RECON_IMPORTANCE && (st = rtk_filter_sampler_init(&job.fsampler, ffn, fstate, job.radius)) != RTK_OK)
+    job.recon = r->reconstruction;
+    if (job.recon == RTK_RECON_IMPORTANCE &&
+        (st = rtk_filter_sampler_init(&job.fsampler, r->filter, r->filter_state, job.radius)) != RTK_OK)
         goto done;
     /* Negative lobes (and importance sampling, whose weights f / pdf take
      * the sign of f) can cancel a pixel's weights: keep |weight| sums. */
-    st = rtk_film_init(&job.film, camera->width, camera->height, RTK_FILM_CHANNELS,
-                       rtk_filter_has_negative_lobes(ffn, fstate, job.radius));
+    st = rtk_film_init(&job.film, r->camera->width, r->camera->height, RTK_FILM_CHANNELS,
+                       rtk_filter_has_negative_lobes(r->filter, r->filter_state, job.radius));
     if (st != RTK_OK)
         goto done;
-    job.scene = scene;
-    job.camera = *camera;
-    job.integrator = ifn;
-    job.istate = istate;
-    job.filter = ffn;
-    job.fstate = fstate;
-    job.spp = spp;
-    job.sampler = sampler;
-    job.seed = seed;
-    job.tiles_x = (camera->width + TILE_SIZE - 1) / TILE_SIZE;
-    job.tiles_y = (camera->height + TILE_SIZE - 1) / TILE_SIZE;
+    job.scene = r->scene;
+    job.camera = *r->camera;
+    job.integrator = r->integrator;
+    job.istate = r->integrator_state;
+    job.filter = r->filter;
+    job.fstate = r->filter_state;
+    job.spp = r->spp;
+    job.sampler = r->sampler;
+    job.seed = r->seed;
+    job.tiles_x = (r->camera->width + TILE_SIZE - 1) / TILE_SIZE;
+    job.tiles_y = (r->camera->height + TILE_SIZE - 1) / TILE_SIZE;
     job.tile_count = job.tiles_x * job.tiles_y;
-    st = run_workers(&job, threads ? threads : 1, progress);
+    st = run_workers(&job, r->threads ? r->threads : 1, r->progress);
     if (st != RTK_OK)
         goto done;
     rtk_film_resolve(&job.film, pixels);
@@ -459,9 +440,20 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     rtk_render_stats stats;
     t = rtk_now();
     rtk_interrupt_phase("rendering", cfg->output);
-    st = rtk_render_film_mode(scene, &camera, ifn, istate, ffn, fstate, cfg->spp, sampler,
-                              cfg->importance ? RTK_RECON_IMPORTANCE : RTK_RECON_SPLAT, cfg->seed, threads,
-                              options->progress && !options->quiet, pixels, &stats);
+    rtk_film_render job = RTK_FILM_RENDER_DEFAULTS;
+    job.scene = scene;
+    job.camera = &camera;
+    job.integrator = ifn;
+    job.integrator_state = istate;
+    job.filter = ffn;
+    job.filter_state = fstate;
+    job.spp = cfg->spp;
+    job.sampler = sampler;
+    job.reconstruction = cfg->importance ? RTK_RECON_IMPORTANCE : RTK_RECON_SPLAT;
+    job.seed = cfg->seed;
+    job.threads = threads;
+    job.progress = options->progress && !options->quiet;
+    st = rtk_render_film(&job, pixels, &stats);
     if (st != RTK_OK) {
         st = with_context(st, cfg->path);
         goto done;

@@ -73,12 +73,6 @@ void rtk_ctx_set_sampler(rtk_ctx *ctx, rtk_sampler_type type, uint64_t seed, uin
 /* Starts sample `sample` of pixel `pixel` and resets the dimension counter. */
 RTK_KERNEL_API void rtk_ctx_start_sample(rtk_ctx *ctx, uint64_t pixel, uint64_t sample);
 
-/* rtk_render_film (film.h) with the sample generator chosen. */
-struct rtk_render_stats;
-rtk_status rtk_render_film_sampled(const rtk_scene *scene, const rtk_camera *camera, const rtk_integrator_fns *ifn,
-                                   const void *istate, const rtk_filter_fns *ffn, const void *fstate, uint32_t spp,
-                                   rtk_sampler_type sampler, uint64_t seed, uint32_t threads, int progress,
-                                   float *pixels, struct rtk_render_stats *stats);
 
 #include "film.h"
 

@@ -79,9 +79,18 @@ static rtk_status render(const rtk_integrator_fns *ifn, const filter *fl, uint32
     rtk_scene *scene = rtk_scene_new("film", 0);
     rtk_camera_desc d = {rtk_vec3_make(0, 0, 1), rtk_vec3_make(0, 0, 0), rtk_vec3_make(0, 1, 0), 60.0f};
     rtk_status st = rtk_camera_init(&camera, &d, w, h);
+    rtk_film_render job = RTK_FILM_RENDER_DEFAULTS;
+    job.scene = scene;
+    job.camera = &camera;
+    job.integrator = ifn;
+    job.filter = fl->f;
+    job.filter_state = fl->state;
+    job.spp = spp;
+    job.reconstruction = recon;
+    job.seed = seed;
+    job.threads = 2;
     if (st == RTK_OK)
-        st = rtk_render_film_mode(scene, &camera, ifn, NULL, fl->f, fl->state, spp, RTK_SAMPLER_INDEPENDENT, recon,
-                                  seed, 2, 0, px, stats);
+        st = rtk_render_film(&job, px, stats);
     rtk_scene_free(scene);
     return st;
 }

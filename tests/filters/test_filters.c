@@ -372,9 +372,18 @@ static void check_constant(const char *name, const filter *fl, uint32_t w, uint3
     rtk_camera cam;
     float *px = malloc(sizeof(float) * RTK_FILM_CHANNELS * w * h);
     rtk_status st = scene && px ? rtk_camera_init(&cam, &d, w, h) : RTK_ERR_NOMEM;
+    rtk_film_render job = RTK_FILM_RENDER_DEFAULTS;
+    job.scene = scene;
+    job.camera = &cam;
+    job.integrator = &constant;
+    job.filter = fl->f;
+    job.filter_state = fl->state;
+    job.spp = spp;
+    job.reconstruction = recon;
+    job.seed = 9;
+    job.threads = 2;
     if (st == RTK_OK)
-        st = rtk_render_film_mode(scene, &cam, &constant, NULL, fl->f, fl->state, spp, RTK_SAMPLER_INDEPENDENT, recon, 9,
-                                  2, 0, px, NULL);
+        st = rtk_render_film(&job, px, NULL);
     uint32_t bad = 0, border_bad = 0;
     double worst = 0.0;
     for (uint32_t i = 0; st == RTK_OK && i < w * h; i++) {

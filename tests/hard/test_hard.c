@@ -137,8 +137,17 @@ static void ao_inside(const rtk_plugin *accel, const rtk_plugin *ao)
             d.fov_deg = 100.0f;
             rtk_camera cam;
             st = px ? rtk_camera_init(&cam, &d, w, h) : RTK_ERR_NOMEM;
+            rtk_film_render job = RTK_FILM_RENDER_DEFAULTS;
+            job.scene = s;
+            job.camera = &cam;
+            job.integrator = f;
+            job.integrator_state = state;
+            job.filter = &unit_box;
+            job.spp = 4;
+            job.seed = 9;
+            job.threads = 2;
             if (st == RTK_OK)
-                st = rtk_render_film(s, &cam, f, state, &unit_box, NULL, 4, 9, 2, 0, px, &stats);
+                st = rtk_render_film(&job, px, &stats);
             for (size_t i = 0; st == RTK_OK && i < (size_t)w * h; i++)
                 for (int c = 0; c < 3; c++)
                     lit += px[i * RTK_FILM_CHANNELS + (size_t)c] != 0.0f;

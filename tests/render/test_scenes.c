@@ -41,7 +41,17 @@ static float *render(rtk_scene *scene, const plugins *p, const rtk_camera_desc *
     if (rtk_bvh_build(scene, p->median, ap, 2) == RTK_OK && rtk_camera_init(&cam, desc, w, h) == RTK_OK &&
         ifn->create(ip, &is) == RTK_OK && ffn->create(fp, &fs) == RTK_OK) {
         pixels = malloc(sizeof(float) * RTK_FILM_CHANNELS * w * h);
-        if (pixels && rtk_render_film(scene, &cam, ifn, is, ffn, fs, spp, 3, threads, 0, pixels, NULL) != RTK_OK) {
+        rtk_film_render job = RTK_FILM_RENDER_DEFAULTS;
+        job.scene = scene;
+        job.camera = &cam;
+        job.integrator = ifn;
+        job.integrator_state = is;
+        job.filter = ffn;
+        job.filter_state = fs;
+        job.spp = spp;
+        job.seed = 3;
+        job.threads = threads;
+        if (pixels && rtk_render_film(&job, pixels, NULL) != RTK_OK) {
             free(pixels);
             pixels = NULL;
         }

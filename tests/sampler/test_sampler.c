@@ -11,7 +11,7 @@
  *  - no value reaches 1.0: the float conversions at their extreme inputs,
  *    and every generator over many pixels and seeds;
  *  - sample indices past 2^32 give other points than those below;
- *  - a render through rtk_render_film_sampled is bit-identical on 1 and 2
+ *  - a render through rtk_render_film is bit-identical on 1 and 2
  *    threads with every generator;
  *  - the config accepts the three types and rtk_render warns once, naming
  *    the config, when sobol gets a spp that is not a power of two;
@@ -428,11 +428,17 @@ static void test_threads(void)
         for (int t = 0; t < 3; t++) {
             for (int k = 0; k < 2; k++) {
                 img[t][k] = calloc(1, bytes);
+                rtk_film_render job = RTK_FILM_RENDER_DEFAULTS;
+                job.scene = scene;
+                job.camera = &cam;
+                job.integrator = &draws_integrator;
+                job.filter = &box;
+                job.spp = spps[n];
+                job.sampler = (rtk_sampler_type)t;
+                job.seed = 5;
+                job.threads = (uint32_t)k + 1;
                 if (st == RTK_OK)
-                    st = img[t][k] ? rtk_render_film_sampled(scene, &cam, &draws_integrator, NULL, &box, NULL,
-                                                             spps[n], (rtk_sampler_type)t, 5, k + 1, 0, img[t][k],
-                                                             NULL)
-                                   : RTK_ERR_NOMEM;
+                    st = img[t][k] ? rtk_render_film(&job, img[t][k], NULL) : RTK_ERR_NOMEM;
             }
             check(st == RTK_OK && memcmp(img[t][0], img[t][1], bytes) == 0,
                   "%s: %ux%u at %u spp is bit-identical on 1 and 2 threads", names[t], w, h, spps[n]);

@@ -2181,8 +2181,16 @@ static void check_constant_render(runner *r, const rtk_filter_fns *f, void *stat
     rtk_camera cam;
     float *px = rtk_alloc((size_t)w * h * RTK_FILM_CHANNELS * sizeof(float));
     rtk_status st = scene && px ? rtk_camera_init(&cam, &d, w, h) : RTK_ERR_NOMEM;
+    rtk_film_render job = RTK_FILM_RENDER_DEFAULTS;
+    job.scene = scene;
+    job.camera = &cam;
+    job.integrator = &constant_integrator;
+    job.filter = f;
+    job.filter_state = state;
+    job.seed = 3;
+    job.threads = 2;
     if (st == RTK_OK)
-        st = rtk_render_film(scene, &cam, &constant_integrator, NULL, f, state, 1, 3, 2, 0, px, NULL);
+        st = rtk_render_film(&job, px, NULL);
     snprintf(name, sizeof name, "constant radiance gives the constant in every pixel, borders included [%s]", label);
     if (st != RTK_OK) {
         check(r, 0, name, "render failed: %s", rtk_error_message());
@@ -2494,10 +2502,17 @@ static void conform_integrator(runner *r, const rtk_plugin *p)
             size_t count = (size_t)24 * 20 * RTK_FILM_CHANNELS;
             float *a = rtk_alloc(count * sizeof(float)), *b = rtk_alloc(count * sizeof(float));
             rtk_render_stats sa, sb;
-            rtk_status s1 = a && b ? rtk_render_film(scene, &cam, f, state, &rtk_conform_pixel_box, NULL, 4, 7, 1, 0, a, &sa)
-                                   : RTK_ERR_NOMEM;
-            rtk_status s2 = s1 == RTK_OK ? rtk_render_film(scene, &cam, f, state, &rtk_conform_pixel_box, NULL, 4, 7, 2, 0, b, &sb)
-                                         : s1;
+            rtk_film_render job = RTK_FILM_RENDER_DEFAULTS;
+            job.scene = scene;
+            job.camera = &cam;
+            job.integrator = f;
+            job.integrator_state = state;
+            job.filter = &rtk_conform_pixel_box;
+            job.spp = 4;
+            job.seed = 7;
+            rtk_status s1 = a && b ? rtk_render_film(&job, a, &sa) : RTK_ERR_NOMEM;
+            job.threads = 2;
+            rtk_status s2 = s1 == RTK_OK ? rtk_render_film(&job, b, &sb) : s1;
             snprintf(name, sizeof name, "renders the standard scene [%s]", label);
             check(r, s1 == RTK_OK && s2 == RTK_OK, name, "%s", rtk_error_message());
             if (s1 == RTK_OK && s2 == RTK_OK) {

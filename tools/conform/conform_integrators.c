@@ -647,8 +647,16 @@ static float *bench_render(tally *t, const bench *b, const rtk_camera_desc *desc
     rtk_status st = rtk_camera_init(&cam, desc, w, h);
     if (st == RTK_OK) {
         px = rtk_alloc(sizeof(float) * RTK_FILM_CHANNELS * w * h);
-        st = px ? rtk_render_film(b->scene, &cam, b->f, b->state, &rtk_conform_pixel_box, NULL, spp, 3, threads, 0, px, NULL)
-                : rtk_error(RTK_ERR_NOMEM, "out of memory for the image");
+        rtk_film_render job = RTK_FILM_RENDER_DEFAULTS;
+        job.scene = b->scene;
+        job.camera = &cam;
+        job.integrator = b->f;
+        job.integrator_state = b->state;
+        job.filter = &rtk_conform_pixel_box;
+        job.spp = spp;
+        job.seed = 3;
+        job.threads = threads;
+        st = px ? rtk_render_film(&job, px, NULL) : rtk_error(RTK_ERR_NOMEM, "out of memory for the image");
     }
     if (st != RTK_OK) {
         check(t, 0, "%s: render failed: %s", what, rtk_error_message());
