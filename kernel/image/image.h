@@ -43,7 +43,7 @@ void rtk_image_source_close(rtk_image_source *src);
 /* Decodes a file (bytes == NULL) or an in-memory encoded image through
  * OpenImageIO into linear RGBA; srgb: the 8-bit data is sRGB-encoded.
  * This and rtk_image_write load the image module on first use
- * (kernel/image.c); a module that cannot load is an RTK_ERR_IO naming it. */
+ * (kernel/image/image.c); a module that cannot load is an RTK_ERR_IO naming it. */
 RTK_KERNEL_API rtk_status rtk_image_read(const char *path, const void *bytes, size_t byte_count, int srgb,
                                          rtk_image *out);
 

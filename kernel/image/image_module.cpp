@@ -1,6 +1,6 @@
 /* Image decode and encode through OpenImageIO, behind the C interface of
- * internal.h. This file is its own module (rtk_image.so), which librtk
- * loads the first time an image is read or written (kernel/image.c):
+ * image.h. This file is its own module (rtk_image.so), which librtk
+ * loads the first time an image is read or written (kernel/image/image.c):
  * OpenImageIO brings some 250 libraries whose symbol binding took most
  * of every rtk process's start (0.4 s). Rules for this file: no exception
  * leaves it (every entry point catches everything and turns it into an

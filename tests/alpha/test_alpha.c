@@ -1,4 +1,4 @@
-/* Alpha cutouts in traversal (kernel/alpha.c, bvh.c, bvh_wide.c):
+/* Alpha cutouts in traversal (kernel/scene/alpha.c, kernel/accel/):
  * - a quad with a checkerboard coverage texture (map_d; RGBA alpha or a
  *   grey mask) lets rays through exactly in the cut-out cells, for closest
  *   and any hit, on every traversal path this CPU runs;

@@ -1,4 +1,4 @@
-/* The pieces of kernel/bench.c: the recipe's OBJ reader, PCG32 against
+/* The pieces of tools/bench/bench.c: the recipe's OBJ reader, PCG32 against
  * the reference generator's published output, the ray hash and primary
  * rays against values computed by recipe.py (Python doubles), the AO
  * basis. test_bench.py checks the whole `rtk bench` command. */

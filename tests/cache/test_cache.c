@@ -1,4 +1,4 @@
-/* Tests for kernel/bvh_cache.c: a saved BVH loads back bit for bit and
+/* Tests for kernel/accel/bvh_cache.c: a saved BVH loads back bit for bit and
  * traces the same; every kind of damaged, stale or hostile cache file is
  * refused with exactly one warning naming the file and the reason, the
  * build falls back to the plugin, and the rewritten file loads next time. */

@@ -1,4 +1,4 @@
-/* Tests of kernel/config.c through the real plugin registry: each bad
+/* Tests of kernel/config/config.c through the real plugin registry: each bad
  * config is written to a temporary directory (so line numbers are known)
  * and the error must name the file, the line and the key at fault. The
  * broken configs in scenes/bad/ are checked the same way. */

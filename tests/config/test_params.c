@@ -1,4 +1,4 @@
-/* Tests of kernel/params.c: defaults, text parsing with type, range and
+/* Tests of kernel/core/params.c: defaults, text parsing with type, range and
  * choice checks, the typed getters, schema checks and suggestions. */
 #include "config/config.h"
 #include "render/render.h"

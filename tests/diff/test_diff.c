@@ -1,4 +1,4 @@
-/* Tests for kernel/diff.c: every metric against values worked out by hand
+/* Tests for tools/diff/diff.c: every metric against values worked out by hand
  * on small buffers, NaN/Inf counting, options, and the file path (sizes
  * that differ, missing files, error images) through files written with
  * rtk_image_write to a fresh directory under $TMPDIR.

@@ -1,4 +1,4 @@
-/* The film (kernel/film.c) and its two reconstructions, splatting and
+/* The film (kernel/render/film.c) and its two reconstructions, splatting and
  * filter importance sampling:
  * - 1e6 samples of radiance 0.1 average to 0.1 within 1e-6 relative;
  * - injected NaN/Inf samples are dropped and counted, exactly;

@@ -5,7 +5,9 @@
 #ifndef RTK_FUZZ_COMMON_H
 #define RTK_FUZZ_COMMON_H
 
-#include "internal.h"
+#include "config/config.h"
+#include "render/render.h"
+#include "image/image.h"
 
 #include <rtk/host.h>
 

@@ -1,4 +1,4 @@
-/* glTF features and refusals (kernel/io/gltf.cpp): each on a small file
+/* glTF features and refusals (kernel/scene/io/gltf.cpp): each on a small file
  * written here, its buffer made by the gbuf helpers below, then the
  * Khronos sample models of ../shared/data/gltf-samples when present.
  * - refusals before tinygltf parses: JSON nested past the limit (.gltf

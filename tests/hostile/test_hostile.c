@@ -1,5 +1,6 @@
-/* Hostile and broken files (kernel/files.c, kernel/image_format.c,
- * kernel/io/obj.cpp, kernel/io/gltf.cpp, kernel/texture.c, kernel/log.c):
+/* Hostile and broken files (kernel/core/files.c, kernel/scene/files.c,
+ * kernel/image/image_format.c, kernel/scene/io/obj.cpp, kernel/scene/io/gltf.cpp,
+ * kernel/scene/texture.c, kernel/core/log.c):
  * each input is made here, small, in a temporary folder. A watchdog
  * (alarm) turns a hang into a failure instead of a stuck test. */
 #include "config/config.h"

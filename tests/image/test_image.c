@@ -1,4 +1,4 @@
-/* Tests for kernel/io/image.cpp and kernel/texture.c: exact round trips,
+/* Tests for kernel/image/image_module.cpp and kernel/scene/texture.c: exact round trips,
  * channel names, atomic writes, sRGB decoding, texture lookups and broken
  * or hostile files. Files go to a fresh directory under $TMPDIR. */
 #include "config/config.h"

@@ -1,4 +1,4 @@
-/* Tests for two-level instancing (kernel/instance.c), for every shipped
+/* Tests for two-level instancing (kernel/accel/instance.c), for every shipped
  * builder with the kernel's traversal:
  * - a mesh placed by six transforms (rotation, non-uniform and tiny scale,
  *   a mirror, an offset of 1e4) beside world-space triangles answers as

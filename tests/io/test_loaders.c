@@ -1,4 +1,4 @@
-/* Scene loaders (kernel/scene_build.c, kernel/io/obj.cpp, kernel/io/gltf.cpp):
+/* Scene loaders (kernel/scene/scene_build.c, kernel/scene/io/obj.cpp, kernel/scene/io/gltf.cpp):
  * small OBJ and glTF files written here into a temporary folder, then the
  * meshes of ../shared/data when that folder is present. */
 #include "config/config.h"

@@ -1,4 +1,4 @@
-/* Tangent-space normal maps (kernel/normalmap.c) through rtk_surface_at:
+/* Tangent-space normal maps (kernel/scene/normalmap.c) through rtk_surface_at:
  * a quad whose normal map holds one direction n_ts gets the shading
  * normal T x + B y + N z, exactly, with T along +u and B towards the top
  * of the image (OpenGL convention); rotated and mirrored uv mappings turn

@@ -1,4 +1,4 @@
-/* kernel/output.c and the write side of kernel/image.c through their C
+/* kernel/core/output.c and the write side of kernel/image/image.c through their C
  * interface: a JPEG too wide for libjpeg is refused before libjpeg can
  * exit; rtk_out_open/rtk_out_close (bench --csv, sweep) under a file size
  * limit fail with EFBIG, keep the old file and leave no temporary, and

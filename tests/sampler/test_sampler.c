@@ -1,4 +1,4 @@
-/* The kernel's sample generators (kernel/sampler.c), deterministic and
+/* The kernel's sample generators (kernel/render/sampler.c), deterministic and
  * without clocks:
  *  - independent draws exactly today's PCG32 streams;
  *  - stratified puts one sample in each stratum of every 1D draw (spp

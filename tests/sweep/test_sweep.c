@@ -1,4 +1,4 @@
-/* Tests for the arithmetic of kernel/sweep.c through the public API: the
+/* Tests for the arithmetic of tools/sweep/sweep.c through the public API: the
  * log-log slope fit and the time-to-error interpolation, on synthetic
  * points whose answers are exact (power laws, and a three-point fit worked
  * out by hand), and every case where no answer may be made up. */

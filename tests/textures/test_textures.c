@@ -1,4 +1,4 @@
-/* Texture filtering (kernel/texture.c, scene.c, camera.c, render.c):
+/* Texture filtering (kernel/scene/texture.c, scene.c, camera.c, render.c):
  * - the MIP pyramid of odd and even images: level sizes, and every texel
  *   the area mean of the image over its rectangle (exact to float
  *   rounding; the 2x2 means of an even image bit for bit);
