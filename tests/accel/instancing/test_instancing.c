@@ -27,7 +27,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "../check.h"
+#include "check.h"
 
 static double frand(rtk_pcg32 *rng, double lo, double hi)
 {

@@ -18,7 +18,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "../check.h"
+#include "check.h"
 
 static char tmpdir[256];
 

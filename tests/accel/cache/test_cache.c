@@ -20,7 +20,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "../check.h"
+#include "check.h"
 
 /* Runs many checks quietly; prints one line for the group. */
 static void group_done(const char *name, int before_failed, int before_passed)

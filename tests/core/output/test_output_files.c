@@ -4,7 +4,7 @@
  * limit fail with EFBIG, keep the old file and leave no temporary, and
  * SIGXFSZ's action is back to what it was afterwards; the registry hands
  * out each slot once. */
-#include "../check.h"
+#include "check.h"
 #include "config/config.h"
 #include "render/render.h"
 #include "image/image.h"

@@ -15,7 +15,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "../check.h"
+#include "check.h"
 
 #ifdef RTK_HAVE_MESHOPT
 #include <meshoptimizer.h>

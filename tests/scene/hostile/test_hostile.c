@@ -6,7 +6,7 @@
 #include "config/config.h"
 #include "render/render.h"
 #include "image/image.h"
-#include "../check.h"
+#include "check.h"
 
 #include <errno.h>
 #include <fcntl.h>

@@ -18,7 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "../check.h"
+#include "check.h"
 
 static void constant_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
 {

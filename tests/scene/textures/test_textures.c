@@ -30,7 +30,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "../check.h"
+#include "check.h"
 
 static char tmpdir[256];
 static const rtk_plugin *median, *headlight, *whitted;

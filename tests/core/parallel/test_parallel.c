@@ -7,7 +7,7 @@
 #include "config/config.h"
 #include "render/render.h"
 #include "image/image.h"
-#include "../check.h"
+#include "check.h"
 
 #include <pthread.h>
 #include <stdatomic.h>
