@@ -1,4 +1,4 @@
-# Shared by the tests/output scripts (sourced): counters and the check of a
+# Shared by the tests/core/output scripts (sourced): counters and the check of a
 # write that had to fail.
 passed=0
 failed=0
