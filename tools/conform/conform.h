@@ -1,10 +1,13 @@
-/* The accelerator conformance checks by group, for callers that want some
- * of them at a different size than `rtk conform` runs them (tests/hard
- * traces the icosphere with a million rays), and the integrator profiles'
- * exact tests (conform_integrators.c). Kernel-internal: the public entry
- * point stays rtk_conform (include/rtk/host.h). */
-#ifndef RTK_CONFORM_HARD_H
-#define RTK_CONFORM_HARD_H
+/* The conformance runner's private header: the options tests use to run
+ * the accelerator checks at other sizes (tests/hard traces the icosphere
+ * with a million rays), the stand-ins integrator checks render with, and
+ * what the runner's files share: the check bookkeeping and parameter sets
+ * (conform.c), one entry per plugin kind (conform_accelerators.c,
+ * conform_filters.c, conform_integrators.c) and the integrators'
+ * known-answer profiles (conform_profiles.c). The public entry point is
+ * rtk_conform (tools/tools.h). */
+#ifndef RTK_CONFORM_H
+#define RTK_CONFORM_H
 
 #include "render/render.h"
 #include "../tools.h"
@@ -38,7 +41,7 @@ typedef struct rtk_conform_options {
 } rtk_conform_options;
 
 /* Stand-ins for integrator checks, which must not depend on any plugin
- * but the one under test (conform.c): an accelerator that makes one leaf
+ * but the one under test (conform_integrators.c): an accelerator that makes one leaf
  * over everything, and a box filter of radius 1/2, so that each sample
  * counts in the pixel it falls in only. */
 extern const rtk_plugin rtk_conform_one_leaf;
@@ -48,6 +51,43 @@ extern const rtk_filter_fns rtk_conform_pixel_box;
  * options only concern accelerators. */
 rtk_status rtk_conform_run(const char *path, const rtk_conform_options *options, FILE *out, int *passed,
                            int *failed);
+
+/* Where check lines go and what they count. */
+typedef struct rtk_conform_runner {
+    FILE *out;
+    int passed, failed;
+} rtk_conform_runner;
+
+/* One check line: "ok    name", or "FAIL  name: " and the printf-style
+ * detail; counted into r. */
+void rtk_conform_check(rtk_conform_runner *r, int ok, const char *name, const char *fmt, ...) RTK_PRINTF(4, 5);
+
+/* Parameter sets to try: index 0 the defaults, then each numeric parameter
+ * at its bounds, each choice, each bool flipped, one at a time; label gets
+ * the set's name ("defaults", "rays=4096"). NULL past the end. [caller
+ * destroys] */
+rtk_params *rtk_conform_param_variant(const rtk_plugin *p, int index, char *label, size_t cap);
+
+/* The number of parameter sets rtk_conform_param_variant yields for p. */
+uint32_t rtk_conform_variant_count(const rtk_plugin *p);
+
+/* Creates an instance with parameter set vi, checking both steps; label
+ * names the set. Returns 1 with *state set on success. */
+int rtk_conform_create_variant(rtk_conform_runner *r, const rtk_plugin *p, uint32_t vi,
+                               rtk_status (*create)(const rtk_params *, void **), char *label, size_t cap,
+                               void **state);
+
+/* A uniform float in [lo, hi) from rng. */
+static inline float rtk_conform_frand(rtk_pcg32 *rng, float lo, float hi)
+{
+    return lo + (hi - lo) * rtk_pcg32_float(rng);
+}
+
+/* The checks of each kind, after the schema checks; o (may be NULL) only
+ * concerns accelerators. */
+void rtk_conform_accelerator(rtk_conform_runner *r, const rtk_plugin *p, const rtk_conform_options *o);
+void rtk_conform_filter(rtk_conform_runner *r, const rtk_plugin *p);
+void rtk_conform_integrator(rtk_conform_runner *r, const rtk_plugin *p);
 
 /* Runs the exact tests of the profile integrator p declares
  * (rtk_plugin.conform), one line per check to out, counting into *passed
