@@ -373,22 +373,6 @@ static int is(const cli_arg *arg, const char *name)
     return arg->opt && strcmp(arg->opt->name, name) == 0;
 }
 
-static const char *type_name(rtk_param_type t)
-{
-    switch (t) {
-    case RTK_PARAM_INT:
-        return "int";
-    case RTK_PARAM_FLOAT:
-        return "float";
-    case RTK_PARAM_BOOL:
-        return "bool";
-    case RTK_PARAM_STRING:
-        return "string";
-    }
-    return "?";
-}
-
-
 /* Splits a comma-separated list in place into items (at most cap). */
 static size_t split_list(char *list, char **items, size_t cap)
 {
@@ -425,7 +409,8 @@ static void print_param(const rtk_param_desc *d)
         snprintf(range, sizeof range, "one of %s", d->choices);
     else if ((d->type == RTK_PARAM_INT || d->type == RTK_PARAM_FLOAT) && rtk_param_has_range(d))
         snprintf(range, sizeof range, "[%g, %g]", d->min, d->max);
-    printf("  %-14s %-7s default %-10s %-18s %s\n", d->name, type_name(d->type), def, range, d->doc ? d->doc : "");
+    printf("  %-14s %-7s default %-10s %-18s %s\n", d->name, rtk_param_type_name(d->type), def, range,
+           d->doc ? d->doc : "");
 }
 
 /* rtk plugins [NAME] */

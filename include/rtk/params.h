@@ -38,6 +38,10 @@ static inline int rtk_param_has_range(const rtk_param_desc *desc)
     return desc->min != 0.0 || desc->max != 0.0;
 }
 
+/* The type's name as schemas and messages spell it: "int", "float",
+ * "bool", "string"; "unknown" for any other value. [any thread] */
+RTK_API const char *rtk_param_type_name(rtk_param_type type);
+
 /* Validated values for one plugin instance (opaque, kernel-owned). */
 typedef struct rtk_params rtk_params;
 

@@ -32,6 +32,17 @@ static const char *type_text(rtk_param_type type)
     return "a value of an unknown type";
 }
 
+RTK_API const char *rtk_param_type_name(rtk_param_type type)
+{
+    switch (type) {
+    case RTK_PARAM_INT: return "int";
+    case RTK_PARAM_FLOAT: return "float";
+    case RTK_PARAM_BOOL: return "bool";
+    case RTK_PARAM_STRING: return "string";
+    }
+    return "unknown";
+}
+
 static rtk_param_value *find_value(const rtk_params *params, const char *name)
 {
     for (uint32_t i = 0; i < params->count; i++) {

@@ -67,6 +67,16 @@ static void test_defaults_and_getters(void)
     rtk_params_destroy(p);
 }
 
+/* The one spelling of the types that rtk plugins and rtk conform print. */
+static void test_type_names(void)
+{
+    CHECK(strcmp(rtk_param_type_name(RTK_PARAM_INT), "int") == 0);
+    CHECK(strcmp(rtk_param_type_name(RTK_PARAM_FLOAT), "float") == 0);
+    CHECK(strcmp(rtk_param_type_name(RTK_PARAM_BOOL), "bool") == 0);
+    CHECK(strcmp(rtk_param_type_name(RTK_PARAM_STRING), "string") == 0);
+    CHECK(strcmp(rtk_param_type_name((rtk_param_type)0), "unknown") == 0);
+}
+
 static void test_set_text(void)
 {
     rtk_params *p = rtk_params_defaults(&ao);
@@ -252,6 +262,7 @@ int main(void)
 {
     rtk_log_set_level(RTK_LOG_ERROR); /* the getter warnings are expected here */
     test_defaults_and_getters();
+    test_type_names();
     test_set_text();
     test_check_schema();
     test_ranges();

@@ -738,21 +738,6 @@ static const profile profiles[] = {
     {"headlight", {{"ambient", RTK_PARAM_FLOAT}, {NULL, 0}}, headlight_profile},
 };
 
-static const char *type_name(rtk_param_type type)
-{
-    switch (type) {
-    case RTK_PARAM_INT:
-        return "int";
-    case RTK_PARAM_FLOAT:
-        return "float";
-    case RTK_PARAM_BOOL:
-        return "bool";
-    case RTK_PARAM_STRING:
-        return "string";
-    }
-    return "unknown";
-}
-
 void rtk_conform_profile(const rtk_plugin *p, FILE *out, int *passed, int *failed)
 {
     tally t = {out, passed, failed};
@@ -782,12 +767,12 @@ void rtk_conform_profile(const rtk_plugin *p, FILE *out, int *passed, int *faile
             found = 0;
             if (d)
                 check(&t, 0, "profile \"%s\": integrator '%s' declares conform = \"%s\", which sets the %s parameter "
-                      "'%s', but the plugin's '%s' is of type %s", pr->name, p->name, pr->name, type_name(want->type),
-                      want->name, want->name, type_name(d->type));
+                      "'%s', but the plugin's '%s' is of type %s", pr->name, p->name, pr->name,
+                      rtk_param_type_name(want->type), want->name, want->name, rtk_param_type_name(d->type));
             else
                 check(&t, 0, "profile \"%s\": integrator '%s' declares conform = \"%s\", which sets the %s parameter "
-                      "'%s', but the plugin has no parameter '%s'", pr->name, p->name, pr->name, type_name(want->type),
-                      want->name, want->name);
+                      "'%s', but the plugin has no parameter '%s'", pr->name, p->name, pr->name,
+                      rtk_param_type_name(want->type), want->name, want->name);
         }
     }
     if (!found)
