@@ -253,12 +253,9 @@ done:
     return st;
 }
 
-/* 1 when the caller's report (of report->size bytes) has the field that
- * ends at offset end: the struct only grows at the end. */
-static int report_has(const rtk_render_report *report, size_t end)
-{
-    return report->size >= end;
-}
+/* 1 when the caller's report (of report->size bytes) has field: the struct
+ * only grows at the end. */
+#define REPORT_HAS(report, field) ((report)->size >= offsetof(rtk_render_report, field) + sizeof (report)->field)
 
 static int has_extension(const char *path, const char *ext)
 {
@@ -290,21 +287,32 @@ static void count_textures(const rtk_scene *s, uint32_t *total, uint32_t *decode
     }
 }
 
-RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *options, rtk_render_report *report)
+/* What one rtk_render call has made so far; render_state_free frees it
+ * whichever phase failed. */
+typedef struct render_state {
+    const rtk_config *cfg;
+    rtk_render_report *report;
+    int progress;
+    rtk_sampler_type sampler;
+    uint32_t threads;
+    const rtk_integrator_fns *ifn;
+    const rtk_filter_fns *ffn;
+    void *istate, *fstate;
+    rtk_scene *scene;
+    rtk_camera camera;
+    float *pixels; /* RTK_FILM_CHANNELS per pixel, then the written channels in place */
+    rtk_render_stats stats;
+} render_state;
+
+/* Config errors that need nothing loaded, so a bad film.output or sampler
+ * never costs a load or a render. */
+static rtk_status phase_check(render_state *rs)
 {
-    rtk_render_options defaults;
-    memset(&defaults, 0, sizeof defaults);
-    if (!options)
-        options = &defaults;
-    uint32_t report_size = report->size ? report->size : (uint32_t)sizeof *report;
-    memset(report, 0, report_size < sizeof *report ? report_size : sizeof *report);
-    report->size = report_size;
+    const rtk_config *cfg = rs->cfg;
     int want_aovs = cfg->aov_albedo || cfg->aov_normal || cfg->aov_depth;
     if (want_aovs && !has_extension(cfg->output, ".exr"))
         return rtk_error(RTK_ERR_INVALID, "%s: film.aovs needs an EXR output (film.output = \"%s\"): use a .exr name",
                          cfg->path, cfg->output);
-    /* The output's folder, permissions and format are checked before
-     * anything is loaded, so a bad film.output never costs a render. */
     int out_channels = 3 + 3 * (cfg->aov_albedo != 0) + 3 * (cfg->aov_normal != 0) + (cfg->aov_depth != 0);
     rtk_status out_st = rtk_image_check_output(cfg->output, (int)cfg->width, (int)cfg->height, out_channels);
     if (out_st != RTK_OK) {
@@ -312,12 +320,11 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
         snprintf(where, sizeof where, "%s: film.output (-o)", cfg->path);
         return with_context(out_st, where);
     }
-
-    rtk_sampler_type sampler = RTK_SAMPLER_INDEPENDENT;
-    if (cfg->sampler_type && !rtk_sampler_type_from_name(cfg->sampler_type, &sampler))
+    rs->sampler = RTK_SAMPLER_INDEPENDENT;
+    if (cfg->sampler_type && !rtk_sampler_type_from_name(cfg->sampler_type, &rs->sampler))
         return rtk_error(RTK_ERR_INVALID, "%s: sampler.type = \"%s\": expected independent, stratified or sobol",
                          cfg->path, cfg->sampler_type);
-    if (sampler == RTK_SAMPLER_SOBOL && (cfg->spp & (cfg->spp - 1)) != 0) {
+    if (rs->sampler == RTK_SAMPLER_SOBOL && (cfg->spp & (cfg->spp - 1)) != 0) {
         uint32_t below = 1;
         while (below <= cfg->spp / 2)
             below *= 2;
@@ -328,41 +335,14 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
                       "power-of-two runs of a pixel's samples are stratified nets; use %u or %u",
                       cfg->path, cfg->spp, below, below * 2);
     }
-    const rtk_integrator_fns *ifn = cfg->integrator.plugin->functions;
-    const rtk_filter_fns *ffn = cfg->filter.plugin->functions;
-    void *istate = NULL, *fstate = NULL;
-    rtk_scene *scene = NULL;
-    float *pixels = NULL;
-    rtk_camera camera;
-    rtk_status st = ifn->create(cfg->integrator.params, &istate);
-    if (st != RTK_OK) {
-        st = with_context(st, cfg->integrator.plugin->name);
-        istate = NULL;
-        goto done;
-    }
-    st = ffn->create(cfg->filter.params, &fstate);
-    if (st != RTK_OK) {
-        st = with_context(st, cfg->filter.plugin->name);
-        fstate = NULL;
-        goto done;
-    }
-    uint32_t threads = cfg->threads ? cfg->threads : rtk_core_count();
+    return RTK_OK;
+}
 
-    double t = rtk_now();
-    uint32_t needs = ifn->needs(istate);
-    rtk_interrupt_phase("loading the scene", cfg->output);
-    st = rtk_config_load_scene(cfg, needs, &scene);
-    for (uint32_t i = 0; st == RTK_OK && i < cfg->light_count; i++)
-        st = rtk_scene_add_punctual(scene, &cfg->lights[i]);
-    if (st == RTK_OK && cfg->instance_count)
-        st = rtk_config_place_instances(cfg, scene);
-    if (st == RTK_OK)
-        st = rtk_scene_set_texture_filter(scene, cfg->texture_filter);
-    if (st != RTK_OK)
-        goto done;
-    report->load_seconds = rtk_now() - t;
+/* Scene, instance and texture counts of the loaded scene. */
+static void report_scene(rtk_render_report *report, const rtk_scene *scene)
+{
     report->triangles = scene->triangle_count;
-    if (report_has(report, offsetof(rtk_render_report, instance_bytes) + sizeof report->instance_bytes)) {
+    if (REPORT_HAS(report, instance_bytes)) {
         report->instances = scene->instance_count;
         report->meshes = scene->mesh_count;
         report->placed_triangles = 0;
@@ -371,38 +351,71 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
         for (uint32_t i = 0; i < scene->mesh_count; i++)
             report->triangles += scene->meshes[i]->triangle_count;
     }
-    if (report_has(report, offsetof(rtk_render_report, textures_decoded) + sizeof report->textures_decoded))
+    if (REPORT_HAS(report, textures_decoded))
         count_textures(scene, &report->textures, &report->textures_decoded);
+}
 
-    t = rtk_now();
-    rtk_interrupt_phase("building the BVH", cfg->output);
-    struct timespec build_start;
-    clock_gettime(CLOCK_REALTIME, &build_start);
-    rtk_bvh_cache_use cache;
-    st = rtk_bvh_build_cached(scene, cfg->accelerator.plugin, cfg->accelerator.params, threads, cfg->cache_dir,
-                              &cache);
-    if (st != RTK_OK)
-        goto done;
-    report->build_seconds = rtk_now() - t;
-    if (cfg->cache_dir && cfg->cache_limit) {
-        /* The trees this render used or saved are newer than build_start
-         * and stay: less two seconds, for file times from a coarse clock
-         * (a tick behind) or stored in whole seconds (two on FAT). */
-        build_start.tv_sec -= 2;
-        uint64_t freed = 0;
-        uint32_t removed = rtk_bvh_cache_prune(cfg->cache_dir, cfg->cache_limit, build_start, &freed);
-        if (removed)
-            rtk_log(RTK_LOG_INFO, "BVH cache %s: removed %u old file%s (%.1f MB) to stay within cache_limit = %llu MB",
-                    cfg->cache_dir, removed, removed == 1 ? "" : "s",
-                    (double)freed / (1024.0 * 1024.0), (unsigned long long)(cfg->cache_limit >> 20));
+/* Creates the integrator and the filter, then loads the scene (keeping what
+ * the integrator needs) with the config's lights, instances and texture filter. */
+static rtk_status phase_load(render_state *rs)
+{
+    const rtk_config *cfg = rs->cfg;
+    rs->ifn = cfg->integrator.plugin->functions;
+    rs->ffn = cfg->filter.plugin->functions;
+    rtk_status st = rs->ifn->create(cfg->integrator.params, &rs->istate);
+    if (st != RTK_OK) {
+        rs->istate = NULL;
+        return with_context(st, cfg->integrator.plugin->name);
     }
-    if (report_has(report, offsetof(rtk_render_report, bvh_cache_file) + sizeof report->bvh_cache_file)) {
-        report->bvh_from_cache = cache.from_cache;
-        snprintf(report->bvh_cache_file, sizeof report->bvh_cache_file, "%s", cache.file);
+    st = rs->ffn->create(cfg->filter.params, &rs->fstate);
+    if (st != RTK_OK) {
+        rs->fstate = NULL;
+        return with_context(st, cfg->filter.plugin->name);
+    }
+    rs->threads = cfg->threads ? cfg->threads : rtk_core_count();
+
+    double t = rtk_now();
+    uint32_t needs = rs->ifn->needs(rs->istate);
+    rtk_interrupt_phase("loading the scene", cfg->output);
+    st = rtk_config_load_scene(cfg, needs, &rs->scene);
+    for (uint32_t i = 0; st == RTK_OK && i < cfg->light_count; i++)
+        st = rtk_scene_add_punctual(rs->scene, &cfg->lights[i]);
+    if (st == RTK_OK && cfg->instance_count)
+        st = rtk_config_place_instances(cfg, rs->scene);
+    if (st == RTK_OK)
+        st = rtk_scene_set_texture_filter(rs->scene, cfg->texture_filter);
+    if (st != RTK_OK)
+        return st;
+    rs->report->load_seconds = rtk_now() - t;
+    report_scene(rs->report, rs->scene);
+    return RTK_OK;
+}
+
+/* Keeps the BVH cache within cache_limit, sparing the trees used or saved
+ * since build_start. */
+static void prune_cache(const rtk_config *cfg, struct timespec build_start)
+{
+    /* Less two seconds, for file times from a coarse clock (a tick behind)
+     * or stored in whole seconds (two on FAT). */
+    build_start.tv_sec -= 2;
+    uint64_t freed = 0;
+    uint32_t removed = rtk_bvh_cache_prune(cfg->cache_dir, cfg->cache_limit, build_start, &freed);
+    if (removed)
+        rtk_log(RTK_LOG_INFO, "BVH cache %s: removed %u old file%s (%.1f MB) to stay within cache_limit = %llu MB",
+                cfg->cache_dir, removed, removed == 1 ? "" : "s", (double)freed / (1024.0 * 1024.0),
+                (unsigned long long)(cfg->cache_limit >> 20));
+}
+
+/* BVH size, depth, cache file and memory of the built scene. */
+static void report_bvh(rtk_render_report *report, const rtk_scene *scene, const rtk_bvh_cache_use *cache)
+{
+    if (REPORT_HAS(report, bvh_cache_file)) {
+        report->bvh_from_cache = cache->from_cache;
+        snprintf(report->bvh_cache_file, sizeof report->bvh_cache_file, "%s", cache->file);
     }
     report->bvh_nodes = scene->node_count;
     report->bvh_depth = scene->bvh_depth;
-    if (report_has(report, offsetof(rtk_render_report, instance_bytes) + sizeof report->instance_bytes)) {
+    if (REPORT_HAS(report, instance_bytes)) {
         for (uint32_t i = 0; i < scene->mesh_count; i++) {
             report->bvh_nodes += scene->meshes[i]->node_count;
             if (scene->meshes[i]->bvh_depth + scene->tlas_depth + 1 > report->bvh_depth)
@@ -411,73 +424,102 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
         report->bvh_nodes += scene->tlas_node_count;
         rtk_scene_memory(scene, &report->geometry_bytes, &report->bvh_bytes, &report->instance_bytes);
     }
+}
 
+/* Builds the BVH through the cache (or loads it from there), then prunes
+ * the cache. */
+static rtk_status phase_build(render_state *rs)
+{
+    const rtk_config *cfg = rs->cfg;
+    double t = rtk_now();
+    rtk_interrupt_phase("building the BVH", cfg->output);
+    struct timespec build_start;
+    clock_gettime(CLOCK_REALTIME, &build_start);
+    rtk_bvh_cache_use cache;
+    rtk_status st = rtk_bvh_build_cached(rs->scene, cfg->accelerator.plugin, cfg->accelerator.params, rs->threads,
+                                         cfg->cache_dir, &cache);
+    if (st != RTK_OK)
+        return st;
+    rs->report->build_seconds = rtk_now() - t;
+    if (cfg->cache_dir && cfg->cache_limit)
+        prune_cache(cfg, build_start);
+    report_bvh(rs->report, rs->scene, &cache);
+    return RTK_OK;
+}
+
+/* The camera (the config's, else the file's, else one framing the scene),
+ * the integrator's prepare over the built scene, and the film's pixels. */
+static rtk_status phase_prepare(render_state *rs)
+{
+    const rtk_config *cfg = rs->cfg;
     rtk_camera_desc cam;
     if (cfg->has_camera)
         cam = cfg->camera;
-    else if (scene->has_camera)
-        cam = scene->camera;
+    else if (rs->scene->has_camera)
+        cam = rs->scene->camera;
     else
-        cam = rtk_camera_frame(scene->bounds, 39.3f, (float)cfg->width / (float)cfg->height);
-    st = rtk_camera_init(&camera, &cam, cfg->width, cfg->height);
-    if (st != RTK_OK) {
-        st = with_context(st, cfg->path);
-        goto done;
+        cam = rtk_camera_frame(rs->scene->bounds, 39.3f, (float)cfg->width / (float)cfg->height);
+    rtk_status st = rtk_camera_init(&rs->camera, &cam, cfg->width, cfg->height);
+    if (st != RTK_OK)
+        return with_context(st, cfg->path);
+    if (rs->ifn->prepare) {
+        st = rs->ifn->prepare(rs->istate, rs->scene);
+        if (st != RTK_OK)
+            return with_context(st, cfg->integrator.plugin->name);
     }
-    if (ifn->prepare) {
-        st = ifn->prepare(istate, scene);
-        if (st != RTK_OK) {
-            st = with_context(st, cfg->integrator.plugin->name);
-            goto done;
-        }
-    }
-    size_t npix = (size_t)cfg->width * cfg->height;
-    pixels = rtk_alloc(npix * RTK_FILM_CHANNELS * sizeof(float));
-    if (!pixels) {
-        st = RTK_ERR_NOMEM;
-        goto done;
-    }
-    rtk_render_stats stats;
-    t = rtk_now();
+    rs->pixels = rtk_alloc((size_t)cfg->width * cfg->height * RTK_FILM_CHANNELS * sizeof(float));
+    return rs->pixels ? RTK_OK : RTK_ERR_NOMEM;
+}
+
+/* Renders the film on the thread pool and reports its rays and mean. */
+static rtk_status phase_render(render_state *rs)
+{
+    const rtk_config *cfg = rs->cfg;
+    rtk_render_report *report = rs->report;
+    double t = rtk_now();
     rtk_interrupt_phase("rendering", cfg->output);
     rtk_film_render job = RTK_FILM_RENDER_DEFAULTS;
-    job.scene = scene;
-    job.camera = &camera;
-    job.integrator = ifn;
-    job.integrator_state = istate;
-    job.filter = ffn;
-    job.filter_state = fstate;
+    job.scene = rs->scene;
+    job.camera = &rs->camera;
+    job.integrator = rs->ifn;
+    job.integrator_state = rs->istate;
+    job.filter = rs->ffn;
+    job.filter_state = rs->fstate;
     job.spp = cfg->spp;
-    job.sampler = sampler;
+    job.sampler = rs->sampler;
     job.reconstruction = cfg->importance ? RTK_RECON_IMPORTANCE : RTK_RECON_SPLAT;
     job.seed = cfg->seed;
-    job.threads = threads;
-    job.progress = options->progress && !options->quiet;
-    st = rtk_render_film(&job, pixels, &stats);
-    if (st != RTK_OK) {
-        st = with_context(st, cfg->path);
-        goto done;
-    }
+    job.threads = rs->threads;
+    job.progress = rs->progress;
+    rtk_status st = rtk_render_film(&job, rs->pixels, &rs->stats);
+    if (st != RTK_OK)
+        return with_context(st, cfg->path);
     report->render_seconds = rtk_now() - t;
-    report->rays = stats.rays;
-    report->invalid_rays = stats.invalid_rays;
-    report->bad_samples = stats.bad_samples;
+    report->rays = rs->stats.rays;
+    report->invalid_rays = rs->stats.invalid_rays;
+    report->bad_samples = rs->stats.bad_samples;
     report->width = cfg->width;
     report->height = cfg->height;
     report->spp = cfg->spp;
-    report->threads = threads;
+    report->threads = rs->threads;
 
+    size_t npix = (size_t)cfg->width * cfg->height;
     double mean[3] = {0, 0, 0};
     for (size_t i = 0; i < npix; i++)
         for (int c = 0; c < 3; c++)
-            mean[c] += pixels[i * RTK_FILM_CHANNELS + c];
+            mean[c] += rs->pixels[i * RTK_FILM_CHANNELS + c];
     for (int c = 0; c < 3; c++)
         report->mean[c] = npix ? mean[c] / (double)npix : 0.0;
+    return RTK_OK;
+}
 
-    /* Keep only the channels asked for, in place. */
-    const char *names[10] = {"R", "G", "B"};
+/* Keeps only the channels the config writes (RGB, then its AOVs), in place;
+ * returns how many, named in names. */
+static int keep_channels(const rtk_config *cfg, float *pixels, const char *names[10])
+{
     int keep[10] = {0, 1, 2};
     int nch = 3;
+    names[0] = "R", names[1] = "G", names[2] = "B";
     if (cfg->aov_albedo) {
         names[nch] = "albedo.R", keep[nch++] = 3;
         names[nch] = "albedo.G", keep[nch++] = 4;
@@ -490,49 +532,90 @@ RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *o
     }
     if (cfg->aov_depth)
         names[nch] = "Z", keep[nch++] = 9;
+    size_t npix = (size_t)cfg->width * cfg->height;
     for (size_t i = 0; i < npix; i++)
         for (int c = 0; c < nch; c++)
             pixels[i * (size_t)nch + (size_t)c] = pixels[i * RTK_FILM_CHANNELS + (size_t)keep[c]];
-    t = rtk_now();
+    return nch;
+}
+
+/* Writes the image atomically and warns of the samples and rays the
+ * render dropped. */
+static rtk_status phase_write(render_state *rs)
+{
+    const rtk_config *cfg = rs->cfg;
+    const char *names[10];
+    int nch = keep_channels(cfg, rs->pixels, names);
+    double t = rtk_now();
     rtk_interrupt_phase("writing the image", cfg->output);
-    st = rtk_image_write(cfg->output, (int)cfg->width, (int)cfg->height, nch, names, pixels, cfg->half);
+    rtk_status st = rtk_image_write(cfg->output, (int)cfg->width, (int)cfg->height, nch, names, rs->pixels, cfg->half);
     rtk_interrupt_phase(NULL, NULL);
     if (st != RTK_OK)
-        goto done;
-    report->write_seconds = rtk_now() - t;
-    snprintf(report->output, sizeof report->output, "%s", cfg->output);
-    if (stats.bad_samples)
+        return st;
+    rs->report->write_seconds = rtk_now() - t;
+    snprintf(rs->report->output, sizeof rs->report->output, "%s", cfg->output);
+    if (rs->stats.bad_samples)
         rtk_log(RTK_LOG_WARN, "%llu NaN/Inf samples from integrator '%s' were dropped",
-                (unsigned long long)stats.bad_samples, cfg->integrator.plugin->name);
-    if (stats.invalid_rays)
+                (unsigned long long)rs->stats.bad_samples, cfg->integrator.plugin->name);
+    if (rs->stats.invalid_rays)
         rtk_log(RTK_LOG_WARN, "%llu invalid rays (NaN, zero direction or empty interval) were rejected",
-                (unsigned long long)stats.invalid_rays);
-done:
+                (unsigned long long)rs->stats.invalid_rays);
+    return RTK_OK;
+}
+
+/* Ends the interrupt phase, reports peak memory and frees what the phases made. */
+static void render_state_free(render_state *rs)
+{
     rtk_interrupt_phase(NULL, NULL);
-    report->peak_rss_bytes = rtk_peak_rss();
-    free(pixels);
-    if (istate)
-        ifn->destroy(istate);
-    if (fstate)
-        ffn->destroy(fstate);
-    rtk_scene_free(scene);
+    rs->report->peak_rss_bytes = rtk_peak_rss();
+    free(rs->pixels);
+    if (rs->istate)
+        rs->ifn->destroy(rs->istate);
+    if (rs->fstate)
+        rs->ffn->destroy(rs->fstate);
+    rtk_scene_free(rs->scene);
+}
+
+RTK_API rtk_status rtk_render(const rtk_config *cfg, const rtk_render_options *options, rtk_render_report *report)
+{
+    uint32_t report_size = report->size ? report->size : (uint32_t)sizeof *report;
+    memset(report, 0, report_size < sizeof *report ? report_size : sizeof *report);
+    report->size = report_size;
+    render_state rs;
+    memset(&rs, 0, sizeof rs);
+    rs.cfg = cfg;
+    rs.report = report;
+    rs.progress = options && options->progress && !options->quiet;
+
+    rtk_status st = phase_check(&rs);
+    if (st != RTK_OK)
+        return st; /* nothing made yet and no phase announced */
+    st = phase_load(&rs);
+    if (st == RTK_OK)
+        st = phase_build(&rs);
+    if (st == RTK_OK)
+        st = phase_prepare(&rs);
+    if (st == RTK_OK)
+        st = phase_render(&rs);
+    if (st == RTK_OK)
+        st = phase_write(&rs);
+    render_state_free(&rs);
     return st;
 }
 
 RTK_API void rtk_render_report_print(const rtk_render_report *r, FILE *f)
 {
     double total = r->render_seconds > 0.0 ? r->render_seconds : 1e-9;
-    int has_memory = report_has(r, offsetof(rtk_render_report, instance_bytes) + sizeof r->instance_bytes);
+    int has_memory = REPORT_HAS(r, instance_bytes);
     fprintf(f, "load    %8.3f s   %u triangles", r->load_seconds, r->triangles);
     if (has_memory && r->instances)
         fprintf(f, "; %u instance%s of %u mesh%s place %llu triangles", r->instances, r->instances == 1 ? "" : "s",
                 r->meshes, r->meshes == 1 ? "" : "es", (unsigned long long)r->placed_triangles);
-    if (report_has(r, offsetof(rtk_render_report, textures_decoded) + sizeof r->textures_decoded) && r->textures)
+    if (REPORT_HAS(r, textures_decoded) && r->textures)
         fprintf(f, "; %u of %u textures decoded", r->textures_decoded, r->textures);
     fputc('\n', f);
     const char *cache = "";
-    if (report_has(r, offsetof(rtk_render_report, bvh_cache_file) + sizeof r->bvh_cache_file) &&
-        r->bvh_cache_file[0])
+    if (REPORT_HAS(r, bvh_cache_file) && r->bvh_cache_file[0])
         cache = r->bvh_from_cache ? "from cache " : "saved to cache ";
     fprintf(f, "build   %8.3f s   %u nodes, depth %u", r->build_seconds, r->bvh_nodes, r->bvh_depth);
     if (cache[0])
