@@ -20,7 +20,9 @@ RTK_EXTERN_C_BEGIN
  * (RTK_BUILD_NO_VERTICES, RTK_BUILD_NO_BOUNDS, and later
  * RTK_BUILD_SPARSE_NODES, a hint older 3.2 kernels ignore);
  * rtk_build_args.indices, positions, vertex_count, scratch and
- * scratch_bytes. */
+ * scratch_bytes; rtk_plugin.conform is a comma-separated list of the
+ * profile names docs/conform.md gives (a 3.1 descriptor's one name keeps
+ * its 3.1 meaning). */
 #define RTK_ABI_MAJOR 3
 #define RTK_ABI_MINOR 2
 
@@ -45,11 +47,11 @@ typedef struct rtk_plugin {
     const rtk_param_desc *params; /* parameter schema */
     uint32_t param_count;
     const void *functions;        /* the kind's function table */
-    /* 3.1: integrators: the exact-test profile rtk conform runs, "ao",
-     * "arealight", "whitted", "headlight", or NULL for the generic checks
-     * only; a profile fixes the parameter names it sets (ao: rays, distance;
-     * arealight: light_samples, mis; whitted: max_depth; headlight: ambient)
-     * and leaves the others at their defaults. */
+    /* 3.1: integrators: the known-answer profiles rtk conform runs after
+     * the generic checks, comma-separated profile names that say what the
+     * integrator computes, e.g. "ambient-occlusion"; NULL: generic checks
+     * only. docs/conform.md lists the profiles and the parameters each sets,
+     * which the plugin must declare; the others stay at their defaults. */
     const char *conform;
 } rtk_plugin;
 

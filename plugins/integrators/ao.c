@@ -117,7 +117,7 @@ static const rtk_plugin ao_plugin = {
     .params = ao_params,
     .param_count = RTK_COUNTOF(ao_params),
     .functions = &ao_fns,
-    .conform = "ao",
+    .conform = "ambient-occlusion",
 };
 
 RTK_PLUGIN_ENTRY(ao_plugin)

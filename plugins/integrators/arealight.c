@@ -160,7 +160,7 @@ static const rtk_plugin arealight_plugin = {
     .params = arealight_params,
     .param_count = RTK_COUNTOF(arealight_params),
     .functions = &arealight_fns,
-    .conform = "arealight",
+    .conform = "direct-area-light",
 };
 
 RTK_PLUGIN_ENTRY(arealight_plugin)

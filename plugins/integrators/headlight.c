@@ -78,7 +78,7 @@ static const rtk_plugin headlight_plugin = {
     .params = headlight_params,
     .param_count = RTK_COUNTOF(headlight_params),
     .functions = &headlight_fns,
-    .conform = "headlight",
+    .conform = "headlight-shading",
 };
 
 RTK_PLUGIN_ENTRY(headlight_plugin)

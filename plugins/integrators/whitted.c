@@ -239,7 +239,7 @@ static const rtk_plugin whitted_plugin = {
     .params = whitted_params,
     .param_count = RTK_COUNTOF(whitted_params),
     .functions = &whitted_fns,
-    .conform = "whitted",
+    .conform = "whitted-recursion",
 };
 
 RTK_PLUGIN_ENTRY(whitted_plugin)

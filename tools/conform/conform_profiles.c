@@ -1,31 +1,32 @@
-/* The exact tests behind an integrator's conformance profile
- * (rtk_plugin.conform), run by `rtk conform` after the generic checks:
- * scenes whose answer is known in closed form, traced with a one-leaf
- * builder so that no accelerator plugin takes part. A profile creates the
- * integrator with its defaults and sets only the parameters it names; a
- * plugin that declares a profile must have them, with these types and
- * ranges that admit the values set:
+/* The known-answer profiles an integrator declares (rtk_plugin.conform,
+ * a comma-separated list; docs/conform.md), run by `rtk conform` after
+ * the generic checks: scenes whose answer is known in closed form, traced
+ * with a one-leaf builder so that no accelerator plugin takes part. A
+ * profile names a computation, not a plugin. It creates the integrator
+ * with its defaults and sets only the parameters it names; a plugin that
+ * declares a profile must have them, with these types and ranges that
+ * admit the values set:
  *
- *   profile    sets                           checks
- *   ao         rays int: 16, 64               AO of a plane 1, at the foot of a wall 1/2, in an
- *              distance float: inf, 1,        inner corner 1/4, under a ceiling at h with distance
- *                0.625, 0.4                   R min(1, (h/R)^2), inside a closed box 0
- *   arealight  light_samples int: 1, 4        square and disk lights over a Lambertian receiver
- *              mis bool: false, true          (rho L F), a furnace (rho Le)
- *   whitted    max_depth int: 1, 3, 5         point light rho I cos / (pi r^2) from the scene and
- *                                             from glTF KHR_lights_punctual, a mirror against the
- *                                             mirrored camera, glass Fresnel at normal incidence,
- *                                             total internal reflection, a parallel slab
- *   headlight  ambient float: 0               Kd x |cos| on a quad, front and back; depth and
- *                                             normal AOVs
+ *   profile            sets                      checks
+ *   ambient-occlusion  rays int: 16, 64          AO of a plane 1, at the foot of a wall 1/2, in an
+ *                      distance float: inf, 1,   inner corner 1/4, under a ceiling at h with distance
+ *                        0.625, 0.4              R min(1, (h/R)^2), inside a closed box 0
+ *   direct-area-light  light_samples int: 1, 4   square and disk lights over a Lambertian receiver
+ *                      mis bool: false, true     (rho L F), a furnace (rho Le)
+ *   whitted-recursion  max_depth int: 1, 3, 5    point light rho I cos / (pi r^2) from the scene and
+ *                                                from glTF KHR_lights_punctual, a mirror against the
+ *                                                mirrored camera, glass Fresnel at normal incidence,
+ *                                                total internal reflection, a parallel slab
+ *   headlight-shading  ambient float: 0          Kd x |cos| on a quad, front and back; depth and
+ *                                                normal AOVs
  *
  * Tolerances: a Monte Carlo estimate passes within 5 standard errors of
- * its sample count (ao: each cosine-weighted ray is a Bernoulli trial,
- * sqrt(A (1 - A) / N); arealight: the samples' own variance) plus a stated
- * bound on the scene's bias; an answer of exactly 0 or 1 must come out
- * exactly. whitted and headlight are deterministic per ray: the
- * tolerances cover float rounding. Every check line carries the estimate
- * and the truth. */
+ * its sample count (ambient-occlusion: each cosine-weighted ray is a
+ * Bernoulli trial, sqrt(A (1 - A) / N); direct-area-light: the samples'
+ * own variance) plus a stated bound on the scene's bias; an answer of
+ * exactly 0 or 1 must come out exactly. whitted-recursion and
+ * headlight-shading are deterministic per ray: the tolerances cover float
+ * rounding. Every check line carries the estimate and the truth. */
 #include "conform.h"
 
 #include <errno.h>
@@ -191,7 +192,7 @@ static double bench_mean(const bench *b, const rtk_ray *ray, uint64_t seed, int 
     return mean;
 }
 
-/* ---- ao ---- */
+/* ---- ambient-occlusion ---- */
 
 /* Far enough that the quads below act as infinite planes. */
 static const float big = 1e4f;
@@ -259,7 +260,7 @@ static void ao_expect(tally *t, const rtk_plugin *p, const char *what, void (*fi
     bench_close(&b);
 }
 
-static void ao_profile(tally *t, const rtk_plugin *p)
+static void ambient_occlusion_profile(tally *t, const rtk_plugin *p)
 {
     ao_expect(t, p, "unoccluded plane", ao_plane, v3(0.3, 0, -0.2), "16", "inf", 1.0);
     ao_expect(t, p, "foot of an infinite wall", ao_wall, v3(-1e-3, 0, 0), "64", "inf", 0.5);
@@ -276,7 +277,7 @@ static void ao_profile(tally *t, const rtk_plugin *p)
     ao_expect(t, p, "inside a closed box", ao_box, v3(0.2, 0, 0.1), "64", "inf", 0.0);
 }
 
-/* ---- arealight ---- */
+/* ---- direct-area-light ---- */
 
 /* Receivers are Lambertian with albedo rho, so Lo = rho / pi * E = rho L F
  * for a uniform emitter of radiance L with view factor F. */
@@ -344,7 +345,7 @@ typedef struct probe {
 
 /* The probes of the scene fill makes, with one light sample and no MIS,
  * then four samples with MIS: 20,000 camera rays each. */
-static void arealight_expect(tally *t, const rtk_plugin *p, void (*fill)(rtk_scene *), const probe *probes, int count)
+static void area_light_expect(tally *t, const rtk_plugin *p, void (*fill)(rtk_scene *), const probe *probes, int count)
 {
     static const char *const modes[2][5] = {{"light_samples", "1", "mis", "false", NULL},
                                             {"light_samples", "4", "mis", "true", NULL}};
@@ -368,13 +369,13 @@ static void arealight_expect(tally *t, const rtk_plugin *p, void (*fill)(rtk_sce
     }
 }
 
-static void arealight_profile(tally *t, const rtk_plugin *p)
+static void direct_area_light_profile(tally *t, const rtk_plugin *p)
 {
     const rtk_vec3 up = v3(0, 1, 0);
     double A = (double)square_a / light_h, q = A / sqrt(1.0 + A * A);
     double F = 4.0 / M_PI * q * atan(q);
     const probe square = {v3(0, 0, 0), up, rho * light_l * F, 0.0, "square light: Lo = rho L F"};
-    arealight_expect(t, p, square_light, &square, 1);
+    area_light_expect(t, p, square_light, &square, 1);
 
     /* F = r^2 / (h^2 + r^2). The fan has the inscribed polygon's area,
      * smaller by the factor sin(2 pi / n) / (2 pi / n); that bounds the
@@ -383,14 +384,14 @@ static void arealight_profile(tally *t, const rtk_plugin *p)
     double x = 2.0 * M_PI / disk_fan;
     const probe disk = {v3(0, 0, 0), up, rho * light_l * Fd, rho * light_l * Fd * (1.0 - sin(x) / x),
                         "disk light: Lo = rho L r^2 / (h^2 + r^2)"};
-    arealight_expect(t, p, disk_light, &disk, 1);
+    area_light_expect(t, p, disk_light, &disk, 1);
 
     const probe block[2] = {{v3(0.1, 0.5, -0.2), up, rho, 0.0, "furnace: block top shows rho Le"},
                             {v3(0.5, 0.1, 0.3), v3(1, 0, 0), rho, 0.0, "furnace: block side shows rho Le"}};
-    arealight_expect(t, p, furnace, block, 2);
+    area_light_expect(t, p, furnace, block, 2);
 }
 
-/* ---- whitted ---- */
+/* ---- whitted-recursion ---- */
 
 /* Unpolarised Fresnel reflectance from index n1 into n2; 1 beyond the
  * critical angle. */
@@ -569,7 +570,7 @@ static void whitted_gltf(tally *t, const rtk_plugin *p)
     rmdir(dir);
 }
 
-static void whitted_profile(tally *t, const rtk_plugin *p)
+static void whitted_recursion_profile(tally *t, const rtk_plugin *p)
 {
     double got;
     rtk_ray ray = make_ray(v3(0, 1, 0), v3(0, -1, 0));
@@ -635,7 +636,7 @@ static void whitted_profile(tally *t, const rtk_plugin *p)
     whitted_gltf(t, p);
 }
 
-/* ---- headlight ---- */
+/* ---- headlight-shading ---- */
 
 /* Renders b's scene from desc, w x h pixels at spp, each sample counted in
  * its own pixel. NULL after reporting a failure. [caller frees] */
@@ -669,7 +670,7 @@ static float *bench_render(tally *t, const bench *b, const rtk_camera_desc *desc
 /* A 2x2 quad at z = 0 facing +z with Kd = (0.25, 0.5, 0.75), seen from
  * (0, 0, 5) with a 10 degree field: a pixel shows Kd x cos(angle to the
  * axis), averaged over the pixel. */
-static void headlight_profile(tally *t, const rtk_plugin *p)
+static void headlight_shading_profile(tally *t, const rtk_plugin *p)
 {
     const char *const set[] = {"ambient", "0", NULL};
     const char *what = "headlight quad";
@@ -726,36 +727,106 @@ typedef struct profile_param {
 } profile_param;
 
 typedef struct profile {
-    const char *name;
+    const char *name;        /* first member: rtk_suggest reads the names through it */
+    const char *abi31_name;  /* what a descriptor of ABI 3.1 calls it */
     profile_param params[2]; /* name NULL past the last */
     void (*run)(tally *t, const rtk_plugin *p);
 } profile;
 
 static const profile profiles[] = {
-    {"ao", {{"rays", RTK_PARAM_INT}, {"distance", RTK_PARAM_FLOAT}}, ao_profile},
-    {"arealight", {{"light_samples", RTK_PARAM_INT}, {"mis", RTK_PARAM_BOOL}}, arealight_profile},
-    {"whitted", {{"max_depth", RTK_PARAM_INT}, {NULL, 0}}, whitted_profile},
-    {"headlight", {{"ambient", RTK_PARAM_FLOAT}, {NULL, 0}}, headlight_profile},
+    {"ambient-occlusion", "ao", {{"rays", RTK_PARAM_INT}, {"distance", RTK_PARAM_FLOAT}}, ambient_occlusion_profile},
+    {"direct-area-light", "arealight", {{"light_samples", RTK_PARAM_INT}, {"mis", RTK_PARAM_BOOL}},
+     direct_area_light_profile},
+    {"whitted-recursion", "whitted", {{"max_depth", RTK_PARAM_INT}, {NULL, 0}}, whitted_recursion_profile},
+    {"headlight-shading", "headlight", {{"ambient", RTK_PARAM_FLOAT}, {NULL, 0}}, headlight_shading_profile},
 };
 
-void rtk_conform_profile(const rtk_plugin *p, FILE *out, int *passed, int *failed)
+/* The longest profile name an item is compared with; longer items are unknown. */
+#define PROFILE_NAME_MAX 63
+
+/* "ambient-occlusion, direct-area-light, ..." for messages. */
+static void known_profiles(char *buf, size_t cap)
 {
-    tally t = {out, passed, failed};
-    /* A descriptor built before 3.1 ends before conform. */
-    const char *name = p->size >= offsetof(rtk_plugin, conform) + sizeof p->conform ? p->conform : NULL;
-    if (!name) {
-        fprintf(out, "# no conformance profile declared: generic checks only\n");
-        return;
+    size_t used = 0;
+    buf[0] = '\0';
+    for (size_t i = 0; i < RTK_COUNTOF(profiles) && used < cap; i++)
+        used += (size_t)snprintf(buf + used, cap - used, "%s%s", i ? ", " : "", profiles[i].name);
+}
+
+/* The profile named word: by its name, or by its 3.1 name when p's
+ * descriptor is of ABI 3.1. NULL when none. */
+static const profile *profile_find(const rtk_plugin *p, const char *word)
+{
+    for (size_t i = 0; i < RTK_COUNTOF(profiles); i++)
+        if (strcmp(profiles[i].name, word) == 0 || (p->abi_minor <= 1 && strcmp(profiles[i].abi31_name, word) == 0))
+            return &profiles[i];
+    return NULL;
+}
+
+/* Parses p's declared list (docs/conform.md) into run[] (room for every
+ * profile), one FAIL line per item that is empty, unknown or repeated.
+ * Returns the number of profiles, or 0 after a FAIL. */
+static size_t profiles_parse(tally *t, const rtk_plugin *p, const char *list, const profile **run)
+{
+    char known[256];
+    known_profiles(known, sizeof known);
+    size_t n = 0;
+    int bad = 0;
+    for (const char *item = list;; item++) {
+        size_t len = strcspn(item, ",");
+        const char *begin = item, *end = item + len;
+        while (begin < end && *begin == ' ')
+            begin++;
+        while (end > begin && end[-1] == ' ')
+            end--;
+        char word[PROFILE_NAME_MAX + 1];
+        int wlen = (int)(end - begin);
+        snprintf(word, sizeof word, "%.*s", wlen, begin);
+        const profile *pr = wlen <= PROFILE_NAME_MAX ? profile_find(p, word) : NULL;
+        if (wlen == 0) {
+            bad = 1;
+            check(t, 0, "conform profiles of integrator '%s' are well-formed: conform = \"%.200s\" has an empty item "
+                  "(separate profile names by one comma; known: %s)", p->name, list, known);
+        } else if (!pr) {
+            bad = 1;
+            const char *near = rtk_suggest(word, &profiles[0].name, RTK_COUNTOF(profiles), sizeof profiles[0]);
+            const profile *renamed = NULL;
+            for (size_t i = 0; i < RTK_COUNTOF(profiles); i++)
+                if (strcmp(profiles[i].abi31_name, word) == 0)
+                    renamed = &profiles[i];
+            if (renamed)
+                check(t, 0, "conform profile \"%s\" is known: integrator '%s' declares a profile this rtk does not "
+                      "have; \"%s\" is the ABI 3.1 name of \"%s\", which a 3.%u descriptor must use (known: %s; "
+                      "docs/conform.md)", word, p->name, word, renamed->name, (unsigned)p->abi_minor, known);
+            else if (near)
+                check(t, 0, "conform profile \"%.64s\" is known: integrator '%s' declares a profile this rtk does not "
+                      "have; did you mean \"%s\"? (known: %s; docs/conform.md)", word, p->name, near, known);
+            else
+                check(t, 0, "conform profile \"%.64s\" is known: integrator '%s' declares a profile this rtk does not "
+                      "have (known: %s; docs/conform.md)", word, p->name, known);
+        } else {
+            int repeated = 0;
+            for (size_t i = 0; i < n; i++)
+                repeated |= run[i] == pr;
+            if (repeated) {
+                bad = 1;
+                check(t, 0, "conform profile \"%s\" is declared once: integrator '%s' declares conform = \"%.200s\", "
+                      "which lists \"%s\" twice", pr->name, p->name, list, pr->name);
+            } else {
+                run[n++] = pr;
+            }
+        }
+        item += len;
+        if (!*item)
+            break;
     }
-    const profile *pr = NULL;
-    for (size_t i = 0; i < sizeof profiles / sizeof profiles[0]; i++)
-        if (strcmp(profiles[i].name, name) == 0)
-            pr = &profiles[i];
-    if (!pr) {
-        check(&t, 0, "conform profile \"%.64s\" is known: integrator '%s' declares a profile this rtk does not have "
-              "(known: ao, arealight, whitted, headlight)", name, p->name);
-        return;
-    }
+    return bad ? 0 : n;
+}
+
+/* 1 when p declares each parameter pr sets, with its type; else a FAIL
+ * line per parameter that is missing or of another type. */
+static int profile_params_match(tally *t, const rtk_plugin *p, const profile *pr)
+{
     int found = 1;
     for (int k = 0; k < 2 && pr->params[k].name; k++) {
         const profile_param *want = &pr->params[k];
@@ -766,18 +837,34 @@ void rtk_conform_profile(const rtk_plugin *p, FILE *out, int *passed, int *faile
         if (!d || d->type != want->type) {
             found = 0;
             if (d)
-                check(&t, 0, "profile \"%s\": integrator '%s' declares conform = \"%s\", which sets the %s parameter "
-                      "'%s', but the plugin's '%s' is of type %s", pr->name, p->name, pr->name,
-                      rtk_param_type_name(want->type), want->name, want->name, rtk_param_type_name(d->type));
+                check(t, 0, "profile \"%s\": integrator '%s' declares the profile, which sets the %s parameter '%s', "
+                      "but the plugin's '%s' is of type %s", pr->name, p->name, rtk_param_type_name(want->type),
+                      want->name, want->name, rtk_param_type_name(d->type));
             else
-                check(&t, 0, "profile \"%s\": integrator '%s' declares conform = \"%s\", which sets the %s parameter "
-                      "'%s', but the plugin has no parameter '%s'", pr->name, p->name, pr->name,
-                      rtk_param_type_name(want->type), want->name, want->name);
+                check(t, 0, "profile \"%s\": integrator '%s' declares the profile, which sets the %s parameter '%s', "
+                      "but the plugin has no parameter '%s'", pr->name, p->name, rtk_param_type_name(want->type),
+                      want->name, want->name);
         }
     }
-    if (!found)
+    return found;
+}
+
+void rtk_conform_profile(const rtk_plugin *p, FILE *out, int *passed, int *failed)
+{
+    tally t = {out, passed, failed};
+    /* A descriptor built before 3.1 ends before conform. */
+    const char *list = p->size >= offsetof(rtk_plugin, conform) + sizeof p->conform ? p->conform : NULL;
+    if (!list) {
+        fprintf(out, "# no conformance profile declared: generic checks only\n");
         return;
-    check(&t, 1, "profile \"%s\": the plugin has the parameters the profile sets", pr->name);
-    fprintf(out, "# profile %s: exact tests\n", pr->name);
-    pr->run(&t, p);
+    }
+    const profile *run[RTK_COUNTOF(profiles)];
+    size_t n = profiles_parse(&t, p, list, run);
+    for (size_t i = 0; i < n; i++) {
+        if (!profile_params_match(&t, p, run[i]))
+            continue;
+        check(&t, 1, "profile \"%s\": the plugin has the parameters the profile sets", run[i]->name);
+        fprintf(out, "# profile %s: exact tests\n", run[i]->name);
+        run[i]->run(&t, p);
+    }
 }

@@ -1,6 +1,6 @@
-/* profile_missing: declares the "ao" profile without its 'distance'
- * parameter. rtk conform must fail, naming the parameter ("has no
- * parameter 'distance'"), not run the profile half-set. Test-only. */
+/* profile_missing: declares the "ambient-occlusion" profile without its
+ * 'distance' parameter. rtk conform must fail, naming the parameter ("has
+ * no parameter 'distance'"), not run the profile half-set. Test-only. */
 #include "stub_integrator.h"
 
 static const rtk_param_desc profile_missing_params[] = {
@@ -12,11 +12,11 @@ static const rtk_plugin profile_missing_plugin = {
     .kind = RTK_KIND_INTEGRATOR,
     .name = "profile_missing",
     .version = "1.0",
-    .summary = "broken on purpose: the ao profile without 'distance'",
+    .summary = "broken on purpose: the ambient-occlusion profile without 'distance'",
     .params = profile_missing_params,
     .param_count = RTK_COUNTOF(profile_missing_params),
     .functions = &stub_fns,
-    .conform = "ao",
+    .conform = "ambient-occlusion",
 };
 
 RTK_PLUGIN_ENTRY(profile_missing_plugin)

@@ -1,7 +1,7 @@
 /* profile_old_size: a 3.0 descriptor, its size ending before `conform`,
- * with "ao" in the memory where conform would be. The kernel must not read
- * past the size: rtk conform runs the generic checks only and passes (the
- * stub would fail the ao profile). Test-only. */
+ * with "ambient-occlusion" in the memory where conform would be. The
+ * kernel must not read past the size: rtk conform runs the generic checks
+ * only and passes (the stub would fail that profile). Test-only. */
 #include "stub_integrator.h"
 
 #include <stddef.h>
@@ -22,7 +22,7 @@ static const rtk_plugin profile_old_size_plugin = {
     .params = profile_old_size_params,
     .param_count = RTK_COUNTOF(profile_old_size_params),
     .functions = &stub_fns,
-    .conform = "ao",
+    .conform = "ambient-occlusion",
 };
 
 RTK_PLUGIN_ENTRY(profile_old_size_plugin)

@@ -1,6 +1,6 @@
-/* profile_type: declares the "arealight" profile with 'mis' an int where
- * the profile sets a bool. rtk conform must fail, naming the type.
- * Test-only. */
+/* profile_type: declares the "direct-area-light" profile with 'mis' an
+ * int where the profile sets a bool. rtk conform must fail, naming the
+ * type. Test-only. */
 #include "stub_integrator.h"
 
 static const rtk_param_desc profile_type_params[] = {
@@ -13,11 +13,11 @@ static const rtk_plugin profile_type_plugin = {
     .kind = RTK_KIND_INTEGRATOR,
     .name = "profile_type",
     .version = "1.0",
-    .summary = "broken on purpose: the arealight profile with an int 'mis'",
+    .summary = "broken on purpose: the direct-area-light profile with an int 'mis'",
     .params = profile_type_params,
     .param_count = RTK_COUNTOF(profile_type_params),
     .functions = &stub_fns,
-    .conform = "arealight",
+    .conform = "direct-area-light",
 };
 
 RTK_PLUGIN_ENTRY(profile_type_plugin)
