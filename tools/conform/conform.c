@@ -92,8 +92,10 @@ uint32_t rtk_conform_variant_count(const rtk_plugin *p)
     }
 }
 
-int rtk_conform_create_variant(rtk_conform_runner *r, const rtk_plugin *p, uint32_t vi,
-                               rtk_status (*create)(const rtk_params *, void **), char *label, size_t cap, void **state)
+/* Creates an instance with parameter set vi, checking both steps; label
+ * names the set. Returns 1 with *state set on success. */
+static int create_variant(rtk_conform_runner *r, const rtk_plugin *p, uint32_t vi,
+                          rtk_status (*create)(const rtk_params *, void **), char *label, size_t cap, void **state)
 {
     char name[256];
     rtk_params *params = rtk_conform_param_variant(p, (int)vi, label, cap);
@@ -107,6 +109,22 @@ int rtk_conform_create_variant(rtk_conform_runner *r, const rtk_plugin *p, uint3
     rtk_conform_check(r, st == RTK_OK, name, "%s", rtk_error_message());
     rtk_params_destroy(params);
     return st == RTK_OK;
+}
+
+void rtk_conform_each_variant(rtk_conform_runner *r, const rtk_plugin *p,
+                              rtk_status (*create)(const rtk_params *, void **), void (*destroy)(void *),
+                              void (*each)(rtk_conform_runner *r, const rtk_plugin *p, void *state,
+                                           const char *label))
+{
+    uint32_t variants = rtk_conform_variant_count(p);
+    for (uint32_t vi = 0; vi < variants; vi++) {
+        char label[128];
+        void *state = NULL;
+        if (!create_variant(r, p, vi, create, label, sizeof label, &state))
+            continue;
+        each(r, p, state, label);
+        destroy(state);
+    }
 }
 
 static void check_schema(rtk_conform_runner *r, const rtk_plugin *p)

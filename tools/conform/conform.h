@@ -71,11 +71,12 @@ rtk_params *rtk_conform_param_variant(const rtk_plugin *p, int index, char *labe
 /* The number of parameter sets rtk_conform_param_variant yields for p. */
 uint32_t rtk_conform_variant_count(const rtk_plugin *p);
 
-/* Creates an instance with parameter set vi, checking both steps; label
- * names the set. Returns 1 with *state set on success. */
-int rtk_conform_create_variant(rtk_conform_runner *r, const rtk_plugin *p, uint32_t vi,
-                               rtk_status (*create)(const rtk_params *, void **), char *label, size_t cap,
-                               void **state);
+/* For each of p's parameter sets: creates an instance (a check line for
+ * the set and one for create), runs each on it, destroys it. */
+void rtk_conform_each_variant(rtk_conform_runner *r, const rtk_plugin *p,
+                              rtk_status (*create)(const rtk_params *, void **), void (*destroy)(void *),
+                              void (*each)(rtk_conform_runner *r, const rtk_plugin *p, void *state,
+                                           const char *label));
 
 /* A uniform float in [lo, hi) from rng. */
 static inline float rtk_conform_frand(rtk_pcg32 *rng, float lo, float hi)

@@ -146,64 +146,63 @@ static void note_weight_sums(rtk_conform_runner *r, const rtk_filter_fns *f, voi
     }
 }
 
+/* The checks of one instance of the filter p, label its parameter set. */
+static void check_filter(rtk_conform_runner *r, const rtk_plugin *p, void *state, const char *label)
+{
+    const rtk_filter_fns *f = p->functions;
+    char name[256];
+    float rad = f->radius(state);
+    snprintf(name, sizeof name, "radius is finite and in (0, 64] [%s]", label);
+    rtk_conform_check(r, rad > 0.0f && rad <= 64.0f, name, "radius %g", rad);
+    if (!(rad > 0.0f && rad <= 64.0f)) {
+        return;
+    }
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 5u, 11u);
+    int outside = 0, asym = 0, nonfinite = 0;
+    float worst = 0.0f;
+    for (int i = 0; i < 20000; i++) {
+        float x = rtk_conform_frand(&rng, -rad, rad), y = rtk_conform_frand(&rng, -rad, rad);
+        float w = f->eval(state, x, y);
+        if (!isfinite(w))
+            nonfinite++;
+        float w2 = f->eval(state, -x, y), w3 = f->eval(state, x, -y);
+        float tol = 1e-6f * (fabsf(w) + 1e-6f);
+        if (fabsf(w - w2) > tol || fabsf(w - w3) > tol) {
+            asym++;
+            worst = fmaxf(worst, fmaxf(fabsf(w - w2), fabsf(w - w3)));
+        }
+        /* A point past the radius on one axis or both. */
+        float s = 1.0f + 1e-3f + 2.0f * rtk_pcg32_float(&rng);
+        float ox = (i % 3 == 1) ? x : (x < 0 ? -s * rad : s * rad);
+        float oy = (i % 3 == 2) ? y : (y < 0 ? -s * rad : s * rad);
+        if (f->eval(state, ox, oy) != 0.0f)
+            outside++;
+    }
+    snprintf(name, sizeof name, "finite inside the support [%s]", label);
+    rtk_conform_check(r, nonfinite == 0 && isfinite(f->eval(state, 0, 0)), name, "%d non-finite values", nonfinite);
+    snprintf(name, sizeof name, "zero past the radius [%s]", label);
+    rtk_conform_check(r, outside == 0, name, "%d of 20000 points past the radius have non-zero weight", outside);
+    snprintf(name, sizeof name, "symmetric in x and y [%s]", label);
+    rtk_conform_check(r, asym == 0, name, "%d points differ from their mirror images (by up to %g)", asym, worst);
+    /* Midpoint rule on a 1024^2 grid; error O(h^2) for smooth filters,
+     * exact for the box whose edges fall on cell borders. */
+    const int n = 1024;
+    double h = 2.0 * rad / n, sum = 0.0;
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < n; i++)
+            sum += f->eval(state, (float)(-rad + (i + 0.5) * h), (float)(-rad + (j + 0.5) * h));
+    sum *= h * h;
+    double closed = f->integral(state);
+    snprintf(name, sizeof name, "weights integrate to the closed form [%s]", label);
+    rtk_conform_check(r, isfinite(closed) && closed != 0.0 && fabs(sum - closed) <= 2e-3 * fabs(closed) + 1e-9, name,
+                      "numeric integral %.9g, closed form %.9g", sum, closed);
+    check_constant_render(r, f, state, rad, label);
+    note_weight_sums(r, f, state, rad, label);
+}
+
 void rtk_conform_filter(rtk_conform_runner *r, const rtk_plugin *p)
 {
     const rtk_filter_fns *f = p->functions;
-    uint32_t variants = rtk_conform_variant_count(p);
-    for (uint32_t vi = 0; vi < variants; vi++) {
-        char label[128], name[256];
-        void *state = NULL;
-        if (!rtk_conform_create_variant(r, p, vi, f->create, label, sizeof label, &state))
-            continue;
-        float rad = f->radius(state);
-        snprintf(name, sizeof name, "radius is finite and in (0, 64] [%s]", label);
-        rtk_conform_check(r, rad > 0.0f && rad <= 64.0f, name, "radius %g", rad);
-        if (!(rad > 0.0f && rad <= 64.0f)) {
-            f->destroy(state);
-            continue;
-        }
-        rtk_pcg32 rng;
-        rtk_pcg32_seed(&rng, 5u, 11u);
-        int outside = 0, asym = 0, nonfinite = 0;
-        float worst = 0.0f;
-        for (int i = 0; i < 20000; i++) {
-            float x = rtk_conform_frand(&rng, -rad, rad), y = rtk_conform_frand(&rng, -rad, rad);
-            float w = f->eval(state, x, y);
-            if (!isfinite(w))
-                nonfinite++;
-            float w2 = f->eval(state, -x, y), w3 = f->eval(state, x, -y);
-            float tol = 1e-6f * (fabsf(w) + 1e-6f);
-            if (fabsf(w - w2) > tol || fabsf(w - w3) > tol) {
-                asym++;
-                worst = fmaxf(worst, fmaxf(fabsf(w - w2), fabsf(w - w3)));
-            }
-            /* A point past the radius on one axis or both. */
-            float s = 1.0f + 1e-3f + 2.0f * rtk_pcg32_float(&rng);
-            float ox = (i % 3 == 1) ? x : (x < 0 ? -s * rad : s * rad);
-            float oy = (i % 3 == 2) ? y : (y < 0 ? -s * rad : s * rad);
-            if (f->eval(state, ox, oy) != 0.0f)
-                outside++;
-        }
-        snprintf(name, sizeof name, "finite inside the support [%s]", label);
-        rtk_conform_check(r, nonfinite == 0 && isfinite(f->eval(state, 0, 0)), name, "%d non-finite values", nonfinite);
-        snprintf(name, sizeof name, "zero past the radius [%s]", label);
-        rtk_conform_check(r, outside == 0, name, "%d of 20000 points past the radius have non-zero weight", outside);
-        snprintf(name, sizeof name, "symmetric in x and y [%s]", label);
-        rtk_conform_check(r, asym == 0, name, "%d points differ from their mirror images (by up to %g)", asym, worst);
-        /* Midpoint rule on a 1024^2 grid; error O(h^2) for smooth filters,
-         * exact for the box whose edges fall on cell borders. */
-        const int n = 1024;
-        double h = 2.0 * rad / n, sum = 0.0;
-        for (int j = 0; j < n; j++)
-            for (int i = 0; i < n; i++)
-                sum += f->eval(state, (float)(-rad + (i + 0.5) * h), (float)(-rad + (j + 0.5) * h));
-        sum *= h * h;
-        double closed = f->integral(state);
-        snprintf(name, sizeof name, "weights integrate to the closed form [%s]", label);
-        rtk_conform_check(r, isfinite(closed) && closed != 0.0 && fabs(sum - closed) <= 2e-3 * fabs(closed) + 1e-9, name,
-                          "numeric integral %.9g, closed form %.9g", sum, closed);
-        check_constant_render(r, f, state, rad, label);
-        note_weight_sums(r, f, state, rad, label);
-        f->destroy(state);
-    }
+    rtk_conform_each_variant(r, p, f->create, f->destroy, check_filter);
 }

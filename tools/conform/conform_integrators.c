@@ -126,77 +126,77 @@ const rtk_filter_fns rtk_conform_pixel_box = {.size = sizeof(rtk_filter_fns),
                                               .integral = pixel_box_integral,
                                               .destroy = no_destroy};
 
+/* The generic checks of one instance of the integrator p, label its
+ * parameter set. */
+static void check_integrator(rtk_conform_runner *r, const rtk_plugin *p, void *state, const char *label)
+{
+    const rtk_integrator_fns *f = p->functions;
+    char name[256];
+    uint32_t needs = f->needs(state);
+    snprintf(name, sizeof name, "needs only known flags [%s]", label);
+    rtk_conform_check(r, (needs & ~0x1fu) == 0, name, "needs 0x%x has unknown bits", needs);
+    rtk_scene *scene = NULL;
+    rtk_status st = make_room(needs, &scene);
+    if (st == RTK_OK)
+        st = rtk_bvh_build(scene, &rtk_conform_one_leaf, NULL, 1);
+    if (st != RTK_OK) {
+        rtk_conform_check(r, 0, "standard scene", "%s", rtk_error_message());
+        return;
+    }
+    if (f->prepare) {
+        st = f->prepare(state, scene);
+        snprintf(name, sizeof name, "prepare on the standard scene [%s]", label);
+        rtk_conform_check(r, st == RTK_OK, name, "%s", rtk_error_message());
+    }
+    if (st == RTK_OK) {
+        rtk_camera_desc d = {rtk_vec3_make(0, 1, 0.95f), rtk_vec3_make(0, 0.8f, 0), rtk_vec3_make(0, 1, 0), 80.0f};
+        rtk_camera cam;
+        rtk_camera_init(&cam, &d, 24, 20);
+        size_t count = (size_t)24 * 20 * RTK_FILM_CHANNELS;
+        float *a = rtk_alloc(count * sizeof(float)), *b = rtk_alloc(count * sizeof(float));
+        rtk_render_stats sa, sb;
+        rtk_film_render job = RTK_FILM_RENDER_DEFAULTS;
+        job.scene = scene;
+        job.camera = &cam;
+        job.integrator = f;
+        job.integrator_state = state;
+        job.filter = &rtk_conform_pixel_box;
+        job.spp = 4;
+        job.seed = 7;
+        rtk_status s1 = a && b ? rtk_render_film(&job, a, &sa) : RTK_ERR_NOMEM;
+        job.threads = 2;
+        rtk_status s2 = s1 == RTK_OK ? rtk_render_film(&job, b, &sb) : s1;
+        snprintf(name, sizeof name, "renders the standard scene [%s]", label);
+        rtk_conform_check(r, s1 == RTK_OK && s2 == RTK_OK, name, "%s", rtk_error_message());
+        if (s1 == RTK_OK && s2 == RTK_OK) {
+            size_t nonfinite = 0, lit = 0;
+            for (size_t i = 0; i < count; i += RTK_FILM_CHANNELS)
+                for (int c = 0; c < 3; c++) {
+                    if (!isfinite(a[i + (size_t)c]))
+                        nonfinite++;
+                    if (a[i + (size_t)c] > 0.0f)
+                        lit++;
+                }
+            snprintf(name, sizeof name, "output is finite [%s]", label);
+            rtk_conform_check(r, nonfinite == 0 && sa.bad_samples == 0, name,
+                              "%zu non-finite pixel values, %llu NaN/Inf samples", nonfinite,
+                              (unsigned long long)sa.bad_samples);
+            snprintf(name, sizeof name, "output is not all black on a lit scene [%s]", label);
+            rtk_conform_check(r, lit > 0, name, "every pixel is zero");
+            snprintf(name, sizeof name, "same seed gives the same image on 1 and 2 threads [%s]", label);
+            rtk_conform_check(r, memcmp(a, b, count * sizeof(float)) == 0, name, "images differ");
+            snprintf(name, sizeof name, "traces rays through the kernel [%s]", label);
+            rtk_conform_check(r, sa.rays > 0, name, "no ray was traced");
+        }
+        free(a);
+        free(b);
+    }
+    rtk_scene_free(scene);
+}
+
 void rtk_conform_integrator(rtk_conform_runner *r, const rtk_plugin *p)
 {
     const rtk_integrator_fns *f = p->functions;
-    uint32_t variants = rtk_conform_variant_count(p);
-    for (uint32_t vi = 0; vi < variants; vi++) {
-        char label[128], name[256];
-        void *state = NULL;
-        if (!rtk_conform_create_variant(r, p, vi, f->create, label, sizeof label, &state))
-            continue;
-        uint32_t needs = f->needs(state);
-        snprintf(name, sizeof name, "needs only known flags [%s]", label);
-        rtk_conform_check(r, (needs & ~0x1fu) == 0, name, "needs 0x%x has unknown bits", needs);
-        rtk_scene *scene = NULL;
-        rtk_status st = make_room(needs, &scene);
-        if (st == RTK_OK)
-            st = rtk_bvh_build(scene, &rtk_conform_one_leaf, NULL, 1);
-        if (st != RTK_OK) {
-            rtk_conform_check(r, 0, "standard scene", "%s", rtk_error_message());
-            f->destroy(state);
-            continue;
-        }
-        if (f->prepare) {
-            st = f->prepare(state, scene);
-            snprintf(name, sizeof name, "prepare on the standard scene [%s]", label);
-            rtk_conform_check(r, st == RTK_OK, name, "%s", rtk_error_message());
-        }
-        if (st == RTK_OK) {
-            rtk_camera_desc d = {rtk_vec3_make(0, 1, 0.95f), rtk_vec3_make(0, 0.8f, 0), rtk_vec3_make(0, 1, 0), 80.0f};
-            rtk_camera cam;
-            rtk_camera_init(&cam, &d, 24, 20);
-            size_t count = (size_t)24 * 20 * RTK_FILM_CHANNELS;
-            float *a = rtk_alloc(count * sizeof(float)), *b = rtk_alloc(count * sizeof(float));
-            rtk_render_stats sa, sb;
-            rtk_film_render job = RTK_FILM_RENDER_DEFAULTS;
-            job.scene = scene;
-            job.camera = &cam;
-            job.integrator = f;
-            job.integrator_state = state;
-            job.filter = &rtk_conform_pixel_box;
-            job.spp = 4;
-            job.seed = 7;
-            rtk_status s1 = a && b ? rtk_render_film(&job, a, &sa) : RTK_ERR_NOMEM;
-            job.threads = 2;
-            rtk_status s2 = s1 == RTK_OK ? rtk_render_film(&job, b, &sb) : s1;
-            snprintf(name, sizeof name, "renders the standard scene [%s]", label);
-            rtk_conform_check(r, s1 == RTK_OK && s2 == RTK_OK, name, "%s", rtk_error_message());
-            if (s1 == RTK_OK && s2 == RTK_OK) {
-                size_t nonfinite = 0, lit = 0;
-                for (size_t i = 0; i < count; i += RTK_FILM_CHANNELS)
-                    for (int c = 0; c < 3; c++) {
-                        if (!isfinite(a[i + (size_t)c]))
-                            nonfinite++;
-                        if (a[i + (size_t)c] > 0.0f)
-                            lit++;
-                    }
-                snprintf(name, sizeof name, "output is finite [%s]", label);
-                rtk_conform_check(r, nonfinite == 0 && sa.bad_samples == 0, name,
-                                  "%zu non-finite pixel values, %llu NaN/Inf samples", nonfinite,
-                                  (unsigned long long)sa.bad_samples);
-                snprintf(name, sizeof name, "output is not all black on a lit scene [%s]", label);
-                rtk_conform_check(r, lit > 0, name, "every pixel is zero");
-                snprintf(name, sizeof name, "same seed gives the same image on 1 and 2 threads [%s]", label);
-                rtk_conform_check(r, memcmp(a, b, count * sizeof(float)) == 0, name, "images differ");
-                snprintf(name, sizeof name, "traces rays through the kernel [%s]", label);
-                rtk_conform_check(r, sa.rays > 0, name, "no ray was traced");
-            }
-            free(a);
-            free(b);
-        }
-        rtk_scene_free(scene);
-        f->destroy(state);
-    }
+    rtk_conform_each_variant(r, p, f->create, f->destroy, check_integrator);
     rtk_conform_profile(p, r->out, &r->passed, &r->failed);
 }
