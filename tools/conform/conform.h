@@ -41,9 +41,9 @@ typedef struct rtk_conform_options {
 } rtk_conform_options;
 
 /* Stand-ins for integrator checks, which must not depend on any plugin
- * but the one under test (conform_integrators.c): an accelerator that makes one leaf
- * over everything, and a box filter of radius 1/2, so that each sample
- * counts in the pixel it falls in only. */
+ * but the one under test (conform_integrators.c): an accelerator that
+ * makes one leaf over everything, and a box filter of radius 1/2, so that
+ * each sample counts in the pixel it falls in only. */
 extern const rtk_plugin rtk_conform_one_leaf;
 extern const rtk_filter_fns rtk_conform_pixel_box;
 
