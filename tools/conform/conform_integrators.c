@@ -141,6 +141,7 @@ static void check_integrator(rtk_conform_runner *r, const rtk_plugin *p, void *s
         st = rtk_bvh_build(scene, &rtk_conform_one_leaf, NULL, 1);
     if (st != RTK_OK) {
         rtk_conform_check(r, 0, "standard scene", "%s", rtk_error_message());
+        rtk_scene_free(scene);
         return;
     }
     if (f->prepare) {
