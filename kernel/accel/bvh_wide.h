@@ -7,7 +7,8 @@
  *   wide tree. [main thread]
  * - Traversal reads the scene only: any thread, concurrently.
  * - Results are those of the binary traversal bit for bit: same triangle,
- *   same t, u, v, equal distances resolved to the lowest triangle id. */
+ *   same t, u, v, equal distances resolved to the lowest triangle id.
+ * The build is bvh_wide_build.c, the traversal bvh_wide_trace.c. */
 #ifndef RTK_KERNEL_BVH_WIDE_H
 #define RTK_KERNEL_BVH_WIDE_H
 
@@ -23,6 +24,17 @@ RTK_EXTERN_C_BEGIN
 #define RTK_WIDE 8
 /* Triangles per leaf block. */
 #define RTK_WIDE_TRIS 4
+/* Deepest wide tree: the binary limit (each wide level spans at least one
+ * binary level) plus levels that split oversized leaves. */
+#define RTK_WIDE_MAX_DEPTH 288
+
+/* 1 where the SSE and AVX code of the build and the traversal compiles
+ * (x86, <immintrin.h>), else 0: plain C. */
+#if defined(__x86_64__) || defined(__i386__)
+#define RTK_HAVE_X86 1
+#else
+#define RTK_HAVE_X86 0
+#endif
 
 /* A reported hit distance t is within RTK_T_TOLERANCE * |t| of the exact
  * one: rtk_intersect_triangle recomputes t in double when its float error

@@ -154,7 +154,7 @@ struct rtk_scene {
      * the scene lives; NULL for kernel traversal. */
     const rtk_accelerator_fns *own_traversal;
     void *own_state;
-    /* The binary tree collapsed for SIMD traversal (bvh_wide.c), or NULL. */
+    /* The binary tree collapsed for SIMD traversal (kernel/accel/bvh_wide_build.c), or NULL. */
     struct rtk_wide_bvh *wide;
     /* Emitters and their sampling table (lights.c); NULL unless needed. */
     struct rtk_lights *lights;

@@ -1,10 +1,10 @@
-/* Tests for kernel/accel/bvh_wide.c: on every traversal path this CPU runs
- * (plain C, SSE, AVX2, AVX-512), the wide BVH answers exactly as the binary
- * traversal and as brute force: same triangle, bit-identical t, u, v,
- * same any-hit answer; on several meshes and builders, for random rays,
- * rays with every combination of +-0 direction components, origins on
- * and next to box faces, and rays with tmin > 0 or < 0. Work counts are
- * the same on every wide path. */
+/* Tests for the wide BVH (kernel/accel/bvh_wide_build.c, bvh_wide_trace.c):
+ * on every traversal path this CPU runs (plain C, SSE, AVX2, AVX-512), the
+ * wide BVH answers exactly as the binary traversal and as brute force:
+ * same triangle, bit-identical t, u, v, same any-hit answer; on several
+ * meshes and builders, for random rays, rays with every combination of
+ * +-0 direction components, origins on and next to box faces, and rays
+ * with tmin > 0 or < 0. Work counts are the same on every wide path. */
 #include "config/config.h"
 #include "render/render.h"
 
@@ -320,8 +320,8 @@ static void compare_paths(rtk_scene *s, const char *mesh, const char *builder, i
         if (!same_hit(b, &hb, f, &hf))
             bad_binary++;
         /* The first path's work; for occlusion, of each family
-         * (box_int_note in kernel/accel/bvh_wide.c): the float reductions
-         * (scalar, SSE) and the integer ones (AVX2, AVX-512). */
+         * (box_int_note in kernel/accel/bvh_wide_trace.c): the float
+         * reductions (scalar, SSE) and the integer ones (AVX2, AVX-512). */
         rtk_trace_work work0 = {0, 0}, awork0[2] = {{0, 0}, {0, 0}};
         int seen[2] = {0, 0};
         for (int p = 0; p < npaths; p++) {
