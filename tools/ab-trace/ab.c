@@ -2,7 +2,8 @@
  *
  * A is the build tree's kernel: rtk_wide_any / rtk_wide_closest on the
  * best path this CPU runs (or RTK_SIMD's), over the tree ACCEL built. B
- * is either a variant of kernel/bvh_wide.c linked beside it (its
+ * is either a variant of the wide BVH (kernel/accel/bvh_wide_trace.c and
+ * bvh_wide_build.c, one of them modified) linked beside it (its
  * functions renamed B_*, on the same path, tracing the same tree, or with
  * AB_REBUILD=1 a wide tree its own code built on a second copy of the
  * scene), or, for "embree", the embree plugin through
