@@ -200,27 +200,8 @@ static inline __attribute__((always_inline)) int binary_closest(const rtk_scene 
         } else {
             if (work)
                 work->nodes++;
-            uint32_t c0 = n->offset, c1 = n->offset + 1;
-            float t0 = rtk_slab_entry(&s->nodes[c0], &p, ray.tmin, ray.tmax);
-            float t1 = rtk_slab_entry(&s->nodes[c1], &p, ray.tmin, ray.tmax);
-            if (t0 != INFINITY && t1 != INFINITY) {
-                if (t1 < t0) {
-                    uint32_t tmp = c0;
-                    c0 = c1;
-                    c1 = tmp;
-                }
-                stack[top++] = c1;
-                node = c0;
+            if (rtk_slab_descend(s->nodes, n, &p, ray.tmin, ray.tmax, stack, &top, &node))
                 continue;
-            }
-            if (t0 != INFINITY) {
-                node = c0;
-                continue;
-            }
-            if (t1 != INFINITY) {
-                node = c1;
-                continue;
-            }
         }
         if (top == 0)
             break;
@@ -240,10 +221,7 @@ static inline __attribute__((always_inline)) int binary_any(const rtk_scene *s, 
     uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
     int top = 0;
     stack[top++] = 0;
-    while (top > 0) {
-        const rtk_bvh_node *n = &s->nodes[stack[--top]];
-        if (rtk_slab_entry(n, &p, ray->tmin, ray->tmax) == INFINITY)
-            continue;
+    for (const rtk_bvh_node *n; (n = rtk_slab_pop(s->nodes, &p, ray->tmin, ray->tmax, stack, &top));) {
         if (n->count > 0) {
             for (uint32_t i = 0; i < n->count; i++) {
                 float t, u, v;

@@ -208,6 +208,17 @@ RTK_INLINE uint32_t push_unsorted(const rtk_wide_node *n, uint32_t mask, stack_e
     return first;
 }
 
+/* The child to enter next among a node's hit children (mask, not 0):
+ * the only one, or for occlusion the first (push_unsorted), for closest
+ * hit the nearest (push_sorted); the others pushed. */
+RTK_INLINE uint32_t push_children(const rtk_wide_node *n, uint32_t mask, const float *dist, int any,
+                                  stack_entry *stack, int *top)
+{
+    if ((mask & (mask - 1)) == 0)
+        return n->child[__builtin_ctz(mask)];
+    return any ? push_unsorted(n, mask, stack, top) : push_sorted(n, mask, dist, stack, top);
+}
+
 /* Records a hit found at (t, u, v) on prim if it is closer, or as close
  * with a lower id. Returns 1 when the hit changed. */
 RTK_INLINE int record_hit(rtk_hit *hit, float t, float u, float v, uint32_t prim)
@@ -324,12 +335,7 @@ RTK_INLINE int scalar_traverse(const rtk_scene *s, const rtk_ray *ray_in, rtk_hi
                 mask |= (uint32_t)scalar_box(n, i, &p, ray.tmin, tmax_w, &dist[i]) << i;
             if (mask == 0)
                 goto pop;
-            if ((mask & (mask - 1)) == 0)
-                cur = n->child[__builtin_ctz(mask)];
-            else if (any)
-                cur = push_unsorted(n, mask, stack, &top);
-            else
-                cur = push_sorted(n, mask, dist, stack, &top);
+            cur = push_children(n, mask, dist, any, stack, &top);
         }
         {
             const rtk_wide_tris *t = &w->tris[(cur & ~RTK_WIDE_LEAF) >> RTK_WIDE_LEAF_SHIFT];
@@ -610,12 +616,7 @@ RTK_INLINE int sse_traverse(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit
             uint32_t mask = (uint32_t)(m0 | m1 << 4);
             if (mask == 0)
                 goto pop;
-            if ((mask & (mask - 1)) == 0)
-                cur = n->child[__builtin_ctz(mask)];
-            else if (any)
-                cur = push_unsorted(n, mask, stack, &top);
-            else
-                cur = push_sorted(n, mask, dist, stack, &top);
+            cur = push_children(n, mask, dist, any, stack, &top);
         }
         if (!tri_ready) {
             tri_prepare(ray, &tr);

@@ -378,24 +378,8 @@ static inline __attribute__((always_inline)) int top_closest(const rtk_scene *s,
                     r.tmax = h.t;
                 }
             }
-        } else {
-            uint32_t c0 = n->offset, c1 = n->offset + 1;
-            float t0 = rtk_slab_entry(&s->tlas_nodes[c0], &p, r.tmin, r.tmax);
-            float t1 = rtk_slab_entry(&s->tlas_nodes[c1], &p, r.tmin, r.tmax);
-            if (t0 != INFINITY && t1 != INFINITY) {
-                if (t1 < t0) {
-                    uint32_t tmp = c0;
-                    c0 = c1;
-                    c1 = tmp;
-                }
-                stack[top++] = c1;
-                node = c0;
-                continue;
-            }
-            if (t0 != INFINITY || t1 != INFINITY) {
-                node = t0 != INFINITY ? c0 : c1;
-                continue;
-            }
+        } else if (rtk_slab_descend(s->tlas_nodes, n, &p, r.tmin, r.tmax, stack, &top, &node)) {
+            continue;
         }
         if (top == 0)
             break;
@@ -432,10 +416,7 @@ int rtk_instances_any(const rtk_scene *s, const rtk_ray *ray, rtk_trace_work *wo
     uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
     int top = 0;
     stack[top++] = 0;
-    while (top > 0) {
-        const rtk_bvh_node *n = &s->tlas_nodes[stack[--top]];
-        if (rtk_slab_entry(n, &p, ray->tmin, ray->tmax) == INFINITY)
-            continue;
+    for (const rtk_bvh_node *n; (n = rtk_slab_pop(s->tlas_nodes, &p, ray->tmin, ray->tmax, stack, &top));) {
         if (work)
             work->nodes++;
         if (n->count == 0) {

@@ -1,6 +1,7 @@
 /* The conservative ray/box slab test (Ize 2013) on the kernel's binary
- * nodes, shared by the binary traversal (bvh.c) and the top level over
- * instances (instance.c). */
+ * nodes and the traversal steps built on it (closest hit's ordered
+ * descent, occlusion's pop), shared by the binary traversal (bvh.c) and
+ * the top level over instances (instance.c). */
 #ifndef RTK_KERNEL_SLAB_H
 #define RTK_KERNEL_SLAB_H
 
@@ -53,6 +54,55 @@ static inline float rtk_slab_entry(const rtk_bvh_node *n, const rtk_slab_ray *p,
     float cull = rtk_cull_distance(tmax);
     t1 = cull < t1 ? cull : t1;
     return t0 <= t1 ? t0 : INFINITY;
+}
+
+/* One step of the ordered descent at inner node n of the tree nodes: the
+ * children whose boxes the ray enters within [tmin, tmax], the nearer into
+ * *node and the farther pushed on stack when both; 0 when it enters
+ * neither (the caller pops next). */
+static inline __attribute__((always_inline)) int rtk_slab_descend(const rtk_bvh_node *nodes,
+                                                                   const rtk_bvh_node *n, const rtk_slab_ray *p,
+                                                                   float tmin, float tmax, uint32_t *stack,
+                                                                   int *top, uint32_t *node)
+{
+    uint32_t c0 = n->offset, c1 = n->offset + 1;
+    float t0 = rtk_slab_entry(&nodes[c0], p, tmin, tmax);
+    float t1 = rtk_slab_entry(&nodes[c1], p, tmin, tmax);
+    if (t0 != INFINITY && t1 != INFINITY) {
+        if (t1 < t0) {
+            uint32_t tmp = c0;
+            c0 = c1;
+            c1 = tmp;
+        }
+        stack[(*top)++] = c1;
+        *node = c0;
+        return 1;
+    }
+    if (t0 != INFINITY) {
+        *node = c0;
+        return 1;
+    }
+    if (t1 != INFINITY) {
+        *node = c1;
+        return 1;
+    }
+    return 0;
+}
+
+/* Occlusion's unordered walk: pops stack until a node whose box the
+ * ray enters within [tmin, tmax] and returns it, or NULL when the stack
+ * runs empty. */
+static inline __attribute__((always_inline)) const rtk_bvh_node *rtk_slab_pop(const rtk_bvh_node *nodes,
+                                                                               const rtk_slab_ray *p, float tmin,
+                                                                               float tmax, const uint32_t *stack,
+                                                                               int *top)
+{
+    while (*top > 0) {
+        const rtk_bvh_node *n = &nodes[stack[--*top]];
+        if (rtk_slab_entry(n, p, tmin, tmax) != INFINITY)
+            return n;
+    }
+    return NULL;
 }
 
 #endif
