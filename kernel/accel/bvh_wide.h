@@ -76,7 +76,7 @@ typedef enum rtk_simd_path {
 #define RTK_WIDE_LEAF_BLOCKS 16
 #define RTK_WIDE_MAX_NODES (RTK_WIDE_LEAF / 256u)
 /* The most nodes rtk_wide_build makes: RTK_WIDE_MAX_NODES, lowered only
- * by tests (tests/wide) to reach the refusal on a small scene. */
+ * by tests (tests/accel/wide) to reach the refusal on a small scene. */
 extern uint32_t rtk_wide_node_limit;
 
 /* One node, 256 bytes on a 64-byte boundary. bounds[2k] holds the lower

@@ -281,7 +281,7 @@ RTK_INLINE float min_ps(float a, float b)
  *   the entry (>= 0) is <= it only where it is -0 and the entry 0: a box
  *   the float test misses passes where one exit is -0 (an origin on the
  *   exit plane) and another negative, a box nothing in which is hit (more
- *   boxes pass, never fewer; tests/wide counts the rays whose work
+ *   boxes pass, never fewer; tests/accel/wide counts the rays whose work
  *   changes).
  * Rays with a direction component below FLT_MIN in magnitude (or 0) take
  * the SSE path's float reductions instead. Integer max and min have a

@@ -1,5 +1,5 @@
 /* The conformance runner's private header: the options tests use to run
- * the accelerator checks at other sizes (tests/hard traces the icosphere
+ * the accelerator checks at other sizes (tests/accel/hard traces the icosphere
  * with a million rays), the stand-ins integrator checks render with, and
  * what the runner's files share: the check bookkeeping and parameter sets
  * (conform.c), one entry per plugin kind (conform_accelerators.c,

@@ -14,7 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "../check.h"
+#include "check.h"
 
 static float frand(rtk_pcg32 *rng, float lo, float hi)
 {
