@@ -30,6 +30,16 @@ RTK_API uint32_t rtk_scene_light_count(const rtk_scene *scene);
  * [any thread] */
 RTK_API int rtk_scene_sample_light(const rtk_scene *scene, float u_pick, rtk_vec2 u, rtk_light_sample *out);
 
+/* The shadow ray from p, on a surface with geometric normal np, to q, on
+ * a light with geometric normal nq (rtk_light_sample's n; the zero vector
+ * when q lies on no surface, as a point light's position): each end moves
+ * off its own surface along its own normal turned towards the other end
+ * (rtk_offset_ray_origin), so neither end can hit the surface it lies on
+ * at any angle; an offset along the ray instead rounds to nothing when the
+ * light is seen edge-on. dir = q' - p', tmin 0, tmax 1: rtk_occluded on it
+ * says whether q is hidden from p. [any thread] (ABI 3.3) */
+RTK_API rtk_ray rtk_shadow_ray(rtk_vec3 p, rtk_vec3 np, rtk_vec3 q, rtk_vec3 nq);
+
 /* Area density with which rtk_scene_sample_light picks points of the
  * triangle a hit landed on (0 when it does not emit or hit is a miss), for
  * multiple importance sampling. [any thread] */

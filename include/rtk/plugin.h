@@ -22,9 +22,11 @@ RTK_EXTERN_C_BEGIN
  * rtk_build_args.indices, positions, vertex_count, scratch and
  * scratch_bytes; rtk_plugin.conform is a comma-separated list of the
  * profile names docs/conform.md gives (a 3.1 descriptor's one name keeps
- * its 3.1 meaning). */
+ * its 3.1 meaning).
+ * 3.3: rtk_shadow_ray (rtk/lights.h), the shadow ray between two points
+ * offset each along its own surface's normal. */
 #define RTK_ABI_MAJOR 3
-#define RTK_ABI_MINOR 2
+#define RTK_ABI_MINOR 3
 
 /* Name of the one symbol a plugin exports. */
 #define RTK_PLUGIN_ENTRY_NAME "rtk_plugin_entry"

@@ -215,6 +215,20 @@ RTK_API int rtk_scene_sample_light(const rtk_scene *s, float u_pick, rtk_vec2 u,
     return 1;
 }
 
+/* n, or -n when it faces away from d. */
+static rtk_vec3 facing(rtk_vec3 n, rtk_vec3 d)
+{
+    return rtk_vec3_dot(n, d) < 0.0f ? rtk_vec3_neg(n) : n;
+}
+
+RTK_API rtk_ray rtk_shadow_ray(rtk_vec3 p, rtk_vec3 np, rtk_vec3 q, rtk_vec3 nq)
+{
+    rtk_vec3 d = rtk_vec3_sub(q, p);
+    rtk_vec3 from = rtk_offset_ray_origin(p, facing(np, d)), to = rtk_offset_ray_origin(q, facing(nq, rtk_vec3_neg(d)));
+    rtk_ray r = {from, 0.0f, rtk_vec3_sub(to, from), 1.0f};
+    return r;
+}
+
 RTK_API float rtk_scene_light_pdf(const rtk_scene *s, const rtk_hit *hit)
 {
     const rtk_lights *l = s->lights;

@@ -87,10 +87,9 @@ static void arealight_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rt
             rtk_vec3 wi = rtk_vec3_scale(d, 1.0f / sqrtf(dist2));
             float cos_s = rtk_vec3_dot(s.ns, wi), cos_l = -rtk_vec3_dot(ls.n, wi);
             if (cos_s > 0.0f && cos_l > 0.0f && rtk_vec3_dot(s.ng, wi) > 0.0f && dist2 > 0.0f) {
-                /* Shadow ray between the two offset points: neither end can
-                 * hit its own surface. */
-                rtk_vec3 target = rtk_offset_ray_origin(ls.p, rtk_vec3_neg(wi));
-                rtk_ray shadow = {org, 0.0f, rtk_vec3_sub(target, org), 1.0f};
+                /* Each end offset along its own normal: no self-hit, even
+                 * where the light is seen edge-on. */
+                rtk_ray shadow = rtk_shadow_ray(s.p, s.ng, ls.p, ls.n);
                 if (!rtk_occluded(ctx, &shadow)) {
                     float pdf_light = ls.pdf_area * dist2 / cos_l; /* solid angle */
                     float w = a->mis ? power_heuristic(pdf_light, cos_s * inv_pi) : 1.0f;

@@ -127,7 +127,7 @@ static rtk_rgb direct(rtk_ctx *ctx, const rtk_surface *s, rtk_vec3 wo)
                     scale *= t * t * (3.0f - 2.0f * t);
                 }
             }
-            shadow.dir = rtk_vec3_sub(l->position, org);
+            shadow = rtk_shadow_ray(s->p, s->ng, l->position, rtk_vec3_make(0.0f, 0.0f, 0.0f));
             tmax = 1.0f;
         }
         float cos_i = rtk_vec3_dot(s->ns, wi);

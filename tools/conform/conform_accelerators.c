@@ -1533,7 +1533,7 @@ static void conform_surface(rtk_conform_runner *r, const rtk_plugin *p, const rt
                         rtk_vec3 light = fdv(dadd(offset, dmul(free_point(&rng), sc_)));
                         if (rtk_vec3_dot(rtk_vec3_sub(light, sf.p), ng) <= 0.0f)
                             continue;
-                        sec = make_ray(up, rtk_vec3_sub(light, up), 1.0f);
+                        sec = rtk_shadow_ray(sf.p, ng, light, rtk_vec3_make(0.0f, 0.0f, 0.0f));
                     } else {
                         /* The far end is found as a path tracer finds
                          * the next vertex: by a ray from the offset origin. */
@@ -1546,8 +1546,7 @@ static void conform_surface(rtk_conform_runner *r, const rtk_plugin *p, const rt
                         if (rtk_vec3_dot(rtk_vec3_sub(sf2.p, sf.p), ng) <= 0.0f ||
                             rtk_vec3_dot(rtk_vec3_sub(sf.p, sf2.p), sf2.ng) <= 0.0f)
                             continue;
-                        rtk_vec3 to = rtk_offset_ray_origin(sf2.p, sf2.ng);
-                        sec = make_ray(up, rtk_vec3_sub(to, up), 1.0f);
+                        sec = rtk_shadow_ray(sf.p, ng, sf2.p, sf2.ng);
                         prim1 = hit2.prim;
                         side1 = ddot(dvf(sf2.ng), sc.normal[prim1]) > 0 ? 1 : -1;
                     }
@@ -1562,7 +1561,7 @@ static void conform_surface(rtk_conform_runner *r, const rtk_plugin *p, const rt
     free(it);
     char name[512];
     snprintf(name, sizeof name,
-             "rays leaving surfaces through rtk_offset_ray_origin at scales 1e-3..1e4, offsets 0..1e4 (%d scenes; "
+             "rays leaving surfaces through rtk_offset_ray_origin and rtk_shadow_ray at scales 1e-3..1e4, offsets 0..1e4 (%d scenes; "
              "%d combinations float cannot resolve left out): %llu AO, %llu mirror, %llu refraction, %llu shadow "
              "to a point, %llu shadow to a surface: no self-hit, no leak, no false occlusion",
              configs, skipped, (unsigned long long)kinds[0], (unsigned long long)kinds[1], (unsigned long long)kinds[2],
