@@ -11,6 +11,7 @@
 #include <rtk/plugin.h>
 #include <rtk/scene.h>
 #include <rtk/sampler.h>
+#include <rtk/bsdf.h>
 #include <rtk/lights.h>
 #include <rtk/integrator.h>
 #include <rtk/accelerator.h>
