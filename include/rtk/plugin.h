@@ -24,7 +24,8 @@ RTK_EXTERN_C_BEGIN
  * profile names docs/conform.md gives (a 3.1 descriptor's one name keeps
  * its 3.1 meaning).
  * 3.3: rtk_shadow_ray (rtk/lights.h), the shadow ray between two points
- * offset each along its own surface's normal. */
+ * offset each along its own surface's normal; BSDFs (rtk/bsdf.h:
+ * rtk_bsdf_eval, rtk_bsdf_sample, rtk_bsdf_pdf, rtk_bsdf_flags). */
 #define RTK_ABI_MAJOR 3
 #define RTK_ABI_MINOR 3
 
