@@ -10,13 +10,15 @@
  * - f() excludes the cosine: reflected radiance is the integral of
  *   f(wo, wi) Li(wi) |wi.z| over wi.
  * - pdfs are densities in solid angle over wi.
- * - Every lobe here reflects only: wo.z <= 0 or wi.z <= 0 gives f = 0 and
- *   pdf = 0, and sample() fails for wo.z <= 0.
+ * - Every lobe but the dielectric reflects only: wo.z <= 0 or wi.z <= 0
+ *   gives f = 0 and pdf = 0, and sample() fails for wo.z <= 0. The
+ *   dielectric takes wo on either side (wo.z < 0: the ray arrives from
+ *   inside) and returns wi on either side.
  * - A lobe that scatters into single directions (a smooth mirror or
  *   dielectric) is flagged RTK_BSDF_DELTA: eval() and pdf() return 0 for
  *   it, and sample() returns f = weight / |wi.z| with pdf = the discrete
  *   probability of the direction, so f |wi.z| / pdf is the path weight as
- *   for the other lobes. None of the lobes below is delta yet.
+ *   for the other lobes. RTK_BSDF_DIELECTRIC is the delta lobe.
  * - The GGX lobe is single-scattering only: it loses the light that
  *   would scatter again between microfacets (white furnace, F = 1: 0.003
  *   of it at alpha 0.05, 0.05 at alpha 0.2, 0.31 at alpha 0.5, 0.69 at
@@ -82,7 +84,26 @@ typedef enum rtk_bsdf_type {
      * direction below the horizon fails, so the pdf integrates over the
      * hemisphere to the probability that sample() succeeds. alpha is
      * clamped to at least RTK_GGX_ALPHA_MIN. */
-    RTK_BSDF_GGX = 2
+    RTK_BSDF_GGX = 2,
+    /* Smooth dielectric interface of relative index ior = n inside / n
+     * outside (inside is -z), finite and > 0 (else sample() fails). For
+     * wo on the inside (wo.z < 0) the relative index is eta = 1 / ior,
+     * else eta = ior. F is the exact unpolarised Fresnel reflectance at
+     * c = |wo.z|: F = (rs^2 + rp^2) / 2, rs = (c - eta ct) / (c + eta ct),
+     * rp = (eta c - ct) / (eta c + ct), ct = sqrt(1 - (1 - c^2) / eta^2);
+     * F = 1 where that root is imaginary (total internal reflection).
+     * sample() reflects, wi = (-wo.x, -wo.y, wo.z), with probability F
+     * and returns f = F / |wi.z|, pdf = F; else it refracts by Snell,
+     * wi = (-wo.x / eta, -wo.y / eta, -sign(wo.z) ct), and returns
+     * f = (1 - F) / |wi.z|, pdf = 1 - F. The path weight f |wi.z| / pdf
+     * is therefore 1 for either event (white furnace = 1 exactly). f
+     * excludes the radiance scale 1 / eta^2 of refraction (pbrt's
+     * TransportMode::Radiance includes it): the factors of entering and
+     * leaving a closed object cancel, and an integrator that carries
+     * radiance into or out of a medium (camera or light inside it)
+     * multiplies a transmission's weight by 1 / eta^2 itself. Flags:
+     * RTK_BSDF_DELTA with RTK_BSDF_REFLECTION or RTK_BSDF_TRANSMISSION. */
+    RTK_BSDF_DIELECTRIC = 3
 } rtk_bsdf_type;
 
 /* Fresnel term of the GGX lobe. */
@@ -118,6 +139,7 @@ typedef struct rtk_bsdf {
     rtk_fresnel_type fresnel; /* GGX: which Fresnel */
     rtk_rgb f0;               /* GGX, Schlick: reflectance at normal incidence */
     rtk_rgb eta, k;           /* GGX, conductor: complex index of refraction */
+    float ior;                /* dielectric: index inside / index outside, > 0 */
 } rtk_bsdf;
 
 /* Oren-Nayar sigma for a material roughness in [0, 1]: sigma = roughness,
@@ -139,7 +161,7 @@ static inline float rtk_ggx_alpha(float roughness)
 /* A Lambert BSDF of reflectance albedo. */
 static inline rtk_bsdf rtk_bsdf_lambert(rtk_rgb albedo)
 {
-    rtk_bsdf b = {RTK_BSDF_LAMBERT, albedo, 0.0f, 0.0f, RTK_FRESNEL_SCHLICK, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+    rtk_bsdf b = {RTK_BSDF_LAMBERT, albedo, 0.0f, 0.0f, RTK_FRESNEL_SCHLICK, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0.0f};
     return b;
 }
 
@@ -173,9 +195,19 @@ static inline rtk_bsdf rtk_bsdf_ggx_conductor(rtk_rgb eta, rtk_rgb k, float alph
     return b;
 }
 
+/* A smooth dielectric of relative index ior (inside / outside, e.g. 1.5
+ * for glass in air). */
+static inline rtk_bsdf rtk_bsdf_dielectric(float ior)
+{
+    rtk_bsdf b = rtk_bsdf_lambert(rtk_rgb_make(0, 0, 0));
+    b.type = RTK_BSDF_DIELECTRIC;
+    b.ior = ior;
+    return b;
+}
+
 /* A direction sampled by rtk_bsdf_sample. */
 typedef struct rtk_bsdf_sample_out {
-    rtk_vec3 wi;    /* local, unit, away from the surface */
+    rtk_vec3 wi;    /* local, unit, away from the surface (either side for transmission) */
     rtk_rgb f;      /* rtk_bsdf_eval(bsdf, wo, wi) (delta: see the top) */
     float pdf;      /* rtk_bsdf_pdf(bsdf, wo, wi), > 0 (delta: see the top) */
     unsigned flags; /* rtk_bsdf_flag of the sampled lobe */
@@ -186,8 +218,9 @@ RTK_API rtk_rgb rtk_bsdf_eval(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec3 wi);
 
 /* Samples wi for wo from u in [0, 1)^2 (rtk_sample_2d); returns 1 and
  * fills out, or 0 (out untouched) when no direction results: wo below the
- * surface, or a GGX direction below the horizon, which the estimator counts
- * as zero. [any thread] */
+ * surface (the dielectric: wo.z = 0, or ior not a finite positive number),
+ * or a GGX direction below the horizon, which the estimator counts as
+ * zero. [any thread] */
 RTK_API int rtk_bsdf_sample(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec2 u, rtk_bsdf_sample_out *out);
 
 /* Solid-angle density with which rtk_bsdf_sample returns wi for wo. [any thread] */

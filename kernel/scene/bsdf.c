@@ -1,5 +1,5 @@
-/* The BSDF lobes of include/rtk/bsdf.h: Lambert, Fujii's Oren-Nayar and
- * the GGX conductor sampled by visible normals. Everything is in the local
+/* The BSDF lobes of include/rtk/bsdf.h: Lambert, Fujii's Oren-Nayar, the
+ * GGX conductor sampled by visible normals and the smooth dielectric. Everything is in the local
  * shading frame (normal +z); the header states the conventions. */
 #include <rtk/bsdf.h>
 
@@ -95,6 +95,23 @@ static float fresnel_conductor(float c, float eta, float k)
     return 0.5f * (rp + rs);
 }
 
+/* Unpolarised reflectance of a dielectric interface of relative index eta
+ * at cosine c in [0, 1]; the transmitted cosine goes to *cos_t (0 under
+ * total internal reflection, where F = 1). */
+static float fresnel_dielectric(float c, float eta, float *cos_t)
+{
+    float sin2_t = (1.0f - c * c) / (eta * eta);
+    if (sin2_t >= 1.0f) {
+        *cos_t = 0.0f;
+        return 1.0f;
+    }
+    float ct = sqrtf(1.0f - sin2_t);
+    float rs = (c - eta * ct) / (c + eta * ct);
+    float rp = (eta * c - ct) / (eta * c + ct);
+    *cos_t = ct;
+    return 0.5f * (rs * rs + rp * rp);
+}
+
 static float schlick(float c, float f0)
 {
     float m = 1.0f - c;
@@ -165,6 +182,8 @@ rtk_rgb rtk_bsdf_eval(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec3 wi)
         return rtk_rgb_scale(bsdf->albedo, oren_nayar(clamp_sigma(bsdf->sigma), wo, wi));
     case RTK_BSDF_GGX:
         return ggx_eval(bsdf, wo, wi);
+    case RTK_BSDF_DIELECTRIC:
+        return rgb_zero();
     }
     return rgb_zero();
 }
@@ -179,6 +198,8 @@ float rtk_bsdf_pdf(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec3 wi)
         return wi.z * INV_PI;
     case RTK_BSDF_GGX:
         return ggx_pdf(bsdf, wo, wi);
+    case RTK_BSDF_DIELECTRIC:
+        return 0.0f;
     }
     return 0.0f;
 }
@@ -191,12 +212,40 @@ unsigned rtk_bsdf_flags(const rtk_bsdf *bsdf)
         return RTK_BSDF_REFLECTION | RTK_BSDF_DIFFUSE;
     case RTK_BSDF_GGX:
         return RTK_BSDF_REFLECTION | RTK_BSDF_GLOSSY;
+    case RTK_BSDF_DIELECTRIC:
+        return RTK_BSDF_REFLECTION | RTK_BSDF_TRANSMISSION | RTK_BSDF_DELTA;
     }
     return 0;
 }
 
+/* The dielectric's mirror reflection with probability F, else Snell's
+ * refraction; the header states f, pdf and the flags. */
+static int dielectric_sample(float ior, rtk_vec3 wo, float u, rtk_bsdf_sample_out *out)
+{
+    if (!(ior > 0.0f && isfinite(ior) && wo.z != 0.0f && isfinite(wo.z)))
+        return 0;
+    int inside = wo.z < 0.0f;
+    float eta = inside ? 1.0f / ior : ior;
+    float c = fminf(fabsf(wo.z), 1.0f), cos_t;
+    float fr = fresnel_dielectric(c, eta, &cos_t);
+    if (u < fr) {
+        out->wi = rtk_vec3_make(-wo.x, -wo.y, wo.z);
+        out->pdf = fr;
+        out->flags = RTK_BSDF_REFLECTION | RTK_BSDF_DELTA;
+    } else {
+        out->wi = rtk_vec3_make(-wo.x / eta, -wo.y / eta, inside ? cos_t : -cos_t);
+        out->pdf = 1.0f - fr;
+        out->flags = RTK_BSDF_TRANSMISSION | RTK_BSDF_DELTA;
+    }
+    float w = out->pdf / fabsf(out->wi.z);
+    out->f = rtk_rgb_make(w, w, w);
+    return 1;
+}
+
 int rtk_bsdf_sample(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec2 u, rtk_bsdf_sample_out *out)
 {
+    if (bsdf->type == RTK_BSDF_DIELECTRIC)
+        return dielectric_sample(bsdf->ior, wo, u.x, out);
     if (!(wo.z > 0.0f))
         return 0;
     rtk_vec3 wi;

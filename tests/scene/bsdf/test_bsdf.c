@@ -10,6 +10,10 @@
  * - white furnace: directional albedo <= 1, = 1 for Lambert, and GGX's
  *   single-scattering loss equals a table integrated here from the closed
  *   form, not through sample().
+ * The smooth dielectric (a delta lobe) over relative indices and incidence
+ * from both sides, total internal reflection included: exact mirror and
+ * Snell directions, the fraction of reflections against the Fresnel
+ * equations written here from s- and p-amplitudes, path weight 1.
  * It also checks rtk_frame and the chi-square p-value function itself. */
 #include <rtk/rtk.h>
 
@@ -572,6 +576,149 @@ static void test_smooth_limit(void)
                     "0-89 degrees (%ld not)", (double)RTK_GGX_ALPHA_MIN, n, bad);
 }
 
+/* Unpolarised Fresnel reflectance from the s- and p-polarised amplitudes
+ * of light arriving at angle theta_i in medium n1 onto medium n2; 1 under
+ * total internal reflection. Snell's angle through asin, unlike the kernel. */
+static double ref_fresnel_dielectric(double theta_i, double n1, double n2)
+{
+    double st = n1 / n2 * sin(theta_i);
+    if (st >= 1.0)
+        return 1.0;
+    double theta_t = asin(st), ci = cos(theta_i), ct = cos(theta_t);
+    double rs = (n1 * ci - n2 * ct) / (n1 * ci + n2 * ct);
+    double rp = (n2 * ci - n1 * ct) / (n2 * ci + n1 * ct);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+/* Samples per dielectric case for the reflection fraction. */
+#define NDIEL 200000L
+
+/* The smooth dielectric of relative index ior with wo at angle theta_deg
+ * from the normal on the outside (+z) or the inside (-z). */
+static void dielectric_case(float ior, double theta_deg, int inside)
+{
+    char label[128];
+    snprintf(label, sizeof label, "dielectric ior=%.4g theta_o=%g from %s", ior, theta_deg,
+             inside ? "inside" : "outside");
+    rtk_bsdf b = rtk_bsdf_dielectric(ior);
+    double th = theta_deg * PI / 180.0;
+    rtk_vec3 wo = direction(th, PHI_O);
+    if (inside)
+        wo.z = -wo.z;
+    /* n1: the index on wo's side, n2: across; the angle from the float wo. */
+    double n1 = inside ? ior : 1.0, n2 = inside ? 1.0 : ior;
+    double thf = acos(fabs((double)wo.z));
+    double fr = ref_fresnel_dielectric(thf, n1, n2);
+    double st = n1 / n2 * sin(thf);
+    int tir = st >= 1.0;
+    /* Snell in double: the tangential part scales by n1 / n2 and flips, z crosses over. */
+    double ct = tir ? 0.0 : sqrt(1.0 - st * st);
+    double refl[3] = {-(double)wo.x, -(double)wo.y, wo.z};
+    double refr[3] = {-(double)wo.x * n1 / n2, -(double)wo.y * n1 / n2, inside ? ct : -ct};
+
+    long reflected = 0, bad_dir = 0, bad_weight = 0, bad_flags = 0, failed_n = 0;
+    double sum_w = 0.0, worst_dir = 0.0, worst_pdf = 0.0;
+    for (long k = 0; k < NDIEL; k++) {
+        rtk_bsdf_sample_out out;
+        if (!rtk_bsdf_sample(&b, wo, vec2(uniform(), uniform()), &out)) {
+            failed_n++;
+            continue;
+        }
+        int is_refl = out.flags == (RTK_BSDF_REFLECTION | RTK_BSDF_DELTA);
+        int is_refr = out.flags == (RTK_BSDF_TRANSMISSION | RTK_BSDF_DELTA);
+        bad_flags += !(is_refl || is_refr);
+        reflected += is_refl;
+        const double *want = is_refl ? refl : refr;
+        double d = fmax(fabs(out.wi.x - want[0]), fmax(fabs(out.wi.y - want[1]), fabs(out.wi.z - want[2])));
+        worst_dir = fmax(worst_dir, isfinite(d) ? d : INFINITY);
+        bad_dir += !(d <= 1e-5);
+        /* The discrete probability of the event: F or 1 - F. */
+        worst_pdf = fmax(worst_pdf, fabs(out.pdf - (is_refl ? fr : 1.0 - fr)));
+        double w = out.f.g * fabs(out.wi.z) / out.pdf;
+        bad_weight += !(out.pdf > 0.0f && is_finite_rgb(out.f) && out.f.r == out.f.g && out.f.g == out.f.b &&
+                        fabs(w - 1.0) <= 1e-5);
+        sum_w += w;
+    }
+    check(failed_n == 0 && bad_flags == 0 && bad_dir == 0,
+          "%s: every sample is the exact mirror or Snell refraction (worst component %.1e, %ld of %ld off by "
+          "> 1e-5), flagged delta + reflection or transmission (%ld not), %ld failed",
+          label, worst_dir, bad_dir, NDIEL, bad_flags, failed_n);
+    double frac = (double)reflected / (double)NDIEL;
+    double se = sqrt(fr * (1.0 - fr) / (double)NDIEL);
+    if (tir)
+        check(reflected == NDIEL && bad_weight == 0 && worst_pdf == 0.0,
+              "%s: beyond the critical angle (%.2f deg) all %ld samples reflect with pdf 1 and weight 1 (%ld "
+              "reflect, %ld weights off)",
+              label, asin(n2 / n1) * 180.0 / PI, NDIEL, reflected, bad_weight);
+    else
+        check(fabs(frac - fr) <= 5.0 * se, "%s: reflected fraction %.5f of N=%ld, Fresnel %.5f (5 se = %.1e)", label,
+              frac, NDIEL, fr, 5.0 * se);
+    double mean = sum_w / (double)(NDIEL - failed_n);
+    check(fabs(mean - 1.0) <= 1e-3 && bad_weight == 0 && worst_pdf <= 1e-4 * fmax(fr, 1e-2),
+          "%s: white furnace mean of f |cos| / pdf = %.7f (1 within 1e-3, each sample 1 within 1e-5: %ld not); "
+          "pdf = F or 1 - F (worst %.1e)",
+          label, mean, bad_weight, worst_pdf);
+}
+
+/* The dielectric over indices, sides and angles; delta, so eval() and
+ * pdf() are 0 even at the exact mirror and refracted directions. */
+static void test_dielectric(void)
+{
+    const float iors[] = {1.5f, 1.33f, 1.0f / 1.5f};
+    const double thetas[] = {0.0, 30.0, 45.0, 60.0, 80.0, 89.0};
+    for (int i = 0; i < 3; i++)
+        for (int side = 0; side < 2; side++)
+            for (int t = 0; t < 6; t++)
+                dielectric_case(iors[i], thetas[t], side);
+
+    /* The kernel's F (the reflection pdf at u.x = 0, the transmission pdf
+     * near u.x = 1) against the amplitudes and the complex-index formula. */
+    double worst = 0.0, worst_c = 0.0;
+    int zero = 1;
+    for (int i = 0; i < 3; i++)
+        for (int side = 0; side < 2; side++)
+            for (int t = 0; t <= 90; t++) {
+                rtk_bsdf b = rtk_bsdf_dielectric(iors[i]);
+                rtk_vec3 wo = direction(t * PI / 180.0, PHI_O);
+                if (t == 90)
+                    wo = direction(89.9 * PI / 180.0, PHI_O);
+                if (side)
+                    wo.z = -wo.z;
+                double thf = acos(fabs((double)wo.z));
+                double n1 = side ? iors[i] : 1.0, n2 = side ? 1.0 : iors[i];
+                double fr = ref_fresnel_dielectric(thf, n1, n2);
+                rtk_bsdf_sample_out r, tr;
+                memset(&r, 0, sizeof r);
+                memset(&tr, 0, sizeof tr);
+                int ok_r = rtk_bsdf_sample(&b, wo, vec2(0.0f, 0.5f), &r);
+                int ok_t = rtk_bsdf_sample(&b, wo, vec2(1.0f - 0x1p-24f, 0.5f), &tr);
+                double fk = ok_r ? r.pdf : -1.0;
+                double tk = ok_t ? (tr.flags & RTK_BSDF_TRANSMISSION ? 1.0 - tr.pdf : tr.pdf) : -1.0;
+                worst = fmax(worst, fmax(rel_diff(fk, fr), fabs(tk - fr)));
+                worst_c = fmax(worst_c, rel_diff(fr, ref_fresnel_conductor(thf, n2 / n1, 0.0)));
+                rtk_rgb f1 = rtk_bsdf_eval(&b, wo, r.wi), f2 = rtk_bsdf_eval(&b, wo, tr.wi);
+                zero &= f1.r == 0 && f1.g == 0 && f1.b == 0 && f2.r == 0 && f2.g == 0 && f2.b == 0;
+                zero &= rtk_bsdf_pdf(&b, wo, r.wi) == 0.0f && rtk_bsdf_pdf(&b, wo, tr.wi) == 0.0f;
+            }
+    check(worst < 1e-4, "dielectric Fresnel (ior 1.5, 1.33, 1/1.5, both sides, 0-89.9 deg) equals the s- and "
+                        "p-amplitude formula in double (worst relative %.1e)", worst);
+    check(worst_c < 1e-9, "the test's amplitude formula equals the complex-index one at k = 0 (worst relative %.1e)",
+          worst_c);
+    check(zero, "dielectric: eval() and pdf() are 0 at the sampled mirror and refracted directions (delta lobe)");
+
+    rtk_bsdf glass = rtk_bsdf_dielectric(1.5f);
+    rtk_bsdf_sample_out out;
+    int rejects = rtk_bsdf_sample(&glass, rtk_vec3_make(1.0f, 0.0f, 0.0f), vec2(0.5f, 0.5f), &out) == 0;
+    const float bad_ior[] = {0.0f, -1.5f, NAN, INFINITY};
+    for (int i = 0; i < 4; i++) {
+        rtk_bsdf b = rtk_bsdf_dielectric(bad_ior[i]);
+        rejects &= rtk_bsdf_sample(&b, wo_at(30.0f), vec2(0.5f, 0.5f), &out) == 0;
+    }
+    check(rejects && rtk_bsdf_flags(&glass) == (RTK_BSDF_REFLECTION | RTK_BSDF_TRANSMISSION | RTK_BSDF_DELTA),
+          "dielectric: sample() fails for wo in the surface and for ior 0, -1.5, NaN, inf; flags are reflection + "
+          "transmission + delta");
+}
+
 int main(void)
 {
     rng_state = 0x5eed5eedull;
@@ -581,6 +728,7 @@ int main(void)
     test_gamma_q();
     test_frame();
     test_fresnel();
+    test_dielectric();
 
     rtk_rgb white = rtk_rgb_make(1, 1, 1);
     rtk_bsdf lambert = rtk_bsdf_lambert(white);
