@@ -1,9 +1,9 @@
 /* profile_declared: a third-party-style integrator declaring the
  * conformance profiles PROFILES (a string its meson line defines, with
  * PLUGIN_NAME and ABI_MINOR), with every parameter those profiles set.
- * Built once per declaration test_profile_list.sh checks; the stub fails
+ * Built once per declaration test_profile_list.sh checks; the white integrator fails
  * every exact test, so the output shows which profiles ran. Test-only. */
-#include "stub_integrator.h"
+#include "white_integrator.h"
 
 #include <math.h>
 
@@ -27,7 +27,7 @@ static const rtk_plugin profile_declared_plugin = {
     .summary = "declares the conformance profiles " PROFILES,
     .params = profile_declared_params,
     .param_count = RTK_COUNTOF(profile_declared_params),
-    .functions = &stub_fns,
+    .functions = &white_fns,
     .conform = PROFILES,
 };
 

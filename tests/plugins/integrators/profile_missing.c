@@ -1,7 +1,7 @@
 /* profile_missing: declares the "ambient-occlusion" profile without its
  * 'distance' parameter. rtk conform must fail, naming the parameter ("has
  * no parameter 'distance'"), not run the profile half-set. Test-only. */
-#include "stub_integrator.h"
+#include "white_integrator.h"
 
 static const rtk_param_desc profile_missing_params[] = {
     {.name = "rays", .type = RTK_PARAM_INT, .def = 16, .min = 1, .max = 4096, .doc = "occlusion rays"},
@@ -15,7 +15,7 @@ static const rtk_plugin profile_missing_plugin = {
     .summary = "broken on purpose: the ambient-occlusion profile without 'distance'",
     .params = profile_missing_params,
     .param_count = RTK_COUNTOF(profile_missing_params),
-    .functions = &stub_fns,
+    .functions = &white_fns,
     .conform = "ambient-occlusion",
 };
 

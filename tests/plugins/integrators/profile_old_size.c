@@ -1,8 +1,8 @@
 /* profile_old_size: a 3.0 descriptor, its size ending before `conform`,
  * with "ambient-occlusion" in the memory where conform would be. The
  * kernel must not read past the size: rtk conform runs the generic checks
- * only and passes (the stub would fail that profile). Test-only. */
-#include "stub_integrator.h"
+ * only and passes (the white integrator would fail that profile). Test-only. */
+#include "white_integrator.h"
 
 #include <stddef.h>
 
@@ -21,7 +21,7 @@ static const rtk_plugin profile_old_size_plugin = {
     .summary = "a 3.0 descriptor: no conform field as far as its size says",
     .params = profile_old_size_params,
     .param_count = RTK_COUNTOF(profile_old_size_params),
-    .functions = &stub_fns,
+    .functions = &white_fns,
     .conform = "ambient-occlusion",
 };
 

@@ -1,7 +1,7 @@
 /* profile_type: declares the "direct-area-light" profile with 'mis' an
  * int where the profile sets a bool. rtk conform must fail, naming the
  * type. Test-only. */
-#include "stub_integrator.h"
+#include "white_integrator.h"
 
 static const rtk_param_desc profile_type_params[] = {
     {.name = "light_samples", .type = RTK_PARAM_INT, .def = 1, .min = 1, .max = 4096, .doc = "light samples"},
@@ -16,7 +16,7 @@ static const rtk_plugin profile_type_plugin = {
     .summary = "broken on purpose: the direct-area-light profile with an int 'mis'",
     .params = profile_type_params,
     .param_count = RTK_COUNTOF(profile_type_params),
-    .functions = &stub_fns,
+    .functions = &white_fns,
     .conform = "direct-area-light",
 };
 

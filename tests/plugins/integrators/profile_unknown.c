@@ -1,6 +1,6 @@
 /* profile_unknown: declares a profile rtk does not have. rtk conform must
  * fail and list the known ones. Test-only. */
-#include "stub_integrator.h"
+#include "white_integrator.h"
 
 static const rtk_plugin profile_unknown_plugin = {
     RTK_PLUGIN_HEADER,
@@ -8,7 +8,7 @@ static const rtk_plugin profile_unknown_plugin = {
     .name = "profile_unknown",
     .version = "1.0",
     .summary = "broken on purpose: an unknown conformance profile",
-    .functions = &stub_fns,
+    .functions = &white_fns,
     .conform = "pathtracer",
 };
 

@@ -15,7 +15,7 @@ run() { # conform plugin $1; its output in $out; fails when the run passed
     out=$("$rtk" conform "$dir/$1.so" 2>&1)
     local status=$?
     if [ $status -eq 0 ]; then
-        echo "FAIL  $1: rtk conform passed; the stub must fail a profile's exact tests"
+        echo "FAIL  $1: rtk conform passed; the white integrator must fail a profile's exact tests"
         failed=$((failed + 1))
     fi
 }

@@ -2,25 +2,25 @@
  * test plugins wrap in descriptors declaring conformance profiles. It
  * passes the generic checks and fails every profile's exact tests, so a
  * profile that runs shows. Each test plugin includes it once. */
-#ifndef RTK_TEST_STUB_INTEGRATOR_H
-#define RTK_TEST_STUB_INTEGRATOR_H
+#ifndef RTK_TEST_WHITE_INTEGRATOR_H
+#define RTK_TEST_WHITE_INTEGRATOR_H
 
 #include <rtk/rtk.h>
 
-static rtk_status stub_create(const rtk_params *params, void **state)
+static rtk_status white_create(const rtk_params *params, void **state)
 {
     (void)params;
     *state = NULL;
     return RTK_OK;
 }
 
-static uint32_t stub_needs(const void *state)
+static uint32_t white_needs(const void *state)
 {
     (void)state;
     return 0;
 }
 
-static void stub_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
+static void white_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
 {
     (void)state;
     rtk_hit hit;
@@ -28,17 +28,17 @@ static void stub_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_
         out->radiance = rtk_rgb_make(1.0f, 1.0f, 1.0f);
 }
 
-static void stub_destroy(void *state)
+static void white_destroy(void *state)
 {
     (void)state;
 }
 
-static const rtk_integrator_fns stub_fns = {
+static const rtk_integrator_fns white_fns = {
     .size = sizeof(rtk_integrator_fns),
-    .create = stub_create,
-    .needs = stub_needs,
-    .li = stub_li,
-    .destroy = stub_destroy,
+    .create = white_create,
+    .needs = white_needs,
+    .li = white_li,
+    .destroy = white_destroy,
 };
 
 #endif
