@@ -84,6 +84,15 @@ static inline float rtk_conform_frand(rtk_pcg32 *rng, float lo, float hi)
     return lo + (hi - lo) * rtk_pcg32_float(rng);
 }
 
+/* Scene makers of the integrator checks and profiles (conform_integrators.c).
+ * A diffuse material: albedo, grey emission le. */
+rtk_material rtk_conform_diffuse(rtk_rgb albedo, float le);
+/* Adds m to s; its id (RTK_INVALID_ID when out of memory). */
+uint32_t rtk_conform_add_material(rtk_scene *s, rtk_material m);
+/* Quad o, o+e1, o+e1+e2, o+e2 as two triangles; its front side is e1 x e2.
+ * with_uv: each triangle's corners get uv (0,0), (1,0), (1,1). */
+void rtk_conform_add_quad(rtk_scene *s, rtk_vec3 o, rtk_vec3 e1, rtk_vec3 e2, uint32_t material, int with_uv);
+
 /* The checks of each kind, after the schema checks; o (may be NULL) only
  * concerns accelerators. */
 void rtk_conform_accelerator(rtk_conform_runner *r, const rtk_plugin *p, const rtk_conform_options *o);

@@ -9,25 +9,42 @@
 #include <stdlib.h>
 #include <string.h>
 
-static uint32_t add_material(rtk_scene *s, float r, float g, float b, float emit)
+rtk_material rtk_conform_diffuse(rtk_rgb albedo, float le)
 {
     rtk_material m = rtk_material_default();
-    m.base_color = rtk_rgb_make(r, g, b);
-    m.emission = rtk_rgb_make(emit, emit, emit);
+    m.base_color = albedo;
+    m.emission = rtk_rgb_make(le, le, le);
+    return m;
+}
+
+uint32_t rtk_conform_add_material(rtk_scene *s, rtk_material m)
+{
     uint32_t id = RTK_INVALID_ID;
     rtk_scene_add_material(s, &m, &id);
     return id;
 }
 
-static void add_quad(rtk_scene *s, rtk_vec3 o, rtk_vec3 e1, rtk_vec3 e2, uint32_t material)
+void rtk_conform_add_quad(rtk_scene *s, rtk_vec3 o, rtk_vec3 e1, rtk_vec3 e2, uint32_t material, int with_uv)
 {
     uint32_t i[4];
     rtk_vec3 p[4] = {o, rtk_vec3_add(o, e1), rtk_vec3_add(rtk_vec3_add(o, e1), e2), rtk_vec3_add(o, e2)};
     for (int k = 0; k < 4; k++)
         rtk_scene_add_vertex(s, p[k].x, p[k].y, p[k].z, &i[k]);
-    const float uv[6] = {0, 0, 1, 0, 1, 1};
-    rtk_scene_add_triangle(s, i[0], i[1], i[2], NULL, uv, material);
-    rtk_scene_add_triangle(s, i[0], i[2], i[3], NULL, uv, material);
+    static const float uv[6] = {0, 0, 1, 0, 1, 1};
+    rtk_scene_add_triangle(s, i[0], i[1], i[2], NULL, with_uv ? uv : NULL, material);
+    rtk_scene_add_triangle(s, i[0], i[2], i[3], NULL, with_uv ? uv : NULL, material);
+}
+
+/* The standard room's quads carry uvs. */
+static void add_quad(rtk_scene *s, rtk_vec3 o, rtk_vec3 e1, rtk_vec3 e2, uint32_t material)
+{
+    rtk_conform_add_quad(s, o, e1, e2, material, 1);
+}
+
+/* A material of the standard room. */
+static uint32_t add_material(rtk_scene *s, float r, float g, float b, float emit)
+{
+    return rtk_conform_add_material(s, rtk_conform_diffuse(rtk_rgb_make(r, g, b), emit));
 }
 
 /* A small room, open at the front, with a ceiling light and a block: every integrator

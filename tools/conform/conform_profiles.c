@@ -69,17 +69,18 @@ static void expect_close(tally *t, const char *what, double got, double truth, d
 
 static uint32_t add_material(rtk_scene *s, rtk_material m)
 {
-    uint32_t id = RTK_INVALID_ID;
-    rtk_scene_add_material(s, &m, &id);
-    return id;
+    return rtk_conform_add_material(s, m);
+}
+
+/* The profiles' quads carry no uvs. */
+static void add_quad(rtk_scene *s, rtk_vec3 o, rtk_vec3 e1, rtk_vec3 e2, uint32_t material)
+{
+    rtk_conform_add_quad(s, o, e1, e2, material, 0);
 }
 
 static rtk_material diffuse(float albedo, float le)
 {
-    rtk_material m = rtk_material_default();
-    m.base_color = rtk_rgb_make(albedo, albedo, albedo);
-    m.emission = rtk_rgb_make(le, le, le);
-    return m;
+    return rtk_conform_diffuse(rtk_rgb_make(albedo, albedo, albedo), le);
 }
 
 static rtk_material glass(void)
@@ -88,17 +89,6 @@ static rtk_material glass(void)
     m.transmission = 1.0f;
     m.ior = 1.5f;
     return m;
-}
-
-/* Quad o, o+e1, o+e1+e2, o+e2; its front (emitting) side is e1 x e2. */
-static void add_quad(rtk_scene *s, rtk_vec3 o, rtk_vec3 e1, rtk_vec3 e2, uint32_t material)
-{
-    uint32_t i[4];
-    rtk_vec3 p[4] = {o, rtk_vec3_add(o, e1), rtk_vec3_add(rtk_vec3_add(o, e1), e2), rtk_vec3_add(o, e2)};
-    for (int k = 0; k < 4; k++)
-        rtk_scene_add_vertex(s, p[k].x, p[k].y, p[k].z, &i[k]);
-    rtk_scene_add_triangle(s, i[0], i[1], i[2], NULL, NULL, material);
-    rtk_scene_add_triangle(s, i[0], i[2], i[3], NULL, NULL, material);
 }
 
 static rtk_vec3 v3(double x, double y, double z)
