@@ -25,7 +25,8 @@ RTK_EXTERN_C_BEGIN
  * its 3.1 meaning).
  * 3.3: rtk_shadow_ray (rtk/lights.h), the shadow ray between two points
  * offset each along its own surface's normal; BSDFs (rtk/bsdf.h:
- * rtk_bsdf_eval, rtk_bsdf_sample, rtk_bsdf_pdf, rtk_bsdf_flags). */
+ * rtk_bsdf_eval, rtk_bsdf_sample, rtk_bsdf_pdf, rtk_bsdf_flags);
+ * rtk_sample_seek (rtk/sampler.h), draws by dimension. */
 #define RTK_ABI_MAJOR 3
 #define RTK_ABI_MINOR 3
 

@@ -96,6 +96,7 @@ static void render_tile(render_job *job, uint32_t index, rtk_ctx *ctx, uint64_t 
                 rtk_ray ray = rtk_camera_ray(&job->camera, fx, fy);
                 ctx->film_x = fx, ctx->film_y = fy; /* for rtk_ctx_camera_differential */
                 ctx->camera_ray = ray;              /* for rtk_trace's single-sided test */
+                ctx->dim_base = ctx->dim;           /* rtk_sample_seek counts from here */
                 rtk_li_result r;
                 memset(&r, 0, sizeof r);
                 r.depth = INFINITY;

@@ -60,6 +60,7 @@ struct rtk_ctx {
     uint64_t sample_hash;      /* of (seed, pixel, stratified pass) */
     uint32_t pass_sample;      /* stratified: sample index within its pass of spp */
     uint32_t dim;              /* dimensions drawn so far in this sample */
+    uint32_t dim_base;         /* the first dimension li draws (after the camera's) */
     /* The current sample's camera ray (render.c), for its differentials:
      * the film position it went through; camera NULL when there is none. */
     const rtk_camera *camera;

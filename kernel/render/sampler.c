@@ -7,6 +7,10 @@
  * draw is the film position). A value depends only on (generator, seed,
  * spp, pixel, sample index, dimension), never on threads or tiles, and lies
  * in [0, 0x1.fffffep-1]. Sample indices are 64-bit and never wrap.
+ * rtk_sample_seek sets the counter to li's first dimension (dim_base,
+ * recorded by the renderer after the camera's draws) plus the one asked;
+ * the independent generator, whose draws are a stream, restarts its
+ * stream at a hash of the dimension there.
  *
  * independent  PCG32 (O'Neill 2014): one stream per (seed, sample index),
  *              selected by the pixel index; dimensions are consecutive draws.
@@ -251,6 +255,7 @@ void rtk_ctx_start_sample(rtk_ctx *ctx, uint64_t pixel, uint64_t sample)
     ctx->pixel = pixel;
     ctx->sample = sample;
     ctx->dim = 0;
+    ctx->dim_base = 0;
     if (ctx->sampler == RTK_SAMPLER_INDEPENDENT) {
         rtk_pcg32_seed(&ctx->rng, mix64(ctx->seed ^ mix64(sample)), pixel);
         return;
@@ -260,6 +265,13 @@ void rtk_ctx_start_sample(rtk_ctx *ctx, uint64_t pixel, uint64_t sample)
     uint64_t pass = ctx->sampler == RTK_SAMPLER_STRATIFIED ? sample / ctx->spp : 0;
     ctx->pass_sample = (uint32_t)(sample - pass * ctx->spp);
     ctx->sample_hash = mix64(ctx->seed ^ mix64(pixel ^ mix64(pass)));
+}
+
+RTK_API void rtk_sample_seek(rtk_ctx *ctx, uint32_t dim)
+{
+    ctx->dim = ctx->dim_base + dim;
+    if (ctx->sampler == RTK_SAMPLER_INDEPENDENT)
+        rtk_pcg32_seed(&ctx->rng, mix64(ctx->seed ^ mix64(ctx->sample) ^ mix64(0x5eedULL + ctx->dim)), ctx->pixel);
 }
 
 RTK_API float rtk_sample_1d(rtk_ctx *ctx)

@@ -15,7 +15,12 @@
  *    threads with every generator;
  *  - the config accepts the three types and rtk_render warns once, naming
  *    the config, when sobol gets a spp that is not a power of two;
- *  - convergence on an integral with a closed form (see test_convergence). */
+ *  - convergence on an integral with a closed form (see test_convergence);
+ *  - rtk_sample_seek: after samples spent different numbers of draws (as
+ *    paths ended by Russian roulette do), a seek to one dimension gives the
+ *    same values as reaching it draw by draw, so stratified and sobol draws
+ *    there keep their strata and nets; independent draws after a seek
+ *    depend on the dimension only. */
 #include "render/render.h"
 #include "config/config.h"
 #include "image/image.h"
@@ -292,6 +297,77 @@ static void test_sobol_nets(void)
     free(xs);
     free(ys);
     free(seen);
+}
+
+/* ---- seeking to a dimension ---- */
+
+/* The 2D draw at dimension 1 + 2 k after the camera's draw (li's dimension
+ * 2 k) of samples [0, n) of one pixel: reached by seeking after a number of
+ * other draws that differs per sample (junk = 1), or draw by draw. */
+static void seek_run(rtk_sampler_type type, uint64_t seed, uint32_t n, uint64_t pixel, uint32_t k, int junk,
+                     float *x, float *y)
+{
+    rtk_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    rtk_ctx_set_sampler(&ctx, type, seed, n);
+    for (uint32_t s = 0; s < n; s++) {
+        rtk_ctx_start_sample(&ctx, pixel, s);
+        (void)rtk_sample_2d(&ctx); /* the camera's draw */
+        ctx.dim_base = ctx.dim;    /* as the renderer records it before li */
+        if (junk) {
+            for (uint32_t j = 0; j < (s * 7u + 3u) % 11u; j++)
+                (void)rtk_sample_1d(&ctx);
+            rtk_sample_seek(&ctx, 2 * k);
+        } else {
+            for (uint32_t j = 0; j < k; j++)
+                (void)rtk_sample_2d(&ctx);
+        }
+        rtk_vec2 p = rtk_sample_2d(&ctx);
+        x[s] = p.x;
+        y[s] = p.y;
+    }
+}
+
+static void test_seek(void)
+{
+    const uint32_t n = 64;
+    float xa[64], ya[64], xb[64], yb[64];
+    uint8_t seen[64];
+    int same[3] = {1, 1, 1}, strata = 1, nets = 1;
+    for (int t = 0; t < 3; t++)
+        for (size_t si = 0; si < 4; si++)
+            for (size_t pi = 0; pi < 5; pi++)
+                for (uint32_t k = 0; k < 6; k++) {
+                    seek_run((rtk_sampler_type)t, seeds[si], n, pixels[pi], k, 1, xa, ya);
+                    if (t == RTK_SAMPLER_INDEPENDENT) {
+                        /* a second junk pattern: the values must not depend on it */
+                        rtk_ctx ctx;
+                        memset(&ctx, 0, sizeof ctx);
+                        rtk_ctx_set_sampler(&ctx, RTK_SAMPLER_INDEPENDENT, seeds[si], n);
+                        for (uint32_t s = 0; s < n; s++) {
+                            rtk_ctx_start_sample(&ctx, pixels[pi], s);
+                            (void)rtk_sample_2d(&ctx);
+                            ctx.dim_base = ctx.dim;
+                            for (uint32_t j = 0; j < s % 5u; j++)
+                                (void)rtk_sample_2d(&ctx);
+                            rtk_sample_seek(&ctx, 2 * k);
+                            rtk_vec2 p = rtk_sample_2d(&ctx);
+                            xb[s] = p.x, yb[s] = p.y;
+                        }
+                    } else {
+                        seek_run((rtk_sampler_type)t, seeds[si], n, pixels[pi], k, 0, xb, yb);
+                        if (t == RTK_SAMPLER_STRATIFIED)
+                            strata &= one_per_cell(xa, ya, n, 8, 8, seen);
+                        else
+                            nets &= is_net(xa, ya, 6, seen);
+                    }
+                    same[t] &= memcmp(xa, xb, sizeof xa) == 0 && memcmp(ya, yb, sizeof ya) == 0;
+                }
+    check(same[1] && strata, "stratified: a 2D draw reached by rtk_sample_seek after 0-10 other draws per sample "
+                             "equals the draw reached draw by draw, one sample per cell of 8x8 (64 spp, 6 "
+                             "dimensions, 20 seed/pixel pairs)");
+    check(same[2] && nets, "sobol: likewise, and its 64 samples are a (0,6,2)-net");
+    check(same[0], "independent: draws after rtk_sample_seek do not depend on the draws before it");
 }
 
 /* ---- values below 1 ---- */
@@ -654,6 +730,7 @@ int main(void)
     test_sobol_nets();
     test_below_one();
     test_past_2_32();
+    test_seek();
     test_threads();
     test_config_warning();
     test_convergence();
