@@ -1,5 +1,6 @@
 /* BSDF service: evaluate, sample and query the pdf of a surface's
- * scattering, for any integrator.
+ * scattering, for any integrator. A BSDF (rtk_bsdf) is a weighted sum of
+ * up to RTK_BSDF_MAX_LOBES lobes (rtk_lobe): f = sum_i weight_i f_i.
  *
  * Conventions (every function here follows them):
  * - Directions are unit vectors in the local shading frame, where the
@@ -10,26 +11,56 @@
  * - f() excludes the cosine: reflected radiance is the integral of
  *   f(wo, wi) Li(wi) |wi.z| over wi.
  * - pdfs are densities in solid angle over wi.
- * - Every lobe but the dielectric reflects only: wo.z <= 0 or wi.z <= 0
- *   gives f = 0 and pdf = 0, and sample() fails for wo.z <= 0. The
- *   dielectric takes wo on either side (wo.z < 0: the ray arrives from
- *   inside) and returns wi on either side.
- * - A lobe that scatters into single directions (a smooth mirror or
- *   dielectric) is flagged RTK_BSDF_DELTA: eval() and pdf() return 0 for
- *   it, and sample() returns f = weight / |wi.z| with pdf = the discrete
- *   probability of the direction, so f |wi.z| / pdf is the path weight as
- *   for the other lobes. RTK_BSDF_DIELECTRIC is the delta lobe.
- * - The GGX lobe is single-scattering only: it loses the light that
- *   would scatter again between microfacets (white furnace, F = 1: 0.003
- *   of it at alpha 0.05, 0.05 at alpha 0.2, 0.31 at alpha 0.5, 0.69 at
- *   alpha 1, wo normal; tests/scene/bsdf prints the table). Energy
- *   compensation (Kulla and Conty 2017) is not applied yet.
- * - Lambert and Oren-Nayar sampling never fails for wo above the surface.
+ * - Lambert, Oren-Nayar, GGX and plastic reflect only: wo.z <= 0 or
+ *   wi.z <= 0 gives f = 0 and pdf = 0, and their sampling fails for
+ *   wo.z <= 0. The two dielectrics take wo on either side (wo.z < 0: the
+ *   ray arrives from inside, -z) and return wi on either side; wo.z = 0
+ *   or wi.z = 0 gives f = pdf = 0 and sampling fails.
+ * - A lobe that scatters into single directions (the smooth dielectric)
+ *   is flagged RTK_BSDF_DELTA: eval() and pdf() leave it out, and when
+ *   sample() picks it, it returns f = weight f_lobe with f_lobe =
+ *   (event weight) / |wi.z| and pdf = p_i (discrete probability of the
+ *   direction), so that f |wi.z| / pdf is the path weight as for the other
+ *   lobes.
+ * - Transmission f excludes the radiance scale 1 / eta^2 of refraction
+ *   (pbrt's TransportMode::Radiance includes it): the factors of entering
+ *   and leaving a closed object cancel, and an integrator that carries
+ *   radiance into or out of a medium (camera or light inside it)
+ *   multiplies a transmission's weight by 1 / eta^2 itself. Reciprocity
+ *   across the interface therefore holds as f(wo, wi) / n_i^2 =
+ *   f(wi, wo) / n_o^2, n_i the index on wi's side and n_o on wo's.
+ *
+ * Mixtures and sample(): lobe i is chosen with probability
+ *   p_i = s_i / sum_j s_j, s_i = luminance(weight_i) x nominal_i
+ * (luminance = 0.2126 r + 0.7152 g + 0.0722 b, negative counted as 0),
+ * nominal_i a fixed estimate of the lobe's albedo: luminance(albedo) for
+ * Lambert and Oren-Nayar; for GGX with Schlick luminance(f0 + (1 - f0) / 21)
+ * (Schlick's cosine-weighted mean, > 0 even at f0 = 0), with the conductor
+ * Fresnel 1; 1 for both dielectrics; for plastic
+ * luminance(Fa + (1 - Fa) albedo), Fa = f0 + (1 - f0) / 21. Where every
+ * s_i is 0 each lobe gets 1 / count. u_lobe in [0, 1) picks the lobe by
+ * these p_i (cumulative, in lobe order); what is left of it, rescaled to
+ * [0, 1), makes the lobe's own discrete choice (a dielectric's reflection
+ * or refraction, plastic's coat or base); u in [0, 1)^2 makes the
+ * direction. For a non-delta lobe, sample() returns f = rtk_bsdf_eval and
+ * pdf = rtk_bsdf_pdf at wi (sums over every non-delta lobe, so
+ * f |wi.z| / pdf is the one-sample MIS-over-lobes weight); for a delta
+ * lobe, f = weight_i f_i and pdf = p_i x the event's probability.
+ * rtk_bsdf_pdf is sum_i p_i pdf_i over the non-delta lobes.
+ *
+ * Energy (white furnace, single scattering): Lambert, Oren-Nayar at
+ * sigma 0 and the smooth dielectric keep all of it; the microfacet lobes
+ * lose the light that would scatter again between microfacets. GGX with
+ * F = 1, wo normal: 0.003 lost at alpha 0.05, 0.05 at 0.2, 0.31 at 0.5,
+ * 0.69 at 1; tests/scene/bsdf prints the tables for every lobe. Energy
+ * compensation (Kulla and Conty 2017) is not applied.
  * All functions are pure: [any thread]. */
 #ifndef RTK_BSDF_H
 #define RTK_BSDF_H
 
 #include <rtk/math.h>
+
+#include <stdint.h>
 
 RTK_EXTERN_C_BEGIN
 
@@ -65,15 +96,15 @@ static inline rtk_vec3 rtk_frame_to_world(const rtk_frame *f, rtk_vec3 v)
                         rtk_vec3_scale(f->n, v.z));
 }
 
-/* The lobe a rtk_bsdf describes; its parameters are the fields named. */
-typedef enum rtk_bsdf_type {
-    /* f = albedo / pi; sampled cosine-weighted. */
-    RTK_BSDF_LAMBERT = 0,
+/* The kind of a rtk_lobe; its parameters are the fields named. */
+typedef enum rtk_lobe_type {
+    /* f = albedo / pi; sampled cosine-weighted, never fails for wo.z > 0. */
+    RTK_LOBE_LAMBERT = 0,
     /* Fujii's improved Oren-Nayar (2013): f = albedo (A + B s / t),
      * A = 1 / (pi + (pi/2 - 2/3) sigma), B = sigma A,
      * s = wi.wo - wi.z wo.z, t = max(wi.z, wo.z) where s > 0, else 1;
      * sigma in [0, 1] (clamped; 0 is Lambert), sampled cosine-weighted. */
-    RTK_BSDF_OREN_NAYAR = 1,
+    RTK_LOBE_OREN_NAYAR = 1,
     /* GGX / Trowbridge-Reitz conductor: f = F(wo.m) D(m) G2 / (4 wo.z wi.z),
      * m = normalize(wo + wi), D = alpha^2 / (pi (sin^2 + alpha^2 cos^2)^2 of m),
      * G2 = 1 / (1 + L(wo) + L(wi)) height-correlated Smith with
@@ -84,7 +115,7 @@ typedef enum rtk_bsdf_type {
      * direction below the horizon fails, so the pdf integrates over the
      * hemisphere to the probability that sample() succeeds. alpha is
      * clamped to at least RTK_GGX_ALPHA_MIN. */
-    RTK_BSDF_GGX = 2,
+    RTK_LOBE_GGX = 2,
     /* Smooth dielectric interface of relative index ior = n inside / n
      * outside (inside is -z), finite and > 0 (else sample() fails). For
      * wo on the inside (wo.z < 0) the relative index is eta = 1 / ior,
@@ -92,19 +123,53 @@ typedef enum rtk_bsdf_type {
      * c = |wo.z|: F = (rs^2 + rp^2) / 2, rs = (c - eta ct) / (c + eta ct),
      * rp = (eta c - ct) / (eta c + ct), ct = sqrt(1 - (1 - c^2) / eta^2);
      * F = 1 where that root is imaginary (total internal reflection).
-     * sample() reflects, wi = (-wo.x, -wo.y, wo.z), with probability F
-     * and returns f = F / |wi.z|, pdf = F; else it refracts by Snell,
-     * wi = (-wo.x / eta, -wo.y / eta, -sign(wo.z) ct), and returns
-     * f = (1 - F) / |wi.z|, pdf = 1 - F. The path weight f |wi.z| / pdf
-     * is therefore 1 for either event (white furnace = 1 exactly). f
-     * excludes the radiance scale 1 / eta^2 of refraction (pbrt's
-     * TransportMode::Radiance includes it): the factors of entering and
-     * leaving a closed object cancel, and an integrator that carries
-     * radiance into or out of a medium (camera or light inside it)
-     * multiplies a transmission's weight by 1 / eta^2 itself. Flags:
-     * RTK_BSDF_DELTA with RTK_BSDF_REFLECTION or RTK_BSDF_TRANSMISSION. */
-    RTK_BSDF_DIELECTRIC = 3
-} rtk_bsdf_type;
+     * With T = luminance(tint), the lobe reflects, wi = (-wo.x, -wo.y,
+     * wo.z), with probability P = F / (F + (1 - F) T) (1 where that is
+     * 0 / 0): f = F / |wi.z|, event pdf P; else it refracts by Snell,
+     * wi = (-wo.x / eta, -wo.y / eta, -sign(wo.z) ct): f = tint (1 - F) /
+     * |wi.z|, event pdf 1 - P. With a white tint the path weight
+     * f |wi.z| / pdf is 1 for either event (white furnace = 1 exactly).
+     * Flags: RTK_BSDF_DELTA with RTK_BSDF_REFLECTION or
+     * RTK_BSDF_TRANSMISSION. */
+    RTK_LOBE_DIELECTRIC = 3,
+    /* Rough dielectric interface (Walter, Marschner, Li and Torrance 2007),
+     * ior and the sides as RTK_LOBE_DIELECTRIC (eta relative to wo's side),
+     * GGX D of alpha (clamped to at least RTK_GGX_ALPHA_MIN), the
+     * height-correlated G2 = 1 / (1 + L(wo) + L(wi)) for reflection and
+     * transmission alike (as pbrt-v4; for transmission the exact
+     * height-correlated term is a Beta function, this is its common
+     * symmetric stand-in), exact dielectric Fresnel F = F(wo.m, eta) as
+     * above (1 beyond the critical angle). Reflection (wi on wo's side):
+     * m = normalize(wo + wi), f = F D G2 / (4 |wo.z| |wi.z|).
+     * Transmission: the generalized half vector m = normalize(wo + eta wi)
+     * turned to wo's side, f = tint (1 - F) D G2 |wo.m| |wi.m| /
+     * (|wo.z| |wi.z| (wi.m + wo.m / eta)^2) (without 1 / eta^2, see the
+     * top), 0 where m faces away from wo or toward wi. Sampling: a visible
+     * normal m from wo's side (Heitz 2018), then reflection about m with
+     * probability P = F / (F + (1 - F) T) (T = luminance(tint)), else
+     * refraction through m; pdf = P D_wo(m) / (4 |wo.m|) for reflection,
+     * (1 - P) D_wo(m) |wi.m| / (wi.m + wo.m / eta)^2 for transmission; a
+     * direction that lands on the wrong side fails. For |ior - 1| < 1e-3
+     * the interface does not bend light and the lobe is the smooth
+     * dielectric (delta) instead. Flags: RTK_BSDF_GLOSSY with reflection
+     * and transmission (sample(): the one taken). */
+    RTK_LOBE_ROUGH_DIELECTRIC = 4,
+    /* Plastic: a Lambert base under a dielectric coat. Coat: the GGX
+     * reflection of alpha with Schlick's F from f0 (f0 in [0, 1] per
+     * channel, 0.04 for ior 1.5). Base: f = albedo / pi (1 - F(wo.z))
+     * (1 - F(wi.z)) / (1 - Fa), Fa = f0 + (1 - f0) / 21 the cosine-weighted
+     * mean of Schlick's F; that is albedo / pi (1 - f0) (21 / 20)
+     * (1 - (1 - wo.z)^5) (1 - (1 - wi.z)^5), reciprocal, and its albedo is
+     * albedo (1 - F(wo.z)), so the lobe's is F(wo.z) + albedo (1 - F(wo.z))
+     * minus the coat's single-scattering loss, <= 1 (measured by
+     * tests/scene/bsdf). Sampling: the coat with probability
+     * Pc = c / (c + luminance(albedo (1 - F(wo.z)))), c = max(luminance(
+     * F(wo.z)), 0.05), else the base cosine-weighted; pdf =
+     * Pc pdf_coat + (1 - Pc) wi.z / pi. Flags: reflection, glossy and
+     * diffuse (sample(): glossy for the coat, diffuse for the base). This
+     * is glTF's dielectric base (metallic 0) and MTL's Kd + Ks. */
+    RTK_LOBE_PLASTIC = 5
+} rtk_lobe_type;
 
 /* Fresnel term of the GGX lobe. */
 typedef enum rtk_fresnel_type {
@@ -115,31 +180,43 @@ typedef enum rtk_fresnel_type {
     RTK_FRESNEL_CONDUCTOR = 1
 } rtk_fresnel_type;
 
-/* What a lobe does: sample() reports the flags of the lobe it sampled,
+/* What a lobe does: sample() reports the flags of the event it sampled,
  * rtk_bsdf_flags the union over the BSDF's lobes. */
 typedef enum rtk_bsdf_flag {
     RTK_BSDF_REFLECTION = 1,
     RTK_BSDF_TRANSMISSION = 2,
     RTK_BSDF_DIFFUSE = 4,
     RTK_BSDF_GLOSSY = 8,
-    RTK_BSDF_DELTA = 16 /* single directions: eval() and pdf() are 0 */
+    RTK_BSDF_DELTA = 16 /* single directions: eval() and pdf() leave it out */
 } rtk_bsdf_flag;
 
 /* Smallest GGX alpha used: at 1e-3 D peaks at 1 / (pi 1e-6) ~ 3.2e5,
  * finite and representable for every direction in float. */
 #define RTK_GGX_ALPHA_MIN 1e-3f
 
-/* One BSDF, a value: the type and its parameters; zero-initialised it is
+/* One lobe, a value: the type and its parameters; zero-initialised it is
  * a black Lambert. */
-typedef struct rtk_bsdf {
-    rtk_bsdf_type type;
-    rtk_rgb albedo;           /* Lambert, Oren-Nayar: reflectance, each in [0, 1] */
+typedef struct rtk_lobe {
+    rtk_lobe_type type;
+    rtk_rgb albedo;           /* Lambert, Oren-Nayar, plastic's base: reflectance, each in [0, 1] */
     float sigma;              /* Oren-Nayar roughness in [0, 1] (rtk_oren_nayar_sigma) */
-    float alpha;              /* GGX width (rtk_ggx_alpha) */
+    float alpha;              /* GGX, rough dielectric, plastic's coat: width (rtk_ggx_alpha) */
     rtk_fresnel_type fresnel; /* GGX: which Fresnel */
-    rtk_rgb f0;               /* GGX, Schlick: reflectance at normal incidence */
+    rtk_rgb f0;               /* GGX with Schlick, plastic: reflectance at normal incidence, in [0, 1] */
     rtk_rgb eta, k;           /* GGX, conductor: complex index of refraction */
-    float ior;                /* dielectric: index inside / index outside, > 0 */
+    float ior;                /* dielectrics: index inside / index outside, > 0 */
+    rtk_rgb tint;             /* dielectrics: scale of the transmitted part, each in [0, 1] */
+} rtk_lobe;
+
+/* Most lobes in one rtk_bsdf. */
+#define RTK_BSDF_MAX_LOBES 4
+
+/* A BSDF, a value: f = sum over the first count lobes of weight[i] f_i.
+ * Zero-initialised (count 0) it is black: eval and pdf 0, sample fails. */
+typedef struct rtk_bsdf {
+    uint32_t count;
+    rtk_rgb weight[RTK_BSDF_MAX_LOBES];
+    rtk_lobe lobe[RTK_BSDF_MAX_LOBES];
 } rtk_bsdf;
 
 /* Oren-Nayar sigma for a material roughness in [0, 1]: sigma = roughness,
@@ -158,51 +235,101 @@ static inline float rtk_ggx_alpha(float roughness)
     return a > RTK_GGX_ALPHA_MIN ? a : RTK_GGX_ALPHA_MIN;
 }
 
-/* A Lambert BSDF of reflectance albedo. */
-static inline rtk_bsdf rtk_bsdf_lambert(rtk_rgb albedo)
+/* A Lambert lobe of reflectance albedo. */
+static inline rtk_lobe rtk_lobe_lambert(rtk_rgb albedo)
 {
-    rtk_bsdf b = {RTK_BSDF_LAMBERT, albedo, 0.0f, 0.0f, RTK_FRESNEL_SCHLICK, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0.0f};
-    return b;
+    rtk_lobe l = {RTK_LOBE_LAMBERT, albedo, 0.0f, 0.0f, RTK_FRESNEL_SCHLICK, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0.0f,
+                  {1, 1, 1}};
+    return l;
 }
 
-/* An Oren-Nayar (Fujii) BSDF of reflectance albedo and roughness sigma. */
-static inline rtk_bsdf rtk_bsdf_oren_nayar(rtk_rgb albedo, float sigma)
+/* An Oren-Nayar (Fujii) lobe of reflectance albedo and roughness sigma. */
+static inline rtk_lobe rtk_lobe_oren_nayar(rtk_rgb albedo, float sigma)
 {
-    rtk_bsdf b = rtk_bsdf_lambert(albedo);
-    b.type = RTK_BSDF_OREN_NAYAR;
-    b.sigma = sigma;
-    return b;
+    rtk_lobe l = rtk_lobe_lambert(albedo);
+    l.type = RTK_LOBE_OREN_NAYAR;
+    l.sigma = sigma;
+    return l;
 }
 
 /* A GGX conductor of width alpha with Schlick's Fresnel from f0. */
-static inline rtk_bsdf rtk_bsdf_ggx_schlick(rtk_rgb f0, float alpha)
+static inline rtk_lobe rtk_lobe_ggx_schlick(rtk_rgb f0, float alpha)
 {
-    rtk_bsdf b = rtk_bsdf_lambert(rtk_rgb_make(0, 0, 0));
-    b.type = RTK_BSDF_GGX;
-    b.alpha = alpha;
-    b.fresnel = RTK_FRESNEL_SCHLICK;
-    b.f0 = f0;
-    return b;
+    rtk_lobe l = rtk_lobe_lambert(rtk_rgb_make(0, 0, 0));
+    l.type = RTK_LOBE_GGX;
+    l.alpha = alpha;
+    l.fresnel = RTK_FRESNEL_SCHLICK;
+    l.f0 = f0;
+    return l;
 }
 
 /* A GGX conductor of width alpha with the exact Fresnel of eta + i k. */
-static inline rtk_bsdf rtk_bsdf_ggx_conductor(rtk_rgb eta, rtk_rgb k, float alpha)
+static inline rtk_lobe rtk_lobe_ggx_conductor(rtk_rgb eta, rtk_rgb k, float alpha)
 {
-    rtk_bsdf b = rtk_bsdf_ggx_schlick(rtk_rgb_make(0, 0, 0), alpha);
-    b.fresnel = RTK_FRESNEL_CONDUCTOR;
-    b.eta = eta;
-    b.k = k;
+    rtk_lobe l = rtk_lobe_ggx_schlick(rtk_rgb_make(0, 0, 0), alpha);
+    l.fresnel = RTK_FRESNEL_CONDUCTOR;
+    l.eta = eta;
+    l.k = k;
+    return l;
+}
+
+/* A smooth dielectric (delta) of relative index ior (inside / outside,
+ * e.g. 1.5 for glass in air), transmission scaled by tint. */
+static inline rtk_lobe rtk_lobe_dielectric(float ior, rtk_rgb tint)
+{
+    rtk_lobe l = rtk_lobe_lambert(rtk_rgb_make(0, 0, 0));
+    l.type = RTK_LOBE_DIELECTRIC;
+    l.ior = ior;
+    l.tint = tint;
+    return l;
+}
+
+/* A rough dielectric of relative index ior and GGX width alpha,
+ * transmission scaled by tint. */
+static inline rtk_lobe rtk_lobe_rough_dielectric(float ior, float alpha, rtk_rgb tint)
+{
+    rtk_lobe l = rtk_lobe_dielectric(ior, tint);
+    l.type = RTK_LOBE_ROUGH_DIELECTRIC;
+    l.alpha = alpha;
+    return l;
+}
+
+/* A plastic: Lambert base of albedo under a GGX coat of width alpha with
+ * Schlick's Fresnel from f0. */
+static inline rtk_lobe rtk_lobe_plastic(rtk_rgb albedo, rtk_rgb f0, float alpha)
+{
+    rtk_lobe l = rtk_lobe_lambert(albedo);
+    l.type = RTK_LOBE_PLASTIC;
+    l.f0 = f0;
+    l.alpha = alpha;
+    return l;
+}
+
+/* The BSDF of lobe l alone, weight 1. */
+static inline rtk_bsdf rtk_bsdf_of(rtk_lobe l)
+{
+    rtk_bsdf b;
+    for (int i = 0; i < RTK_BSDF_MAX_LOBES; i++) {
+        b.weight[i] = rtk_rgb_make(0, 0, 0);
+        b.lobe[i] = rtk_lobe_lambert(b.weight[i]);
+    }
+    b.count = 1;
+    b.weight[0] = rtk_rgb_make(1, 1, 1);
+    b.lobe[0] = l;
     return b;
 }
 
-/* A smooth dielectric of relative index ior (inside / outside, e.g. 1.5
- * for glass in air). */
-static inline rtk_bsdf rtk_bsdf_dielectric(float ior)
+/* Appends lobe l with weight to b; returns 1, or 0 and adds nothing when
+ * b holds RTK_BSDF_MAX_LOBES lobes already or weight is black (no
+ * component > 0). */
+static inline int rtk_bsdf_add(rtk_bsdf *b, rtk_rgb weight, rtk_lobe l)
 {
-    rtk_bsdf b = rtk_bsdf_lambert(rtk_rgb_make(0, 0, 0));
-    b.type = RTK_BSDF_DIELECTRIC;
-    b.ior = ior;
-    return b;
+    if (b->count >= RTK_BSDF_MAX_LOBES || !(weight.r > 0.0f || weight.g > 0.0f || weight.b > 0.0f))
+        return 0;
+    b->weight[b->count] = weight;
+    b->lobe[b->count] = l;
+    b->count++;
+    return 1;
 }
 
 /* A direction sampled by rtk_bsdf_sample. */
@@ -210,20 +337,24 @@ typedef struct rtk_bsdf_sample_out {
     rtk_vec3 wi;    /* local, unit, away from the surface (either side for transmission) */
     rtk_rgb f;      /* rtk_bsdf_eval(bsdf, wo, wi) (delta: see the top) */
     float pdf;      /* rtk_bsdf_pdf(bsdf, wo, wi), > 0 (delta: see the top) */
-    unsigned flags; /* rtk_bsdf_flag of the sampled lobe */
+    unsigned flags; /* rtk_bsdf_flag of the sampled lobe's event */
 } rtk_bsdf_sample_out;
 
-/* f(wo, wi), without the cosine; 0 when either is below the surface. [any thread] */
+/* f(wo, wi) = sum of weight_i f_i over the non-delta lobes, without the
+ * cosine. [any thread] */
 RTK_API rtk_rgb rtk_bsdf_eval(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec3 wi);
 
-/* Samples wi for wo from u in [0, 1)^2 (rtk_sample_2d); returns 1 and
- * fills out, or 0 (out untouched) when no direction results: wo below the
- * surface (the dielectric: wo.z = 0, or ior not a finite positive number),
- * or a GGX direction below the horizon, which the estimator counts as
- * zero. [any thread] */
-RTK_API int rtk_bsdf_sample(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec2 u, rtk_bsdf_sample_out *out);
+/* Samples wi for wo: u_lobe in [0, 1) picks the lobe (and its discrete
+ * choice), u in [0, 1)^2 (rtk_sample_2d) the direction (see the top);
+ * returns 1 and fills out, or 0 (out untouched) when no direction
+ * results: no lobes, wo in or (reflecting lobes) below the surface, a
+ * dielectric's ior not a finite positive number, or a microfacet
+ * direction on the wrong side, which the estimator counts as zero.
+ * [any thread] */
+RTK_API int rtk_bsdf_sample(const rtk_bsdf *bsdf, rtk_vec3 wo, float u_lobe, rtk_vec2 u, rtk_bsdf_sample_out *out);
 
-/* Solid-angle density with which rtk_bsdf_sample returns wi for wo. [any thread] */
+/* Solid-angle density with which rtk_bsdf_sample returns wi for wo:
+ * sum of p_i pdf_i over the non-delta lobes. [any thread] */
 RTK_API float rtk_bsdf_pdf(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec3 wi);
 
 /* Union of the rtk_bsdf_flag of bsdf's lobes. [any thread] */

@@ -1,6 +1,7 @@
-/* The BSDF lobes of include/rtk/bsdf.h: Lambert, Fujii's Oren-Nayar, the
- * GGX conductor sampled by visible normals and the smooth dielectric. Everything is in the local
- * shading frame (normal +z); the header states the conventions. */
+/* The BSDF lobes of include/rtk/bsdf.h (Lambert, Fujii's Oren-Nayar, the
+ * GGX conductor sampled by visible normals, the smooth and the rough
+ * dielectric, plastic) and their weighted mixture. Everything is in the
+ * local shading frame (normal +z); the header states the conventions. */
 #include <rtk/bsdf.h>
 
 #include <math.h>
@@ -41,14 +42,16 @@ static rtk_vec3 cosine_hemisphere(rtk_vec2 u)
     return rtk_vec3_make(d.x, d.y, sqrtf(z2 > 1e-12f ? z2 : 1e-12f));
 }
 
-static float clamp_sigma(float sigma)
+static float lobe_alpha(const rtk_lobe *l)
 {
-    return rtk_oren_nayar_sigma(sigma);
+    return l->alpha > RTK_GGX_ALPHA_MIN ? l->alpha : RTK_GGX_ALPHA_MIN;
 }
 
-static float ggx_alpha(const rtk_bsdf *b)
+/* Rec. 709 luminance, negative counted as 0. */
+static float luminance(rtk_rgb c)
 {
-    return b->alpha > RTK_GGX_ALPHA_MIN ? b->alpha : RTK_GGX_ALPHA_MIN;
+    float y = 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b;
+    return y > 0.0f ? y : 0.0f;
 }
 
 /* Fujii's improved Oren-Nayar, without albedo. */
@@ -119,39 +122,6 @@ static float schlick(float c, float f0)
     return f0 + (1.0f - f0) * m2 * m2 * m;
 }
 
-static rtk_rgb ggx_fresnel(const rtk_bsdf *b, float c)
-{
-    if (b->fresnel == RTK_FRESNEL_CONDUCTOR)
-        return rtk_rgb_make(fresnel_conductor(c, b->eta.r, b->k.r), fresnel_conductor(c, b->eta.g, b->k.g),
-                            fresnel_conductor(c, b->eta.b, b->k.b));
-    return rtk_rgb_make(schlick(c, b->f0.r), schlick(c, b->f0.g), schlick(c, b->f0.b));
-}
-
-/* The half vector of wo and wi, both above the surface. */
-static rtk_vec3 half_vector(rtk_vec3 wo, rtk_vec3 wi)
-{
-    return rtk_vec3_normalize(rtk_vec3_add(wo, wi));
-}
-
-static rtk_rgb ggx_eval(const rtk_bsdf *b, rtk_vec3 wo, rtk_vec3 wi)
-{
-    float alpha = ggx_alpha(b);
-    rtk_vec3 m = half_vector(wo, wi);
-    float g2 = 1.0f / (1.0f + ggx_lambda(alpha, wo) + ggx_lambda(alpha, wi));
-    float scale = ggx_d(alpha, m) * g2 / (4.0f * wo.z * wi.z);
-    float c = rtk_vec3_dot(wo, m);
-    return rtk_rgb_scale(ggx_fresnel(b, c > 0.0f ? (c < 1.0f ? c : 1.0f) : 0.0f), scale);
-}
-
-/* D_wo(m) / (4 wo.m) = G1(wo) D(m) / (4 wo.z). */
-static float ggx_pdf(const rtk_bsdf *b, rtk_vec3 wo, rtk_vec3 wi)
-{
-    float alpha = ggx_alpha(b);
-    rtk_vec3 m = half_vector(wo, wi);
-    float g1 = 1.0f / (1.0f + ggx_lambda(alpha, wo));
-    return g1 * ggx_d(alpha, m) / (4.0f * wo.z);
-}
-
 /* A visible normal for wo (Heitz 2018, "Sampling the GGX Distribution of
  * Visible Normals", listing 1, isotropic). */
 static rtk_vec3 ggx_sample_visible_normal(float alpha, rtk_vec3 wo, rtk_vec2 u)
@@ -171,104 +141,412 @@ static rtk_vec3 ggx_sample_visible_normal(float alpha, rtk_vec3 wo, rtk_vec2 u)
     return rtk_vec3_normalize(rtk_vec3_make(alpha * nh.x, alpha * nh.y, fmaxf(0.0f, nh.z)));
 }
 
-rtk_rgb rtk_bsdf_eval(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec3 wi)
+
+static int is_finite3(rtk_rgb c)
 {
-    if (!(wo.z > 0.0f && wi.z > 0.0f))
-        return rgb_zero();
-    switch (bsdf->type) {
-    case RTK_BSDF_LAMBERT:
-        return rtk_rgb_scale(bsdf->albedo, INV_PI);
-    case RTK_BSDF_OREN_NAYAR:
-        return rtk_rgb_scale(bsdf->albedo, oren_nayar(clamp_sigma(bsdf->sigma), wo, wi));
-    case RTK_BSDF_GGX:
-        return ggx_eval(bsdf, wo, wi);
-    case RTK_BSDF_DIELECTRIC:
-        return rgb_zero();
-    }
-    return rgb_zero();
+    return isfinite(c.r) && isfinite(c.g) && isfinite(c.b);
 }
 
-float rtk_bsdf_pdf(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec3 wi)
+static rtk_rgb rgb_gray(float v)
 {
+    return rtk_rgb_make(v, v, v);
+}
+
+static float pow5(float x)
+{
+    float x2 = x * x;
+    return x2 * x2 * x;
+}
+
+static rtk_rgb schlick_rgb(float c, rtk_rgb f0)
+{
+    return rtk_rgb_make(schlick(c, f0.r), schlick(c, f0.g), schlick(c, f0.b));
+}
+
+/* Schlick's F averaged over the hemisphere with weight 2 cos: f0 + (1 - f0) / 21. */
+static rtk_rgb schlick_mean(rtk_rgb f0)
+{
+    return rtk_rgb_make(f0.r + (1.0f - f0.r) / 21.0f, f0.g + (1.0f - f0.g) / 21.0f, f0.b + (1.0f - f0.b) / 21.0f);
+}
+
+static rtk_rgb ggx_fresnel(const rtk_lobe *l, float c)
+{
+    if (l->fresnel == RTK_FRESNEL_CONDUCTOR)
+        return rtk_rgb_make(fresnel_conductor(c, l->eta.r, l->k.r), fresnel_conductor(c, l->eta.g, l->k.g),
+                            fresnel_conductor(c, l->eta.b, l->k.b));
+    return schlick_rgb(c, l->f0);
+}
+
+static float clamp01(float c)
+{
+    return c > 0.0f ? (c < 1.0f ? c : 1.0f) : 0.0f;
+}
+
+/* The GGX reflection of wo and wi, both above the surface, about
+ * m = normalize(wo + wi): *spec = D G2 / (4 wo.z wi.z) (f without
+ * Fresnel), *cos_om = wo.m in [0, 1]; returns the visible-normal pdf
+ * D_wo(m) / (4 wo.m) = G1(wo) D(m) / (4 wo.z). */
+static float ggx_reflection(float alpha, rtk_vec3 wo, rtk_vec3 wi, float *spec, float *cos_om)
+{
+    rtk_vec3 m = rtk_vec3_normalize(rtk_vec3_add(wo, wi));
+    float lo = ggx_lambda(alpha, wo), d = ggx_d(alpha, m);
+    *spec = d / (1.0f + lo + ggx_lambda(alpha, wi)) / (4.0f * wo.z * wi.z);
+    *cos_om = clamp01(rtk_vec3_dot(wo, m));
+    return d / (1.0f + lo) / (4.0f * wo.z);
+}
+
+/* wo mirrored about the unit normal m. */
+static rtk_vec3 reflect_about(rtk_vec3 wo, rtk_vec3 m)
+{
+    return rtk_vec3_sub(rtk_vec3_scale(m, 2.0f * rtk_vec3_dot(wo, m)), wo);
+}
+
+static int ior_valid(float ior)
+{
+    return ior > 0.0f && isfinite(ior);
+}
+
+/* Probability that a dielectric reflects, given Fresnel F and the tint
+ * that scales its transmission: F / (F + (1 - F) luminance(tint)). */
+static float reflect_probability(float fr, rtk_rgb tint)
+{
+    float total = fr + (1.0f - fr) * luminance(tint);
+    return total > 0.0f ? fr / total : 1.0f;
+}
+
+/* A rough dielectric of relative index within this of 1 bends no light:
+ * it is the smooth one. */
+#define ROUGH_IOR_EPS 1e-3f
+
+/* The type l behaves as. */
+static rtk_lobe_type lobe_type(const rtk_lobe *l)
+{
+    if (l->type == RTK_LOBE_ROUGH_DIELECTRIC && fabsf(l->ior - 1.0f) < ROUGH_IOR_EPS)
+        return RTK_LOBE_DIELECTRIC;
+    return l->type;
+}
+
+/* Plastic's probability of sampling the coat for wo above the surface. */
+static float plastic_coat_probability(const rtk_lobe *l, float cos_o)
+{
+    rtk_rgb fr = schlick_rgb(clamp01(cos_o), l->f0);
+    float coat = fmaxf(luminance(fr), 0.05f);
+    float base = luminance(rtk_rgb_mul(l->albedo, rtk_rgb_make(1.0f - fr.r, 1.0f - fr.g, 1.0f - fr.b)));
+    return coat / (coat + base);
+}
+
+static float plastic_eval_pdf(const rtk_lobe *l, rtk_vec3 wo, rtk_vec3 wi, rtk_rgb *f)
+{
+    float spec, c;
+    float coat_pdf = ggx_reflection(lobe_alpha(l), wo, wi, &spec, &c);
+    float pc = plastic_coat_probability(l, wo.z);
+    if (f) {
+        rtk_rgb fr = schlick_rgb(c, l->f0);
+        float base = INV_PI * (21.0f / 20.0f) * (1.0f - pow5(1.0f - clamp01(wo.z))) *
+                     (1.0f - pow5(1.0f - clamp01(wi.z)));
+        f->r = fr.r * spec + l->albedo.r * (1.0f - l->f0.r) * base;
+        f->g = fr.g * spec + l->albedo.g * (1.0f - l->f0.g) * base;
+        f->b = fr.b * spec + l->albedo.b * (1.0f - l->f0.b) * base;
+    }
+    return pc * coat_pdf + (1.0f - pc) * wi.z * INV_PI;
+}
+
+/* wo and wi in the frame where wo is above: the mirror image through the
+ * surface when wo arrives from inside; *eta becomes the index across
+ * relative to wo's side. */
+static void to_wo_side(float ior, rtk_vec3 *wo, rtk_vec3 *wi, float *eta)
+{
+    *eta = ior;
+    if (wo->z < 0.0f) {
+        *eta = 1.0f / ior;
+        wo->z = -wo->z;
+        wi->z = -wi->z;
+    }
+}
+
+static float rough_dielectric_eval_pdf(const rtk_lobe *l, rtk_vec3 wo, rtk_vec3 wi, rtk_rgb *f)
+{
+    if (!(ior_valid(l->ior) && wo.z != 0.0f && wi.z != 0.0f && isfinite(wo.z) && isfinite(wi.z)))
+        return 0.0f;
+    float eta;
+    to_wo_side(l->ior, &wo, &wi, &eta);
+    int reflect = wi.z > 0.0f;
+    rtk_vec3 m = reflect ? rtk_vec3_add(wo, wi) : rtk_vec3_add(wo, rtk_vec3_scale(wi, eta));
+    float len2 = rtk_vec3_dot(m, m);
+    if (!(len2 > 0.0f))
+        return 0.0f;
+    m = rtk_vec3_scale(m, (m.z < 0.0f ? -1.0f : 1.0f) / sqrtf(len2));
+    float om = rtk_vec3_dot(wo, m), im = rtk_vec3_dot(wi, m);
+    if (!(om > 0.0f) || (reflect ? !(im > 0.0f) : !(im < 0.0f)))
+        return 0.0f;
+    float alpha = lobe_alpha(l), cos_t;
+    float fr = fresnel_dielectric(fminf(om, 1.0f), eta, &cos_t);
+    float pr = reflect_probability(fr, l->tint);
+    float lo = ggx_lambda(alpha, wo), d = ggx_d(alpha, m);
+    float g2 = 1.0f / (1.0f + lo + ggx_lambda(alpha, wi));
+    float visible = d / (1.0f + lo) / wo.z; /* D_wo(m) / (wo.m) */
+    if (reflect) {
+        if (f)
+            *f = rgb_gray(fr * d * g2 / (4.0f * wo.z * wi.z));
+        return pr * visible / 4.0f;
+    }
+    float denom = im + om / eta;
+    float jacobian = -im / (denom * denom); /* dm / dwi of refraction */
+    if (f)
+        *f = rtk_rgb_scale(l->tint, (1.0f - fr) * d * g2 * om * jacobian / (-wo.z * wi.z));
+    return (1.0f - pr) * visible * om * jacobian;
+}
+
+/* f (when f is given) and pdf of lobe l for wo, wi; 0 for a delta lobe. */
+static float lobe_eval_pdf(const rtk_lobe *l, rtk_vec3 wo, rtk_vec3 wi, rtk_rgb *f)
+{
+    if (f)
+        *f = rgb_zero();
+    rtk_lobe_type type = lobe_type(l);
+    if (type == RTK_LOBE_ROUGH_DIELECTRIC)
+        return rough_dielectric_eval_pdf(l, wo, wi, f);
     if (!(wo.z > 0.0f && wi.z > 0.0f))
         return 0.0f;
-    switch (bsdf->type) {
-    case RTK_BSDF_LAMBERT:
-    case RTK_BSDF_OREN_NAYAR:
+    switch (type) {
+    case RTK_LOBE_LAMBERT:
+        if (f)
+            *f = rtk_rgb_scale(l->albedo, INV_PI);
         return wi.z * INV_PI;
-    case RTK_BSDF_GGX:
-        return ggx_pdf(bsdf, wo, wi);
-    case RTK_BSDF_DIELECTRIC:
+    case RTK_LOBE_OREN_NAYAR:
+        if (f)
+            *f = rtk_rgb_scale(l->albedo, oren_nayar(rtk_oren_nayar_sigma(l->sigma), wo, wi));
+        return wi.z * INV_PI;
+    case RTK_LOBE_GGX: {
+        float spec, c;
+        float pdf = ggx_reflection(lobe_alpha(l), wo, wi, &spec, &c);
+        if (f)
+            *f = rtk_rgb_scale(ggx_fresnel(l, c), spec);
+        return pdf;
+    }
+    case RTK_LOBE_PLASTIC:
+        return plastic_eval_pdf(l, wo, wi, f);
+    case RTK_LOBE_DIELECTRIC:
+    case RTK_LOBE_ROUGH_DIELECTRIC:
         return 0.0f;
     }
     return 0.0f;
 }
 
-unsigned rtk_bsdf_flags(const rtk_bsdf *bsdf)
+static unsigned lobe_flags(const rtk_lobe *l)
 {
-    switch (bsdf->type) {
-    case RTK_BSDF_LAMBERT:
-    case RTK_BSDF_OREN_NAYAR:
+    switch (lobe_type(l)) {
+    case RTK_LOBE_LAMBERT:
+    case RTK_LOBE_OREN_NAYAR:
         return RTK_BSDF_REFLECTION | RTK_BSDF_DIFFUSE;
-    case RTK_BSDF_GGX:
+    case RTK_LOBE_GGX:
         return RTK_BSDF_REFLECTION | RTK_BSDF_GLOSSY;
-    case RTK_BSDF_DIELECTRIC:
+    case RTK_LOBE_DIELECTRIC:
         return RTK_BSDF_REFLECTION | RTK_BSDF_TRANSMISSION | RTK_BSDF_DELTA;
+    case RTK_LOBE_ROUGH_DIELECTRIC:
+        return RTK_BSDF_REFLECTION | RTK_BSDF_TRANSMISSION | RTK_BSDF_GLOSSY;
+    case RTK_LOBE_PLASTIC:
+        return RTK_BSDF_REFLECTION | RTK_BSDF_GLOSSY | RTK_BSDF_DIFFUSE;
     }
     return 0;
 }
 
-/* The dielectric's mirror reflection with probability F, else Snell's
- * refraction; the header states f, pdf and the flags. */
-static int dielectric_sample(float ior, rtk_vec3 wo, float u, rtk_bsdf_sample_out *out)
+/* The lobe's nominal albedo for choosing it (the header's table). */
+static float lobe_nominal(const rtk_lobe *l)
 {
-    if (!(ior > 0.0f && isfinite(ior) && wo.z != 0.0f && isfinite(wo.z)))
+    switch (l->type) {
+    case RTK_LOBE_LAMBERT:
+    case RTK_LOBE_OREN_NAYAR:
+        return luminance(l->albedo);
+    case RTK_LOBE_GGX:
+        return l->fresnel == RTK_FRESNEL_CONDUCTOR ? 1.0f : luminance(schlick_mean(l->f0));
+    case RTK_LOBE_DIELECTRIC:
+    case RTK_LOBE_ROUGH_DIELECTRIC:
+        return 1.0f;
+    case RTK_LOBE_PLASTIC: {
+        rtk_rgb fa = schlick_mean(l->f0);
+        rtk_rgb rest = rtk_rgb_mul(rtk_rgb_make(1.0f - fa.r, 1.0f - fa.g, 1.0f - fa.b), l->albedo);
+        return luminance(rtk_rgb_add(fa, rest));
+    }
+    }
+    return 0.0f;
+}
+
+/* The smooth dielectric's mirror reflection or Snell's refraction, chosen
+ * by u against reflect_probability; the header states f, pdf and flags. */
+static int dielectric_sample(const rtk_lobe *l, rtk_vec3 wo, float u, rtk_bsdf_sample_out *out)
+{
+    if (!(ior_valid(l->ior) && wo.z != 0.0f && isfinite(wo.z)))
         return 0;
     int inside = wo.z < 0.0f;
-    float eta = inside ? 1.0f / ior : ior;
+    float eta = inside ? 1.0f / l->ior : l->ior;
     float c = fminf(fabsf(wo.z), 1.0f), cos_t;
     float fr = fresnel_dielectric(c, eta, &cos_t);
-    if (u < fr) {
+    float pr = reflect_probability(fr, l->tint);
+    if (u < pr) {
         out->wi = rtk_vec3_make(-wo.x, -wo.y, wo.z);
-        out->pdf = fr;
+        out->pdf = pr;
+        out->f = rgb_gray(fr / fabsf(out->wi.z));
         out->flags = RTK_BSDF_REFLECTION | RTK_BSDF_DELTA;
     } else {
         out->wi = rtk_vec3_make(-wo.x / eta, -wo.y / eta, inside ? cos_t : -cos_t);
-        out->pdf = 1.0f - fr;
+        out->pdf = 1.0f - pr;
+        out->f = rtk_rgb_scale(l->tint, (1.0f - fr) / fabsf(out->wi.z));
         out->flags = RTK_BSDF_TRANSMISSION | RTK_BSDF_DELTA;
     }
-    float w = out->pdf / fabsf(out->wi.z);
-    out->f = rtk_rgb_make(w, w, w);
+    return out->pdf > 0.0f && is_finite3(out->f);
+}
+
+/* A visible normal from wo's side, then reflection or refraction through
+ * it chosen by u_choice; fills out->wi and out->flags. */
+static int rough_dielectric_sample(const rtk_lobe *l, rtk_vec3 wo, float u_choice, rtk_vec2 u,
+                                   rtk_bsdf_sample_out *out)
+{
+    if (!(ior_valid(l->ior) && wo.z != 0.0f && isfinite(wo.z)))
+        return 0;
+    float eta, sign = wo.z < 0.0f ? -1.0f : 1.0f;
+    rtk_vec3 wi = wo;
+    to_wo_side(l->ior, &wo, &wi, &eta);
+    rtk_vec3 m = ggx_sample_visible_normal(lobe_alpha(l), wo, u);
+    float om = clamp01(rtk_vec3_dot(wo, m)), cos_t;
+    float fr = fresnel_dielectric(om, eta, &cos_t);
+    if (u_choice < reflect_probability(fr, l->tint)) {
+        wi = reflect_about(wo, m);
+        out->flags = RTK_BSDF_REFLECTION | RTK_BSDF_GLOSSY;
+    } else {
+        wi = rtk_vec3_add(rtk_vec3_scale(wo, -1.0f / eta), rtk_vec3_scale(m, om / eta - cos_t));
+        out->flags = RTK_BSDF_TRANSMISSION | RTK_BSDF_GLOSSY;
+    }
+    out->wi = rtk_vec3_make(wi.x, wi.y, sign * wi.z);
     return 1;
 }
 
-int rtk_bsdf_sample(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec2 u, rtk_bsdf_sample_out *out)
+/* Lobe l's direction for wo; a delta lobe also fills out->f and out->pdf
+ * (of the lobe alone), the others leave them to the mixture. */
+static int lobe_sample(const rtk_lobe *l, rtk_vec3 wo, float u_choice, rtk_vec2 u, rtk_bsdf_sample_out *out)
 {
-    if (bsdf->type == RTK_BSDF_DIELECTRIC)
-        return dielectric_sample(bsdf->ior, wo, u.x, out);
+    rtk_lobe_type type = lobe_type(l);
+    if (type == RTK_LOBE_DIELECTRIC)
+        return dielectric_sample(l, wo, u_choice, out);
+    if (type == RTK_LOBE_ROUGH_DIELECTRIC)
+        return rough_dielectric_sample(l, wo, u_choice, u, out);
     if (!(wo.z > 0.0f))
         return 0;
-    rtk_vec3 wi;
-    switch (bsdf->type) {
-    case RTK_BSDF_LAMBERT:
-    case RTK_BSDF_OREN_NAYAR:
-        wi = cosine_hemisphere(u);
-        break;
-    case RTK_BSDF_GGX: {
-        rtk_vec3 m = ggx_sample_visible_normal(ggx_alpha(bsdf), wo, u);
-        wi = rtk_vec3_sub(rtk_vec3_scale(m, 2.0f * rtk_vec3_dot(wo, m)), wo);
-        break;
-    }
-    default:
+    switch (type) {
+    case RTK_LOBE_LAMBERT:
+    case RTK_LOBE_OREN_NAYAR:
+        out->wi = cosine_hemisphere(u);
+        out->flags = RTK_BSDF_REFLECTION | RTK_BSDF_DIFFUSE;
+        return 1;
+    case RTK_LOBE_GGX:
+        out->wi = reflect_about(wo, ggx_sample_visible_normal(lobe_alpha(l), wo, u));
+        out->flags = RTK_BSDF_REFLECTION | RTK_BSDF_GLOSSY;
+        return 1;
+    case RTK_LOBE_PLASTIC:
+        if (u_choice < plastic_coat_probability(l, wo.z)) {
+            out->wi = reflect_about(wo, ggx_sample_visible_normal(lobe_alpha(l), wo, u));
+            out->flags = RTK_BSDF_REFLECTION | RTK_BSDF_GLOSSY;
+        } else {
+            out->wi = cosine_hemisphere(u);
+            out->flags = RTK_BSDF_REFLECTION | RTK_BSDF_DIFFUSE;
+        }
+        return 1;
+    case RTK_LOBE_DIELECTRIC:
+    case RTK_LOBE_ROUGH_DIELECTRIC:
         return 0;
     }
-    /* f and pdf through eval and pdf, so that they agree with them exactly. */
-    float pdf = rtk_bsdf_pdf(bsdf, wo, wi);
-    if (!(pdf > 0.0f))
+    return 0;
+}
+
+static int lobe_count(const rtk_bsdf *b)
+{
+    return b->count < RTK_BSDF_MAX_LOBES ? (int)b->count : RTK_BSDF_MAX_LOBES;
+}
+
+/* The probability p[i] of choosing each lobe (the header's rule); returns
+ * the number of lobes. */
+static int lobe_probabilities(const rtk_bsdf *b, float p[RTK_BSDF_MAX_LOBES])
+{
+    int n = lobe_count(b);
+    float total = 0.0f;
+    for (int i = 0; i < n; i++) {
+        float s = luminance(b->weight[i]) * lobe_nominal(&b->lobe[i]);
+        p[i] = s > 0.0f && isfinite(s) ? s : 0.0f;
+        total += p[i];
+    }
+    for (int i = 0; i < n; i++)
+        p[i] = total > 0.0f && isfinite(total) ? p[i] / total : 1.0f / (float)n;
+    return n;
+}
+
+/* Sum of weight_i f_i (into *f when given) and returns sum of p_i pdf_i
+ * over the non-delta lobes. */
+static float mixture_eval_pdf(const rtk_bsdf *b, const float *p, int n, rtk_vec3 wo, rtk_vec3 wi, rtk_rgb *f)
+{
+    float pdf = 0.0f;
+    if (f)
+        *f = rgb_zero();
+    for (int i = 0; i < n; i++) {
+        rtk_rgb fi;
+        float pi = lobe_eval_pdf(&b->lobe[i], wo, wi, f ? &fi : NULL);
+        pdf += p[i] * pi;
+        if (f)
+            *f = rtk_rgb_add(*f, rtk_rgb_mul(b->weight[i], fi));
+    }
+    return pdf;
+}
+
+rtk_rgb rtk_bsdf_eval(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec3 wi)
+{
+    float p[RTK_BSDF_MAX_LOBES];
+    int n = lobe_probabilities(bsdf, p);
+    rtk_rgb f;
+    mixture_eval_pdf(bsdf, p, n, wo, wi, &f);
+    return f;
+}
+
+float rtk_bsdf_pdf(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec3 wi)
+{
+    float p[RTK_BSDF_MAX_LOBES];
+    int n = lobe_probabilities(bsdf, p);
+    return mixture_eval_pdf(bsdf, p, n, wo, wi, NULL);
+}
+
+unsigned rtk_bsdf_flags(const rtk_bsdf *bsdf)
+{
+    unsigned flags = 0;
+    for (int i = 0; i < lobe_count(bsdf); i++)
+        flags |= lobe_flags(&bsdf->lobe[i]);
+    return flags;
+}
+
+int rtk_bsdf_sample(const rtk_bsdf *bsdf, rtk_vec3 wo, float u_lobe, rtk_vec2 u, rtk_bsdf_sample_out *out)
+{
+    float p[RTK_BSDF_MAX_LOBES];
+    int n = lobe_probabilities(bsdf, p);
+    if (n == 0)
         return 0;
-    out->wi = wi;
-    out->f = rtk_bsdf_eval(bsdf, wo, wi);
-    out->pdf = pdf;
-    out->flags = rtk_bsdf_flags(bsdf);
+    int i = 0;
+    float below = 0.0f;
+    while (i < n - 1 && !(u_lobe < below + p[i]))
+        below += p[i++];
+    while (i > 0 && !(p[i] > 0.0f)) /* rounding ran past the last lobe that can be chosen */
+        i--;
+    if (!(p[i] > 0.0f))
+        return 0;
+    float u_choice = (u_lobe - below) / p[i];
+    u_choice = u_choice > 0.0f ? (u_choice < 1.0f ? u_choice : 0x1.fffffep-1f) : 0.0f;
+    rtk_bsdf_sample_out s;
+    if (!lobe_sample(&bsdf->lobe[i], wo, u_choice, u, &s))
+        return 0;
+    if (s.flags & RTK_BSDF_DELTA) {
+        s.f = rtk_rgb_mul(bsdf->weight[i], s.f);
+        s.pdf *= p[i];
+    } else {
+        /* f and pdf through the same code as eval and pdf, so that they agree exactly. */
+        s.pdf = mixture_eval_pdf(bsdf, p, n, wo, s.wi, &s.f);
+    }
+    if (!(s.pdf > 0.0f))
+        return 0;
+    *out = s;
     return 1;
 }

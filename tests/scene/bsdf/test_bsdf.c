@@ -233,7 +233,7 @@ static void test_pointwise(const char *label, const rtk_bsdf *b, double (*ref)(d
             below_ok &= z1.r == 0 && z1.g == 0 && z1.b == 0 && z2.r == 0 && z2.g == 0 && z2.b == 0;
             below_ok &= rtk_bsdf_pdf(b, wo, below) == 0.0f && rtk_bsdf_pdf(b, below, wo) == 0.0f;
             rtk_bsdf_sample_out out;
-            below_ok &= rtk_bsdf_sample(b, below, vec2(0.3f, 0.6f), &out) == 0;
+            below_ok &= rtk_bsdf_sample(b, below, 0.5f, vec2(0.3f, 0.6f), &out) == 0;
         }
     if (ref)
         check(worst_ref < 1e-5, "%s: eval() is the header's closed form over %dx%d directions (worst relative %.1e)",
@@ -404,9 +404,10 @@ static furnace sample_pass(const char *label, const rtk_bsdf *b, rtk_vec3 wo, lo
     long succeeded = 0, mismatched = 0, bad = 0;
     unsigned flags = rtk_bsdf_flags(b);
     for (long k = 0; k < n; k++) {
+        float u_lobe = uniform();
         rtk_vec2 u = vec2(uniform(), uniform());
         rtk_bsdf_sample_out out;
-        if (!rtk_bsdf_sample(b, wo, u, &out)) {
+        if (!rtk_bsdf_sample(b, wo, u_lobe, u, &out)) {
             if (hist)
                 hist[NBINS]++;
             continue;
@@ -485,7 +486,7 @@ static void run_case(const char *lobe, const rtk_bsdf *b, float elevation, enum 
               "%s: white furnace albedo = 1 within 1e-3 (%.7f)", label, r.mean[1]);
     if (kind == KIND_GGX) {
         /* The reference: f cos integrated by quadrature to 1e-5 per bin, never through sample(). */
-        integrand fcos = {ggx_albedo_integrand, b, wo, b->alpha};
+        integrand fcos = {ggx_albedo_integrand, b, wo, b->lobe[0].alpha};
         quad_tol fine = {1e-5, 0.0, 1e-8};
         quad_result ref_q = integrate_bins(&fcos, fine, NULL);
         double ref = ref_q.total;
@@ -516,7 +517,7 @@ static double fresnel_of(const rtk_bsdf *b, double theta, int channel)
     rtk_vec3 wo = direction(theta, 0.0), wi = direction(theta, PI);
     rtk_rgb f = rtk_bsdf_eval(b, wo, wi);
     double fc = channel == 0 ? f.r : channel == 1 ? f.g : f.b;
-    double alpha = b->alpha, c = cos(theta);
+    double alpha = b->lobe[0].alpha, c = cos(theta);
     return fc * 4.0 * c * c * PI * alpha * alpha * (1.0 + 2.0 * ref_lambda(alpha, wo));
 }
 
@@ -535,9 +536,10 @@ static void test_fresnel(void)
 {
     const float eta[3] = {0.143f, 0.374f, 1.442f}, k[3] = {3.983f, 2.385f, 1.603f};
     const float f0[3] = {0.9f, 0.6f, 0.04f};
-    rtk_bsdf cond = rtk_bsdf_ggx_conductor(rtk_rgb_make(eta[0], eta[1], eta[2]), rtk_rgb_make(k[0], k[1], k[2]), 0.3f);
-    rtk_bsdf dielectric = rtk_bsdf_ggx_conductor(rtk_rgb_make(1.5f, 1.5f, 1.5f), rtk_rgb_make(0, 0, 0), 0.3f);
-    rtk_bsdf sch = rtk_bsdf_ggx_schlick(rtk_rgb_make(f0[0], f0[1], f0[2]), 0.3f);
+    rtk_bsdf cond =
+        rtk_bsdf_of(rtk_lobe_ggx_conductor(rtk_rgb_make(eta[0], eta[1], eta[2]), rtk_rgb_make(k[0], k[1], k[2]), 0.3f));
+    rtk_bsdf dielectric = rtk_bsdf_of(rtk_lobe_ggx_conductor(rtk_rgb_make(1.5f, 1.5f, 1.5f), rtk_rgb_make(0, 0, 0), 0.3f));
+    rtk_bsdf sch = rtk_bsdf_of(rtk_lobe_ggx_schlick(rtk_rgb_make(f0[0], f0[1], f0[2]), 0.3f));
     double worst_c = 0.0, worst_s = 0.0;
     const double thetas[] = {0.0, 30.0, 60.0, 80.0, 89.0};
     for (int t = 0; t < 5; t++) {
@@ -557,7 +559,7 @@ static void test_fresnel(void)
  * the weights f cos / pdf = F G2 / G1 stay <= 1. */
 static void test_smooth_limit(void)
 {
-    rtk_bsdf b = rtk_bsdf_ggx_schlick(rtk_rgb_make(1, 1, 1), 0.0f);
+    rtk_bsdf b = rtk_bsdf_of(rtk_lobe_ggx_schlick(rtk_rgb_make(1, 1, 1), 0.0f));
     long bad = 0, n = 0;
     for (int e = 0; e < NELEV; e++) {
         rtk_vec3 wo = wo_at(elevations[e]);
@@ -566,7 +568,7 @@ static void test_smooth_limit(void)
         bad += !(is_finite_rgb(fm) && fm.g > 0.0f && isfinite(rtk_bsdf_pdf(&b, wo, mirror)));
         for (int k = 0; k < 10000; k++, n++) {
             rtk_bsdf_sample_out out;
-            if (!rtk_bsdf_sample(&b, wo, vec2(uniform(), uniform()), &out))
+            if (!rtk_bsdf_sample(&b, wo, uniform(), vec2(uniform(), uniform()), &out))
                 continue;
             double w = out.f.g * out.wi.z / out.pdf;
             bad += !(is_finite_rgb(out.f) && isfinite(out.pdf) && out.pdf > 0.0f && w <= 1.0 + 1e-3);
@@ -600,7 +602,7 @@ static void dielectric_case(float ior, double theta_deg, int inside)
     char label[128];
     snprintf(label, sizeof label, "dielectric ior=%.4g theta_o=%g from %s", ior, theta_deg,
              inside ? "inside" : "outside");
-    rtk_bsdf b = rtk_bsdf_dielectric(ior);
+    rtk_bsdf b = rtk_bsdf_of(rtk_lobe_dielectric(ior, rtk_rgb_make(1, 1, 1)));
     double th = theta_deg * PI / 180.0;
     rtk_vec3 wo = direction(th, PHI_O);
     if (inside)
@@ -620,7 +622,7 @@ static void dielectric_case(float ior, double theta_deg, int inside)
     double sum_w = 0.0, worst_dir = 0.0, worst_pdf = 0.0;
     for (long k = 0; k < NDIEL; k++) {
         rtk_bsdf_sample_out out;
-        if (!rtk_bsdf_sample(&b, wo, vec2(uniform(), uniform()), &out)) {
+        if (!rtk_bsdf_sample(&b, wo, uniform(), vec2(uniform(), uniform()), &out)) {
             failed_n++;
             continue;
         }
@@ -678,7 +680,7 @@ static void test_dielectric(void)
     for (int i = 0; i < 3; i++)
         for (int side = 0; side < 2; side++)
             for (int t = 0; t <= 90; t++) {
-                rtk_bsdf b = rtk_bsdf_dielectric(iors[i]);
+                rtk_bsdf b = rtk_bsdf_of(rtk_lobe_dielectric(iors[i], rtk_rgb_make(1, 1, 1)));
                 rtk_vec3 wo = direction(t * PI / 180.0, PHI_O);
                 if (t == 90)
                     wo = direction(89.9 * PI / 180.0, PHI_O);
@@ -690,8 +692,8 @@ static void test_dielectric(void)
                 rtk_bsdf_sample_out r, tr;
                 memset(&r, 0, sizeof r);
                 memset(&tr, 0, sizeof tr);
-                int ok_r = rtk_bsdf_sample(&b, wo, vec2(0.0f, 0.5f), &r);
-                int ok_t = rtk_bsdf_sample(&b, wo, vec2(1.0f - 0x1p-24f, 0.5f), &tr);
+                int ok_r = rtk_bsdf_sample(&b, wo, 0.0f, vec2(0.5f, 0.5f), &r);
+                int ok_t = rtk_bsdf_sample(&b, wo, 1.0f - 0x1p-24f, vec2(0.5f, 0.5f), &tr);
                 double fk = ok_r ? r.pdf : -1.0;
                 double tk = ok_t ? (tr.flags & RTK_BSDF_TRANSMISSION ? 1.0 - tr.pdf : tr.pdf) : -1.0;
                 worst = fmax(worst, fmax(rel_diff(fk, fr), fabs(tk - fr)));
@@ -706,13 +708,13 @@ static void test_dielectric(void)
           worst_c);
     check(zero, "dielectric: eval() and pdf() are 0 at the sampled mirror and refracted directions (delta lobe)");
 
-    rtk_bsdf glass = rtk_bsdf_dielectric(1.5f);
+    rtk_bsdf glass = rtk_bsdf_of(rtk_lobe_dielectric(1.5f, rtk_rgb_make(1, 1, 1)));
     rtk_bsdf_sample_out out;
-    int rejects = rtk_bsdf_sample(&glass, rtk_vec3_make(1.0f, 0.0f, 0.0f), vec2(0.5f, 0.5f), &out) == 0;
+    int rejects = rtk_bsdf_sample(&glass, rtk_vec3_make(1.0f, 0.0f, 0.0f), 0.5f, vec2(0.5f, 0.5f), &out) == 0;
     const float bad_ior[] = {0.0f, -1.5f, NAN, INFINITY};
     for (int i = 0; i < 4; i++) {
-        rtk_bsdf b = rtk_bsdf_dielectric(bad_ior[i]);
-        rejects &= rtk_bsdf_sample(&b, wo_at(30.0f), vec2(0.5f, 0.5f), &out) == 0;
+        rtk_bsdf b = rtk_bsdf_of(rtk_lobe_dielectric(bad_ior[i], rtk_rgb_make(1, 1, 1)));
+        rejects &= rtk_bsdf_sample(&b, wo_at(30.0f), 0.5f, vec2(0.5f, 0.5f), &out) == 0;
     }
     check(rejects && rtk_bsdf_flags(&glass) == (RTK_BSDF_REFLECTION | RTK_BSDF_TRANSMISSION | RTK_BSDF_DELTA),
           "dielectric: sample() fails for wo in the surface and for ior 0, -1.5, NaN, inf; flags are reflection + "
@@ -731,26 +733,26 @@ int main(void)
     test_dielectric();
 
     rtk_rgb white = rtk_rgb_make(1, 1, 1);
-    rtk_bsdf lambert = rtk_bsdf_lambert(white);
+    rtk_bsdf lambert = rtk_bsdf_of(rtk_lobe_lambert(white));
     test_lobe("lambert", &lambert, ref_lambert, 0.0, KIND_LAMBERT);
 
     for (int s = 0; s < NSIGMA; s++) {
         char name[64];
         snprintf(name, sizeof name, "oren-nayar sigma=%g", on_sigmas[s]);
-        rtk_bsdf on = rtk_bsdf_oren_nayar(white, on_sigmas[s]);
+        rtk_bsdf on = rtk_bsdf_of(rtk_lobe_oren_nayar(white, on_sigmas[s]));
         test_lobe(name, &on, ref_oren_nayar, on_sigmas[s], KIND_OREN_NAYAR);
     }
 
     for (int a = 0; a < NALPHA; a++) {
         char name[64];
         snprintf(name, sizeof name, "ggx alpha=%g", ggx_alphas[a]);
-        rtk_bsdf ggx = rtk_bsdf_ggx_schlick(white, ggx_alphas[a]);
+        rtk_bsdf ggx = rtk_bsdf_of(rtk_lobe_ggx_schlick(white, ggx_alphas[a]));
         test_lobe(name, &ggx, ref_ggx, ggx_alphas[a], KIND_GGX);
 
         /* Gold: the exact conductor Fresnel keeps the albedo under 1. */
         snprintf(name, sizeof name, "ggx gold alpha=%g", ggx_alphas[a]);
-        rtk_bsdf gold = rtk_bsdf_ggx_conductor(rtk_rgb_make(0.143f, 0.374f, 1.442f),
-                                               rtk_rgb_make(3.983f, 2.385f, 1.603f), ggx_alphas[a]);
+        rtk_bsdf gold = rtk_bsdf_of(rtk_lobe_ggx_conductor(rtk_rgb_make(0.143f, 0.374f, 1.442f),
+                                                           rtk_rgb_make(3.983f, 2.385f, 1.603f), ggx_alphas[a]));
         test_pointwise(name, &gold, NULL, 0.0);
         for (int e = 0; e < NELEV; e++) {
             char label[96];
