@@ -362,4 +362,54 @@ RTK_API unsigned rtk_bsdf_flags(const rtk_bsdf *bsdf);
 
 RTK_EXTERN_C_END
 
+/* ---- Material mapping (kernel/scene/material.c) ----
+ * rtk_surface_bsdf maps the material of a hit to a mixture of the lobes
+ * above. Factors are clamped to their ranges (colours and fractions to
+ * [0, 1], Ns to >= 0), a factor texture multiplies its factor (read at
+ * the hit's texture coordinates at the finest level, only when the
+ * integrator asked for RTK_NEED_TEXTURES), and weights are grey.
+ * - glTF metallic-roughness, and MTL with Pr, Pm, map_Pr or map_Pm:
+ *   base = s->base_color (baseColor or Kd x texture x vertex colour),
+ *   m = metallic x texture B (MTL: Pm x map_Pm; map_Pm alone: Pm = 1),
+ *   r = roughness x texture G (MTL: Pr x map_Pr), alpha = rtk_ggx_alpha(r),
+ *   t = transmission x texture R (MTL: 1 - d for illum 4, 6, 7, 9, else 0),
+ *   f0_d = min(((ior - 1) / (ior + 1))^2 x specularColor x texture RGB, 1)
+ *   x specular x texture A (KHR_materials_specular; MTL: both 1):
+ *     m          ggx_schlick(f0 = base, alpha)
+ *   + (1-m)(1-t) plastic(base, f0_d, alpha)
+ *   + (1-m) t    rough_dielectric(ior, alpha, tint = base), the smooth
+ *                dielectric where alpha is RTK_GGX_ALPHA_MIN (roughness 0);
+ *   its Fresnel is the exact one of ior: KHR_materials_specular scales
+ *   the plastic's coat only.
+ * - MTL by illum, with Kd = s->base_color (Kd x map_Kd), Ks x map_Ks,
+ *   Ns x map_Ns and alpha = sqrt(2 / (Ns + 2)) (Walter et al. 2007's
+ *   Phong exponent to Beckmann width, used as the GGX alpha), at least
+ *   RTK_GGX_ALPHA_MIN:
+ *     0, 1                 Lambert(Kd)
+ *     2, 3, 8, no illum    plastic(Kd, f0 = Ks, alpha)
+ *     5                    ggx_schlick(f0 = Ks, alpha)
+ *     4, 6, 7, 9           with tr = 1 - d (s->alpha, d x map_d):
+ *                          (1 - tr) plastic(Kd, Ks, alpha)
+ *                          + tr rough_dielectric(Ni, alpha, tint = Tf, or
+ *                          Kd without Tf), smooth at RTK_GGX_ALPHA_MIN
+ *   and Lambert(Kd) in place of plastic and ggx_schlick where Ks = 0;
+ *   other illum values map as 2. d < 1 with another illum is coverage
+ *   (s->alpha), not transmission.
+ * - No material, or one made in memory: Lambert(s->base_color), white
+ *   with rtk_surface's neutral values.
+ * Emission is not part of the BSDF (s->emission). Every result has
+ * weights in [0, 1] summing to at most 1, albedo, f0 and tint in [0, 1],
+ * alpha in [RTK_GGX_ALPHA_MIN, 1] and ior finite and > 0. */
+
+#include <rtk/scene.h>
+
+RTK_EXTERN_C_BEGIN
+
+/* The BSDF of surface s, filled by rtk_surface_at or
+ * rtk_surface_at_footprint for hit on scene, as mapped above. [any thread]
+ * (ABI 3.3) */
+RTK_API void rtk_surface_bsdf(const rtk_scene *scene, const rtk_hit *hit, const rtk_surface *s, rtk_bsdf *out);
+
+RTK_EXTERN_C_END
+
 #endif

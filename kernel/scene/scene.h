@@ -27,6 +27,35 @@ typedef struct rtk_tex_map {
 /* Alpha handling of a material. */
 typedef enum rtk_alpha_mode { RTK_ALPHA_OPAQUE = 0, RTK_ALPHA_MASK = 1, RTK_ALPHA_BLEND = 2 } rtk_alpha_mode;
 
+/* One texture that multiplies a factor of the BSDF mapping (material.c):
+ * the texture (index into scene->textures, or -1), the channel a scalar
+ * factor reads (0-3: R, G, B, A; colour factors read RGB), and its wrap
+ * modes and texture coordinates as for the other slots. */
+typedef struct rtk_tex_slot {
+    int tex;
+    uint8_t channel;
+    rtk_tex_wrap wrap;
+    rtk_tex_map uv;
+} rtk_tex_slot;
+
+/* The factor textures of a material (rtk_material.maps). */
+typedef enum rtk_material_map {
+    RTK_MAP_SPECULAR_COLOR = 0, /* MTL map_Ks (x Ks, MTL model only); glTF specularColorTexture RGB */
+    RTK_MAP_SHININESS = 1,      /* MTL map_Ns (x Ns) */
+    RTK_MAP_ROUGHNESS = 2,      /* MTL map_Pr (x Pr); glTF metallicRoughnessTexture G (x roughnessFactor) */
+    RTK_MAP_METALLIC = 3,       /* MTL map_Pm (x Pm); glTF metallicRoughnessTexture B (x metallicFactor) */
+    RTK_MAP_TRANSMISSION = 4,   /* glTF transmissionTexture R (x transmissionFactor) */
+    RTK_MAP_SPECULAR = 5,       /* glTF specularTexture A (x specularFactor) */
+    RTK_MAP_COUNT = 6
+} rtk_material_map;
+
+/* Which rule of rtk_surface_bsdf maps a material to a BSDF (include/rtk/bsdf.h). */
+typedef enum rtk_material_model {
+    RTK_MODEL_DIFFUSE = 0,            /* Lambert of the base colour (the default, materials made in memory) */
+    RTK_MODEL_MTL = 1,                /* MTL by illum: Kd, Ks, Ns, Ni, d, Tf */
+    RTK_MODEL_METALLIC_ROUGHNESS = 2  /* glTF, and MTL with Pr, Pm, map_Pr or map_Pm */
+} rtk_material_model;
+
 /* A material, merged from MTL and glTF conventions. Texture fields are
  * indices into scene->textures, or -1. */
 typedef struct rtk_material {
@@ -50,6 +79,13 @@ typedef struct rtk_material {
     rtk_tex_map base_uv, alpha_uv, normal_uv, emission_uv;
     int coverage;         /* glTF BLEND: alpha is the chance that a ray stops here (alpha.c) */
     int single_sided;     /* glTF doubleSided false: camera rays pass through its back (alpha.c) */
+    rtk_material_model model;
+    int has_illum;        /* MTL: an illum line was given (illum is 0 without one) */
+    rtk_rgb filter;       /* MTL Tf (or Kt): the transmission's colour, when has_filter */
+    int has_filter;
+    rtk_rgb specular_color; /* KHR_materials_specular specularColorFactor, default white */
+    float specular_weight;  /* KHR_materials_specular specularFactor, default 1 */
+    rtk_tex_slot maps[RTK_MAP_COUNT]; /* factor textures, tex -1 when absent */
 } rtk_material;
 
 /* The texture coordinates map reads on triangle prim of s at barycentrics
@@ -61,6 +97,16 @@ void rtk_vertex_color(const struct rtk_scene *s, uint32_t prim, float u, float v
 
 /* Material defaults: white diffuse, alpha 1, ior 1.5, no textures. */
 RTK_KERNEL_API rtk_material rtk_material_default(void);
+
+/* Value v of key of a material of file path as a loader stores it: a
+ * non-finite v gives fallback, a v outside [lo, hi] the nearer bound, each
+ * with a warning naming the file, the material (material: its label, as
+ * "material 'red'") and the key. (material.c) */
+float rtk_material_value(const char *path, const char *material, const char *key, double v, float fallback, float lo,
+                         float hi);
+/* The same per channel of a colour (r, g, b), each within [lo, hi]. */
+rtk_rgb rtk_material_rgb(const char *path, const char *material, const char *key, double r, double g, double b,
+                         rtk_rgb fallback, float lo, float hi);
 
 /* ---- normal maps (normalmap.c) ---- */
 

@@ -40,6 +40,10 @@ rtk_material rtk_material_default(void)
     m.alpha_mode = RTK_ALPHA_OPAQUE;
     m.alpha_cutoff = 0.5f;
     m.base_tex = m.alpha_tex = m.normal_tex = m.emission_tex = -1;
+    m.specular_color = rtk_rgb_make(1.0f, 1.0f, 1.0f);
+    m.specular_weight = 1.0f;
+    for (int k = 0; k < RTK_MAP_COUNT; k++)
+        m.maps[k].tex = -1;
     return m;
 }
 
@@ -341,6 +345,16 @@ rtk_status rtk_scene_add_texture(rtk_scene *scene, const char *name, const char 
     return RTK_OK;
 }
 
+/* The texture slots of a material: base, alpha, normal, emission (in
+ * that order), then its factor maps. */
+#define MATERIAL_TEXTURES (4 + RTK_MAP_COUNT)
+static void material_textures(const rtk_material *m, int tex[MATERIAL_TEXTURES])
+{
+    tex[0] = m->base_tex, tex[1] = m->alpha_tex, tex[2] = m->normal_tex, tex[3] = m->emission_tex;
+    for (int k = 0; k < RTK_MAP_COUNT; k++)
+        tex[4 + k] = m->maps[k].tex;
+}
+
 static int finite3(const float *v) { return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]); }
 
 /* Checks what the loaders promised: finite positions, indices in range,
@@ -369,8 +383,9 @@ static rtk_status check_scene(const rtk_scene *scene)
     }
     for (uint32_t m = 0; m < scene->material_count; m++) {
         const rtk_material *mat = &scene->materials[m];
-        const int tex[4] = {mat->base_tex, mat->alpha_tex, mat->normal_tex, mat->emission_tex};
-        for (int k = 0; k < 4; k++) {
+        int tex[MATERIAL_TEXTURES];
+        material_textures(mat, tex);
+        for (int k = 0; k < MATERIAL_TEXTURES; k++) {
             if (tex[k] < -1 || (tex[k] >= 0 && (uint32_t)tex[k] >= scene->texture_count))
                 return rtk_error(RTK_ERR_INVALID, "%s: material '%s' refers to texture %d, but there are only %u",
                                  scene->path, mat->name ? mat->name : "", tex[k], scene->texture_count);
@@ -483,8 +498,9 @@ static rtk_status decode_textures(rtk_scene *scene)
         float cutoff;
         int cutout = rtk_material_cutout(mat, &cutoff);
         scene->has_cutouts |= cutout || mat->single_sided;
-        const int tex[4] = {mat->base_tex, mat->alpha_tex, mat->normal_tex, mat->emission_tex};
-        for (int k = 0; k < 4; k++) {
+        int tex[MATERIAL_TEXTURES];
+        material_textures(mat, tex);
+        for (int k = 0; k < MATERIAL_TEXTURES; k++) {
             if (tex[k] >= 0 && (uint32_t)tex[k] < scene->texture_count &&
                 (keeps_textures(scene) || (cutout && k == 1))) {
                 rtk_texture_decode_within(&scene->textures[tex[k]], scene->files);

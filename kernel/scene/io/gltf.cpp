@@ -365,7 +365,8 @@ const std::vector<int> vertex_components = {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYG
 /* Extensions whose "required" use rtk honours; any other required
  * extension changes the meaning of the data, so the file is refused. */
 const char *const supported_required[] = {"KHR_materials_emissive_strength", "KHR_materials_ior",
-                                          "KHR_materials_transmission", "KHR_lights_punctual",
+                                          "KHR_materials_transmission", "KHR_materials_specular",
+                                          "KHR_lights_punctual",
                                           "KHR_mesh_quantization", "KHR_texture_transform",
                                           "EXT_mesh_gpu_instancing"};
 
@@ -448,6 +449,10 @@ class Loader {
     rtk_status check_extensions();
     rtk_status add_materials();
     rtk_status add_texture(size_t material, const char *slot, int index, int srgb, int *out, rtk_tex_wrap *wrap);
+    /* The texture an extension's textureInfo object names (key in ext)
+     * into map, reading channel; none when ext has no such key. */
+    rtk_status add_extension_map(size_t material, const tinygltf::Value &ext, const char *key, int srgb,
+                                 uint8_t channel, rtk_tex_slot *map);
     rtk_tex_wrap sampler_wrap(size_t material, const char *slot, const tinygltf::Texture &tex);
     /* A texture use's uv set (texCoord) and KHR_texture_transform. */
     rtk_tex_map tex_map(size_t material, const char *slot, int tex_coord, const tinygltf::ExtensionMap &extensions);
@@ -756,39 +761,83 @@ rtk_status Loader::add_texture(size_t material, const char *slot, int index, int
     return RTK_OK;
 }
 
+rtk_status Loader::add_extension_map(size_t material, const tinygltf::Value &ext, const char *key, int srgb,
+                                     uint8_t channel, rtk_tex_slot *map)
+{
+    const tinygltf::Value &info = ext.Get(key);
+    if (!info.IsObject() || !info.Has("index"))
+        return RTK_OK;
+    int index = int(number(info.Get("index"), -1.0));
+    int tex_coord = int(number(info.Get("texCoord"), 0.0));
+    tinygltf::ExtensionMap extensions;
+    const tinygltf::Value &nested = info.Get("extensions");
+    if (nested.IsObject())
+        for (const std::string &name : nested.Keys())
+            extensions[name] = nested.Get(name);
+    map->uv = tex_map(material, key, tex_coord, extensions);
+    map->channel = channel;
+    return add_texture(material, key, index, srgb, &map->tex, &map->wrap);
+}
+
 rtk_status Loader::add_materials()
 {
     materials_.resize(model_.materials.size());
     for (size_t i = 0; i < model_.materials.size(); i++) {
         const tinygltf::Material &src = model_.materials[i];
         const tinygltf::PbrMetallicRoughness &pbr = src.pbrMetallicRoughness;
+        const std::string who = label("material", i, src.name);
+        const char *mat = who.c_str();
+        const rtk_rgb white = rtk_rgb_make(1.0f, 1.0f, 1.0f);
         rtk_material m = rtk_material_default();
         m.name = const_cast<char *>(src.name.c_str());
+        m.model = RTK_MODEL_METALLIC_ROUGHNESS;
         if (pbr.baseColorFactor.size() == 4) {
-            m.base_color = rtk_rgb_make(clean(pbr.baseColorFactor[0], 1.0f), clean(pbr.baseColorFactor[1], 1.0f),
-                                        clean(pbr.baseColorFactor[2], 1.0f));
-            m.alpha = clamp01(clean(pbr.baseColorFactor[3], 1.0f));
+            const std::vector<double> &c = pbr.baseColorFactor;
+            m.base_color = rtk_material_rgb(path_, mat, "baseColorFactor", c[0], c[1], c[2], white, 0, 1);
+            m.alpha = rtk_material_value(path_, mat, "baseColorFactor alpha", c[3], 1.0f, 0, 1);
         }
-        m.metallic = clamp01(clean(pbr.metallicFactor, 1.0f));
+        m.metallic = rtk_material_value(path_, mat, "metallicFactor", pbr.metallicFactor, 1.0f, 0, 1);
         m.single_sided = !src.doubleSided;
-        m.roughness = clamp01(clean(pbr.roughnessFactor, 1.0f));
+        m.roughness = rtk_material_value(path_, mat, "roughnessFactor", pbr.roughnessFactor, 1.0f, 0, 1);
         double strength = 1.0;
         tinygltf::ExtensionMap::const_iterator ext = src.extensions.find("KHR_materials_emissive_strength");
         if (ext != src.extensions.end())
             strength = number(ext->second.Get("emissiveStrength"), 1.0);
         if (src.emissiveFactor.size() == 3)
-            m.emission = rtk_rgb_make(clean(src.emissiveFactor[0] * strength, 0.0f),
-                                      clean(src.emissiveFactor[1] * strength, 0.0f),
-                                      clean(src.emissiveFactor[2] * strength, 0.0f));
+            m.emission = rtk_material_rgb(path_, mat, "emissiveFactor x emissiveStrength",
+                                          src.emissiveFactor[0] * strength, src.emissiveFactor[1] * strength,
+                                          src.emissiveFactor[2] * strength, rtk_rgb_make(0.0f, 0.0f, 0.0f), 0, FLT_MAX);
         ext = src.extensions.find("KHR_materials_ior");
         if (ext != src.extensions.end()) {
             double ior = number(ext->second.Get("ior"), 1.5);
             if (ior >= 1.0)
                 m.ior = float(ior);
+            else
+                rtk_log(RTK_LOG_WARN, "%s: %s: KHR_materials_ior ior is %g; rtk takes an ior of at least 1 and "
+                        "uses %g", path_, mat, ior, double(m.ior));
         }
+        rtk_status status;
         ext = src.extensions.find("KHR_materials_transmission");
-        if (ext != src.extensions.end())
-            m.transmission = clamp01(float(number(ext->second.Get("transmissionFactor"), 0.0)));
+        if (ext != src.extensions.end()) {
+            m.transmission = rtk_material_value(path_, mat, "transmissionFactor",
+                                                number(ext->second.Get("transmissionFactor"), 0.0), 0.0f, 0, 1);
+            if ((status = add_extension_map(i, ext->second, "transmissionTexture", 0, 0,
+                                            &m.maps[RTK_MAP_TRANSMISSION])) != RTK_OK)
+                return status;
+        }
+        ext = src.extensions.find("KHR_materials_specular");
+        if (ext != src.extensions.end()) {
+            const tinygltf::Value &sp = ext->second, &c = sp.Get("specularColorFactor");
+            m.specular_weight =
+                rtk_material_value(path_, mat, "specularFactor", number(sp.Get("specularFactor"), 1.0), 1.0f, 0, 1);
+            if (c.IsArray() && c.ArrayLen() == 3)
+                m.specular_color = rtk_material_rgb(path_, mat, "specularColorFactor", number(c.Get(0), NAN),
+                                                    number(c.Get(1), NAN), number(c.Get(2), NAN), white, 0, FLT_MAX);
+            if ((status = add_extension_map(i, sp, "specularTexture", 0, 3, &m.maps[RTK_MAP_SPECULAR])) != RTK_OK ||
+                (status = add_extension_map(i, sp, "specularColorTexture", 1, 0,
+                                            &m.maps[RTK_MAP_SPECULAR_COLOR])) != RTK_OK)
+                return status;
+        }
         if (src.alphaMode == "MASK") {
             m.alpha_mode = RTK_ALPHA_MASK;
             m.alpha_cutoff = clean(src.alphaCutoff, 0.5f);
@@ -802,14 +851,21 @@ rtk_status Loader::add_materials()
         m.base_uv = tex_map(i, "baseColorTexture", pbr.baseColorTexture.texCoord, pbr.baseColorTexture.extensions);
         m.emission_uv = tex_map(i, "emissiveTexture", src.emissiveTexture.texCoord, src.emissiveTexture.extensions);
         m.normal_uv = tex_map(i, "normalTexture", src.normalTexture.texCoord, src.normalTexture.extensions);
-        rtk_status status;
+        rtk_tex_slot &rough = m.maps[RTK_MAP_ROUGHNESS], &metal = m.maps[RTK_MAP_METALLIC];
+        rough.uv = tex_map(i, "metallicRoughnessTexture", pbr.metallicRoughnessTexture.texCoord,
+                           pbr.metallicRoughnessTexture.extensions);
+        rough.channel = 1; /* G: roughness, B: metallic */
         if ((status = add_texture(i, "baseColorTexture", pbr.baseColorTexture.index, 1, &m.base_tex, &m.base_wrap)) !=
                 RTK_OK ||
             (status = add_texture(i, "emissiveTexture", src.emissiveTexture.index, 1, &m.emission_tex,
                                   &m.emission_wrap)) != RTK_OK ||
             (status = add_texture(i, "normalTexture", src.normalTexture.index, 0, &m.normal_tex, &m.normal_wrap)) !=
-                RTK_OK)
+                RTK_OK ||
+            (status = add_texture(i, "metallicRoughnessTexture", pbr.metallicRoughnessTexture.index, 0, &rough.tex,
+                                  &rough.wrap)) != RTK_OK)
             return status;
+        metal = rough;
+        metal.channel = 2;
         if (m.alpha_mode != RTK_ALPHA_OPAQUE) {
             m.alpha_tex = m.base_tex;
             m.alpha_wrap = m.base_wrap;

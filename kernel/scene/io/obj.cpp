@@ -86,23 +86,25 @@ std::string take(char *s)
 std::string dir_of(const std::string &path) { return take(rtk_path_dirname(path.c_str())); }
 std::string join(const std::string &dir, const std::string &path) { return take(rtk_path_join(dir.c_str(), path.c_str())); }
 
-/* What tinyobjloader does not tell about a material: the directory of its
- * MTL file (texture paths are relative to it) and which values the MTL
- * set explicitly (tinyobjloader fills the rest with its own defaults). */
+/* What tinyobjloader does not tell about a material: its MTL file (for
+ * messages), that file's directory (texture paths are relative to it) and
+ * which values the MTL set explicitly (tinyobjloader fills the rest with
+ * its own defaults). */
 struct MtlInfo {
-    std::string dir;
-    bool has_ni = false, has_pr = false, has_pm = false;
+    std::string file, dir;
+    bool has_ni = false, has_pr = false, has_pm = false, has_illum = false, has_tf = false;
 };
 
 bool is_space(char c) { return c == ' ' || c == '\t'; }
 
 /* Lists the explicit keys of each material in the order tinyobj::LoadMtl
  * appends them: at each `newmtl` after a named one, and once at the end. */
-std::vector<MtlInfo> scan_mtl(const std::string &text, const std::string &dir)
+std::vector<MtlInfo> scan_mtl(const std::string &text, const std::string &file)
 {
     std::vector<MtlInfo> out;
     MtlInfo current;
-    current.dir = dir;
+    current.file = file;
+    current.dir = dir_of(file);
     bool named = false;
     size_t pos = 0;
     while (pos < text.size()) {
@@ -122,8 +124,11 @@ std::vector<MtlInfo> scan_mtl(const std::string &text, const std::string &dir)
             if (named)
                 out.push_back(current);
             current = MtlInfo();
-            current.dir = dir;
+            current.file = file;
+            current.dir = dir_of(file);
             named = len > 7;
+        } else if (len >= 6 && std::strncmp(t, "illum", 5) == 0 && is_space(t[5])) {
+            current.has_illum = true;
         } else if (len >= 3 && is_space(t[2])) {
             if (t[0] == 'N' && t[1] == 'i')
                 current.has_ni = true;
@@ -131,6 +136,8 @@ std::vector<MtlInfo> scan_mtl(const std::string &text, const std::string &dir)
                 current.has_pr = true;
             else if (t[0] == 'P' && t[1] == 'm')
                 current.has_pm = true;
+            else if ((t[0] == 'T' && t[1] == 'f') || (t[0] == 'K' && t[1] == 't'))
+                current.has_tf = true;
         }
     }
     out.push_back(current);
@@ -166,7 +173,7 @@ class MtlReader : public tinyobj::MaterialReader {
         tinyobj::LoadMtl(names, materials, &stream, &mtl_warn, err);
         if (warn && !mtl_warn.empty())
             *warn += mtl_warn;
-        std::vector<MtlInfo> found = scan_mtl(text, dir_of(file));
+        std::vector<MtlInfo> found = scan_mtl(text, file);
         info_->resize(first, MtlInfo());
         for (size_t i = first; i < materials->size(); i++)
             info_->push_back(i - first < found.size() ? found[i - first] : found.back());
@@ -290,13 +297,6 @@ class CheckedObj : public std::streambuf {
     bool eof_ = false, stopped_ = false;
 };
 
-float clean(tinyobj::real_t v, float fallback) { return std::isfinite(v) ? float(v) : fallback; }
-
-rtk_rgb clean_rgb(const tinyobj::real_t *c, rtk_rgb fallback)
-{
-    return rtk_rgb_make(clean(c[0], fallback.r), clean(c[1], fallback.g), clean(c[2], fallback.b));
-}
-
 /* Thrown from a parser callback to stop reading; the status is recorded. */
 struct Stop {
     rtk_status status;
@@ -395,23 +395,49 @@ rtk_status add_texture(rtk_scene *scene, const std::string &name, const tinyobj:
     return rtk_scene_add_texture(scene, NULL, path.c_str(), NULL, 0, srgb, index);
 }
 
+/* A scalar map (map_Ns, map_Pr, map_Pm) into slot: its -imfchan r, g or
+ * b picks that channel, anything else the first (a grey image's value). */
+rtk_status add_map(rtk_scene *scene, const std::string &name, const tinyobj::texture_option_t &option,
+                   const std::string &dir, int srgb, rtk_tex_slot *slot)
+{
+    slot->channel = option.imfchan == 'g' ? 1 : option.imfchan == 'b' ? 2 : 0;
+    return add_texture(scene, name, option, dir, srgb, &slot->tex, &slot->wrap);
+}
+
 rtk_status add_material(rtk_scene *scene, const tinyobj::material_t &src, const MtlInfo &info, uint32_t *index)
 {
     rtk_material m = rtk_material_default();
+    const std::string label = "material '" + src.name + "'";
+    const char *file = info.file.c_str(), *name = label.c_str();
+    const rtk_rgb black = rtk_rgb_make(0.0f, 0.0f, 0.0f), white = rtk_rgb_make(1.0f, 1.0f, 1.0f);
     m.name = const_cast<char *>(src.name.c_str());
-    m.base_color = clean_rgb(src.diffuse, m.base_color);
-    m.specular = clean_rgb(src.specular, m.specular);
-    m.emission = clean_rgb(src.emission, m.emission);
-    m.shininess = clean(src.shininess, m.shininess);
+    m.base_color = rtk_material_rgb(file, name, "Kd", src.diffuse[0], src.diffuse[1], src.diffuse[2], white, 0, 1);
+    m.specular = rtk_material_rgb(file, name, "Ks", src.specular[0], src.specular[1], src.specular[2], black, 0, 1);
+    m.emission =
+        rtk_material_rgb(file, name, "Ke", src.emission[0], src.emission[1], src.emission[2], black, 0, FLT_MAX);
+    m.shininess = rtk_material_value(file, name, "Ns", src.shininess, m.shininess, 0, FLT_MAX);
     if (info.has_ni && std::isfinite(src.ior) && src.ior > 0)
         m.ior = float(src.ior);
+    else if (info.has_ni) /* exporters write Ni 0 for "no refraction" */
+        rtk_log(RTK_LOG_WARN, "%s: %s: Ni is %g, not a positive number; using %g", file, name, double(src.ior),
+                double(m.ior));
     if (info.has_pr)
-        m.roughness = clean(src.roughness, m.roughness);
+        m.roughness = rtk_material_value(file, name, "Pr", src.roughness, m.roughness, 0, 1);
     if (info.has_pm)
-        m.metallic = clean(src.metallic, m.metallic);
+        m.metallic = rtk_material_value(file, name, "Pm", src.metallic, m.metallic, 0, 1);
+    else if (!src.metallic_texname.empty())
+        m.metallic = 1.0f; /* map_Pm alone gives the metallic value */
+    if (info.has_tf) {
+        m.filter = rtk_material_rgb(file, name, "Tf", src.transmittance[0], src.transmittance[1],
+                                    src.transmittance[2], white, 0, 1);
+        m.has_filter = 1;
+    }
     /* tinyobjloader folds `Tr` into dissolve as 1 - Tr when `d` is absent. */
-    m.alpha = clean(src.dissolve, 1.0f);
+    m.alpha = rtk_material_value(file, name, "d (or 1 - Tr)", src.dissolve, 1.0f, 0, 1);
     m.illum = src.illum;
+    m.has_illum = info.has_illum;
+    const bool pbr = info.has_pr || info.has_pm || !src.roughness_texname.empty() || !src.metallic_texname.empty();
+    m.model = pbr ? RTK_MODEL_METALLIC_ROUGHNESS : RTK_MODEL_MTL;
     rtk_status status;
     const bool normal = !src.normal_texname.empty();
     if ((status = add_texture(scene, src.diffuse_texname, src.diffuse_texopt, info.dir, 1, &m.base_tex,
@@ -422,7 +448,16 @@ rtk_status add_material(rtk_scene *scene, const tinyobj::material_t &src, const 
                               &m.emission_wrap)) != RTK_OK ||
         (status = add_texture(scene, normal ? src.normal_texname : src.bump_texname,
                               normal ? src.normal_texopt : src.bump_texopt, info.dir, 0, &m.normal_tex,
-                              &m.normal_wrap)) != RTK_OK)
+                              &m.normal_wrap)) != RTK_OK ||
+        /* Ks and map_Ks are not inputs of the metallic-roughness mapping. */
+        (status = add_texture(scene, pbr ? std::string() : src.specular_texname, src.specular_texopt, info.dir, 1,
+                              &m.maps[RTK_MAP_SPECULAR_COLOR].tex, &m.maps[RTK_MAP_SPECULAR_COLOR].wrap)) != RTK_OK ||
+        (status = add_map(scene, src.specular_highlight_texname, src.specular_highlight_texopt, info.dir, 0,
+                          &m.maps[RTK_MAP_SHININESS])) != RTK_OK ||
+        (status = add_map(scene, src.roughness_texname, src.roughness_texopt, info.dir, 0,
+                          &m.maps[RTK_MAP_ROUGHNESS])) != RTK_OK ||
+        (status = add_map(scene, src.metallic_texname, src.metallic_texopt, info.dir, 0, &m.maps[RTK_MAP_METALLIC])) !=
+            RTK_OK)
         return status;
     /* A map_d cuts out (foliage, fences); a constant d < 1 is translucency. */
     if (m.alpha < 1.0f)
@@ -437,6 +472,7 @@ rtk_status add_material(rtk_scene *scene, const tinyobj::material_t &src, const 
 void Reader::add_materials(const tinyobj::material_t *list, int count)
 {
     MtlInfo fallback;
+    fallback.file = path;
     fallback.dir = dir_of(path);
     for (size_t i = materials.size(); i < size_t(count); i++) {
         uint32_t index;
