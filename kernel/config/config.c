@@ -42,6 +42,9 @@ static const rtk_param_desc top_params[] = {
      .doc = "directory or list of directories with more plugins (trusted configs only)"},
     {.name = "lights", .type = RTK_PARAM_STRING,
      .doc = "list of point, spot and directional lights: ( { type = \"point\"; ... }, ... )"},
+    {.name = "environment", .type = RTK_PARAM_STRING,
+     .doc = "group: light from rays that leave the scene: file = \"sky.exr\" (equirectangular) or color = [r, g, b]; "
+            "strength, rotation"},
     {.name = "instances", .type = RTK_PARAM_STRING,
      .doc = "list of models placed beside the scene, each loaded once: ( { file = \"bunny.obj\"; "
             "translate = [x, y, z]; rotate = [ax, ay, az, degrees]; scale = s; grid = [nx, ny, nz]; "
@@ -51,7 +54,7 @@ static const rtk_param_desc top_params[] = {
     {.name = "filter", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"box\"; and its parameters"},
 };
 static const char *const top_special[] = {"camera", "film", "sampler", "textures", "plugin_path", "lights",
-                                          "instances", "accelerator", "integrator", "filter", NULL};
+                                          "environment", "instances", "accelerator", "integrator", "filter", NULL};
 
 static const rtk_param_desc camera_params[] = {
     {.name = "position", .type = RTK_PARAM_STRING, .required = 1, .doc = "eye point [x, y, z]"},
@@ -107,6 +110,17 @@ static const rtk_param_desc light_params[] = {
 };
 static const char *const light_special[] = {"position", "direction", "intensity", NULL};
 
+static const rtk_param_desc environment_params[] = {
+    {.name = "file", .type = RTK_PARAM_STRING,
+     .doc = "equirectangular RGB image (EXR, HDR, any float image OpenImageIO reads), relative to the config"},
+    {.name = "color", .type = RTK_PARAM_STRING, .doc = "[r, g, b]: a constant radiance instead of a file"},
+    {.name = "strength", .type = RTK_PARAM_FLOAT, .def = 1.0, .min = 0.0, .max = 1e30,
+     .doc = "factor on the radiance"},
+    {.name = "rotation", .type = RTK_PARAM_FLOAT, .def = 0.0, .min = -36000.0, .max = 36000.0,
+     .doc = "degrees about +y (the up axis), right-handed: 90 moves the image's centre from -z to -x"},
+};
+static const char *const environment_special[] = {"color", NULL};
+
 static const rtk_param_desc instance_params[] = {
     {.name = "file", .type = RTK_PARAM_STRING, .required = 1,
      .doc = "model to place (.obj, .gltf, .glb), relative to the config file; loaded once however often placed"},
@@ -131,6 +145,8 @@ static const rtk_plugin textures_schema = {RTK_PLUGIN_HEADER, .name = "textures"
                                            .param_count = RTK_COUNTOF(textures_params)};
 static const rtk_plugin light_schema = {RTK_PLUGIN_HEADER, .name = "lights", .params = light_params,
                                         .param_count = RTK_COUNTOF(light_params)};
+static const rtk_plugin environment_schema = {RTK_PLUGIN_HEADER, .name = "environment", .params = environment_params,
+                                              .param_count = RTK_COUNTOF(environment_params)};
 static const rtk_plugin instance_schema = {RTK_PLUGIN_HEADER, .name = "instances", .params = instance_params,
                                            .param_count = RTK_COUNTOF(instance_params)};
 
@@ -861,6 +877,63 @@ static rtk_status read_lights(const loader *ld, const config_setting_t *root, rt
     rtk_status status = read_group_list(ld, root, &gl, &lights, cfg);
     cfg->lights = lights;
     return status;
+}
+
+/* Reads the environment group: a file or a colour, strength, rotation. */
+static rtk_status read_environment(const loader *ld, const config_setting_t *root, rtk_config *cfg)
+{
+    static const char example[] = "file = \"sky.exr\"; strength = 1.0; rotation = 0.0;";
+    const config_setting_t *group = member(root, "environment");
+    if (!group)
+        return RTK_OK;
+    rtk_status status = expect_group(ld, group, example);
+    if (status != RTK_OK)
+        return status;
+    rtk_params *params = NULL;
+    slot_spec spec = {.label = "environment", .schema = &environment_schema, .special = environment_special};
+    if ((status = fill_params(ld, group, &spec, &params)) != RTK_OK)
+        return status;
+    rtk_config_environment *env = &cfg->environment;
+    const config_setting_t *file_at = member(group, "file"), *color_at = member(group, "color");
+    env->strength = (float)rtk_params_float(params, "strength");
+    env->rotation = (float)rtk_params_float(params, "rotation");
+    char *file = file_at ? rtk_path_join(ld->dir, rtk_params_string(params, "file")) : NULL;
+    int empty = file_at && !rtk_params_string(params, "file")[0];
+    rtk_params_destroy(params);
+    if (file_at && !file)
+        return RTK_ERR_NOMEM;
+    char loc[1050];
+    where(ld, group, loc, sizeof loc);
+    snprintf(env->where, sizeof env->where, "%s: environment", loc);
+    struct stat st;
+    if (file_at && color_at)
+        status = fail(ld, color_at, RTK_ERR_INVALID,
+                      "environment: both file and color are given; keep one (file = \"sky.exr\"; or color = [r, g, b];)");
+    else if (!file_at && !color_at)
+        status = fail(ld, group, RTK_ERR_INVALID, "environment: give file = \"sky.exr\"; or color = [r, g, b];");
+    else if (empty)
+        status = fail(ld, file_at, RTK_ERR_INVALID, "environment: file is empty: name an equirectangular EXR or HDR");
+    else if (file_at && (stat(file, &st) != 0 || access(file, R_OK) != 0))
+        status = fail(ld, file_at, RTK_ERR_IO, "environment: file '%s' cannot be read (%s): check the path, relative to "
+                      "the config's folder", file, strerror(errno));
+    else if (file_at && !S_ISREG(st.st_mode))
+        status = fail(ld, file_at, RTK_ERR_IO, "environment: file '%s' is not a regular file: name an image", file);
+    if (status != RTK_OK) {
+        free(file);
+        return status;
+    }
+    env->file = file;
+    env->given = 1;
+    if (color_at) {
+        rtk_vec3 c = rtk_vec3_make(0.0f, 0.0f, 0.0f);
+        if ((status = read_vec3(ld, group, "environment", "color", &c)) != RTK_OK)
+            return status;
+        if (c.x < 0.0f || c.y < 0.0f || c.z < 0.0f)
+            return fail(ld, color_at, RTK_ERR_INVALID, "environment: color [%g, %g, %g] has a negative component; "
+                        "radiance is 0 or more", c.x, c.y, c.z);
+        env->color = rtk_rgb_make(c.x, c.y, c.z);
+    }
+    return RTK_OK;
 }
 
 /* Most copies one instances entry may ask for. */
@@ -1745,7 +1818,8 @@ static rtk_status load(loader *ld, rtk_config *cfg)
     }
     typedef rtk_status (*reader_fn)(const loader *ld, const config_setting_t *root, rtk_config *cfg);
     static const reader_fn readers[] = {read_top,      read_plugin_path, read_camera,      read_film,
-                                        read_sampler,  read_lights,      read_instances,   read_textures,
+                                        read_sampler,  read_lights,      read_environment, read_instances,
+                                        read_textures,
                                         read_accelerator, read_integrator, read_filter};
     const config_setting_t *root = config_root_setting(&ld->cfg);
     for (size_t i = 0; i < RTK_COUNTOF(readers); i++) {
@@ -1840,6 +1914,7 @@ RTK_API void rtk_config_destroy(rtk_config *config)
     free(config->sampler_type);
     free(config->cache_dir);
     free(config->lights);
+    free(config->environment.file);
     for (uint32_t i = 0; i < config->instance_count; i++)
         free(config->instances[i].file);
     free(config->instances);

@@ -18,6 +18,15 @@ typedef struct rtk_config_instance {
     double spacing[3];       /* offset between copies */
 } rtk_config_instance;
 
+/* A config's environment group (given 0: none). */
+typedef struct rtk_config_environment {
+    int given;
+    char *file;              /* resolved against the config's directory; NULL for a colour */
+    rtk_rgb color;           /* the constant radiance when file is NULL */
+    float strength, rotation; /* factor, and degrees about +y */
+    char where[1100];        /* "scene.cfg:12: environment", for messages */
+} rtk_config_environment;
+
 /* One plugin slot of a config. */
 typedef struct rtk_plugin_slot {
     const rtk_plugin *plugin;
@@ -41,6 +50,7 @@ struct rtk_config {
     uint64_t cache_limit;        /* bytes the BVH cache may hold, 0 = no limit */
     rtk_punctual_light *lights;  /* the config's punctual lights */
     uint32_t light_count;
+    rtk_config_environment environment; /* loaded with the scene when it keeps lights */
     rtk_config_instance *instances; /* models placed beside the scene */
     uint32_t instance_count;
     rtk_texture_filter texture_filter; /* textures.filter */
@@ -58,7 +68,8 @@ unsigned rtk_config_files_read(void);
  * keeps lights. (render.c) */
 RTK_KERNEL_API rtk_status rtk_config_place_instances(const struct rtk_config *cfg, rtk_scene *scene);
 /* Loads cfg's scene as rtk_scene_load_with does, with the config's
- * folder, --allow-outside-files and textures group. */
+ * folder, --allow-outside-files and textures group, and its environment
+ * when needs has RTK_NEED_LIGHTS. */
 RTK_KERNEL_API rtk_status rtk_config_load_scene(const struct rtk_config *cfg, uint32_t needs, rtk_scene **out);
 
 RTK_EXTERN_C_END

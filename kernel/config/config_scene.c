@@ -1,10 +1,22 @@
 /* What a config adds to its scene: the scene file loaded within the
- * config's file boundary and texture budget, and the instances it places. */
+ * config's file boundary and texture budget, its environment, and the
+ * instances it places. */
 #include "config.h"
 #include "../accel/accel.h"
 
 #include <stdlib.h>
 #include <string.h>
+
+/* The config's environment, given to scene; errors name the setting. */
+static rtk_status load_environment(const rtk_config_environment *ce, rtk_scene *scene)
+{
+    rtk_environment *env = NULL;
+    rtk_status st = ce->file ? rtk_environment_load(ce->file, ce->strength, ce->rotation, &env)
+                             : rtk_environment_constant(ce->color, ce->strength, &env);
+    if (st != RTK_OK)
+        return st == RTK_ERR_NOMEM ? st : rtk_error(st, "%s: file: %s", ce->where, rtk_error_message());
+    return rtk_scene_set_environment(scene, env);
+}
 
 rtk_status rtk_config_load_scene(const rtk_config *cfg, uint32_t needs, rtk_scene **out)
 {
@@ -17,6 +29,13 @@ rtk_status rtk_config_load_scene(const rtk_config *cfg, uint32_t needs, rtk_scen
     files->trilinear = cfg->texture_filter == RTK_TEX_TRILINEAR;
     rtk_status st = rtk_scene_load_with(cfg->scene_path, needs, files, out);
     rtk_scene_files_unref(files);
+    if (st == RTK_OK && (needs & RTK_NEED_LIGHTS) && cfg->environment.given) {
+        st = load_environment(&cfg->environment, *out);
+        if (st != RTK_OK) {
+            rtk_scene_free(*out);
+            *out = NULL;
+        }
+    }
     return st;
 }
 

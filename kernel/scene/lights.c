@@ -1,6 +1,8 @@
-/* Emitters: the triangles whose material emits, chosen in proportion to
+/* The scene's lights: the emitting triangles, chosen in proportion to
  * power with one alias table (Vose 1991) over the whole scene, then a
- * uniform point on the chosen triangle. */
+ * uniform point on the chosen triangle; the punctual lights; and the
+ * choice between all of them and the environment (environment.c) by
+ * power, for rtk_sample_incident_light. */
 #include "scene.h"
 #include "../accel/accel.h"
 
@@ -33,6 +35,9 @@ void rtk_lights_free(rtk_lights *l)
     free(l->alias_prob);
     free(l->alias);
     free(l->light_of);
+    free(l->slot_pick);
+    free(l->slot_cdf);
+    rtk_environment_free(l->environment);
     free(l);
 }
 
@@ -43,6 +48,23 @@ static uint32_t instance_lights(const rtk_scene *s, uint32_t inst)
     return mesh->lights ? mesh->lights->count : 0;
 }
 
+/* Luminance of m's emission as the power table counts it: the factor x
+ * the mean texel of its emission texture, when one is decoded. */
+static double emitted_luminance(const rtk_scene *s, const rtk_material *m)
+{
+    double le = luminance(m->emission);
+    if (m->emission_tex < 0 || (uint32_t)m->emission_tex >= s->texture_count)
+        return le;
+    const rtk_texture *t = &s->textures[m->emission_tex];
+    if (!t->decoded || t->missing || !t->rgba || t->width <= 0 || t->height <= 0)
+        return le;
+    size_t n = (size_t)t->width * (size_t)t->height;
+    double sum = 0.0;
+    for (size_t i = 0; i < n; i++)
+        sum += luminance(rtk_rgb_make(t->rgba[4 * i], t->rgba[4 * i + 1], t->rgba[4 * i + 2]));
+    return le * sum / (double)n;
+}
+
 static double triangle_area(rtk_vec3 a, rtk_vec3 b, rtk_vec3 c)
 {
     double ex = (double)b.x - a.x, ey = (double)b.y - a.y, ez = (double)b.z - a.z;
@@ -51,14 +73,40 @@ static double triangle_area(rtk_vec3 a, rtk_vec3 b, rtk_vec3 c)
     return 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
 }
 
+static rtk_status update_choice(rtk_scene *s);
+
+/* The emitter table and light choice of s: emptied, keeping the environment. */
+static rtk_status lights_reset(rtk_scene *s)
+{
+    rtk_environment *env = s->lights ? s->lights->environment : NULL;
+    if (s->lights)
+        s->lights->environment = NULL;
+    rtk_lights_free(s->lights);
+    s->lights = rtk_calloc(1, sizeof *s->lights);
+    if (!s->lights) {
+        rtk_environment_free(env);
+        return RTK_ERR_NOMEM;
+    }
+    s->lights->environment = env;
+    return RTK_OK;
+}
+
+static rtk_status build_emitters(rtk_scene *s);
+
 rtk_status rtk_lights_build(rtk_scene *s)
 {
-    rtk_lights_free(s->lights);
-    s->lights = NULL;
-    rtk_lights *l = rtk_calloc(1, sizeof *l);
-    if (!l)
-        return RTK_ERR_NOMEM;
-    s->lights = l;
+    rtk_status st = lights_reset(s);
+    if (st == RTK_OK)
+        st = build_emitters(s);
+    if (st == RTK_OK)
+        st = update_choice(s);
+    return st;
+}
+
+/* The alias table over the emitting triangles of s (its lights just reset). */
+static rtk_status build_emitters(rtk_scene *s)
+{
+    rtk_lights *l = s->lights;
     uint64_t total_count = 0;
     for (uint32_t t = 0; t < s->triangle_count; t++) {
         const rtk_material *m = material_of(s, t);
@@ -111,7 +159,7 @@ rtk_status rtk_lights_build(rtk_scene *s)
         l->insts[k] = RTK_INVALID_ID;
         l->area[k] = (float)area;
         l->light_of[t] = k;
-        scaled[k] = area * luminance(m->emission);
+        scaled[k] = area * emitted_luminance(s, m);
         total += scaled[k];
         k++;
     }
@@ -125,11 +173,19 @@ rtk_status rtk_lights_build(rtk_scene *s)
             l->prims[k] = t;
             l->insts[k] = i;
             l->area[k] = (float)area;
-            scaled[k] = area * luminance(material_of(mesh, t)->emission);
+            scaled[k] = area * emitted_luminance(mesh, material_of(mesh, t));
             total += scaled[k];
             k++;
         }
     }
+    if (!(total > 0.0)) { /* every emission texture is black */
+        l->count = 0;
+        free(scaled);
+        free(small);
+        free(large);
+        return RTK_OK;
+    }
+    l->area_power = RTK_PI * total;
     /* Vose's alias method: columns of height 1, each split between its
      * own light and one alias. */
     uint32_t ns = 0, nl = 0;
@@ -170,11 +226,11 @@ RTK_API uint32_t rtk_scene_light_count(const rtk_scene *s)
     return s->lights ? s->lights->count : 0;
 }
 
-RTK_API int rtk_scene_sample_light(const rtk_scene *s, float u_pick, rtk_vec2 u, rtk_light_sample *out)
+/* rtk_scene_sample_light on s's table l, which has emitters; inlined
+ * into rtk_sample_incident_light, which every light sample goes through. */
+static inline __attribute__((always_inline)) void sample_emitter(const rtk_scene *s, const rtk_lights *l, float u_pick, rtk_vec2 u,
+                                  rtk_light_sample *out)
 {
-    const rtk_lights *l = s->lights;
-    if (!l || l->count == 0)
-        return 0;
     float x = u_pick * (float)l->count;
     uint32_t col = (uint32_t)x;
     if (col >= l->count)
@@ -212,6 +268,14 @@ RTK_API int rtk_scene_sample_light(const rtk_scene *s, float u_pick, rtk_vec2 u,
     out->pdf_area = l->pick[light] / l->area[light];
     out->prim = prim;
     out->inst = inst;
+}
+
+RTK_API int rtk_scene_sample_light(const rtk_scene *s, float u_pick, rtk_vec2 u, rtk_light_sample *out)
+{
+    const rtk_lights *l = s->lights;
+    if (!l || l->count == 0)
+        return 0;
+    sample_emitter(s, l, u_pick, u, out);
     return 1;
 }
 
@@ -229,9 +293,9 @@ RTK_API rtk_ray rtk_shadow_ray(rtk_vec3 p, rtk_vec3 np, rtk_vec3 q, rtk_vec3 nq)
     return r;
 }
 
-RTK_API float rtk_scene_light_pdf(const rtk_scene *s, const rtk_hit *hit)
+/* rtk_scene_light_pdf on s's table l (or NULL). */
+static inline float area_pdf(const rtk_scene *s, const rtk_lights *l, const rtk_hit *hit)
 {
-    const rtk_lights *l = s->lights;
     if (!l || l->count == 0 || hit->prim == RTK_INVALID_ID)
         return 0.0f;
     uint32_t light;
@@ -252,6 +316,11 @@ RTK_API float rtk_scene_light_pdf(const rtk_scene *s, const rtk_hit *hit)
     return light == RTK_INVALID_ID ? 0.0f : l->pick[light] / l->area[light];
 }
 
+RTK_API float rtk_scene_light_pdf(const rtk_scene *s, const rtk_hit *hit)
+{
+    return area_pdf(s, s->lights, hit);
+}
+
 rtk_status rtk_scene_add_punctual(rtk_scene *s, const rtk_punctual_light *light)
 {
     rtk_punctual_light *grown = rtk_realloc_array(s->punctual, (size_t)s->punctual_count + 1, sizeof *grown);
@@ -259,6 +328,90 @@ rtk_status rtk_scene_add_punctual(rtk_scene *s, const rtk_punctual_light *light)
         return RTK_ERR_NOMEM;
     s->punctual = grown;
     s->punctual[s->punctual_count++] = *light;
+    return update_choice(s);
+}
+
+rtk_status rtk_scene_set_environment(rtk_scene *s, rtk_environment *env)
+{
+    if (!s->lights && !(s->lights = rtk_calloc(1, sizeof *s->lights))) {
+        rtk_environment_free(env);
+        return RTK_ERR_NOMEM;
+    }
+    rtk_environment_free(s->lights->environment);
+    s->lights->environment = env;
+    return update_choice(s);
+}
+
+/* Radius of the sphere around the scene's bounds (1 for empty bounds). */
+static double scene_radius(const rtk_scene *s)
+{
+    rtk_bounds b = s->bounds;
+    if (!(b.upper.x >= b.lower.x && b.upper.y >= b.lower.y && b.upper.z >= b.lower.z))
+        return 1.0;
+    double dx = (double)b.upper.x - b.lower.x, dy = (double)b.upper.y - b.lower.y, dz = (double)b.upper.z - b.lower.z;
+    double r = 0.5 * sqrt(dx * dx + dy * dy + dz * dz);
+    return r > 0.0 && isfinite(r) ? r : 1.0;
+}
+
+/* Power of a punctual light (rtk/lights.h's table). */
+static double punctual_power(const rtk_punctual_light *p, double radius)
+{
+    double i = luminance(p->intensity);
+    switch (p->type) {
+    case RTK_LIGHT_POINT:
+        return 4.0 * RTK_PI * i;
+    case RTK_LIGHT_SPOT:
+        return 2.0 * RTK_PI * i * (1.0 - 0.5 * ((double)p->cos_inner + p->cos_outer));
+    case RTK_LIGHT_DIRECTIONAL:
+        return RTK_PI * radius * radius * i;
+    }
+    return 0.0;
+}
+
+/* The choice between all lights by power: slot 0 the emitters, then the
+ * punctual lights, then the environment. */
+static rtk_status update_choice(rtk_scene *s)
+{
+    if (!s->lights && !(s->lights = rtk_calloc(1, sizeof *s->lights)))
+        return RTK_ERR_NOMEM;
+    rtk_lights *l = s->lights;
+    l->slot_count = 0; /* no choice until the table is whole */
+    uint32_t n = s->punctual_count + 2;
+    float *pick = rtk_realloc_array(l->slot_pick, n, sizeof *pick);
+    if (pick)
+        l->slot_pick = pick;
+    float *cdf = rtk_realloc_array(l->slot_cdf, (size_t)n + 1, sizeof *cdf);
+    if (cdf)
+        l->slot_cdf = cdf;
+    if (!pick || !cdf)
+        return RTK_ERR_NOMEM;
+    double radius = scene_radius(s), total = 0.0;
+    double *power = rtk_alloc(sizeof *power * n);
+    if (!power)
+        return RTK_ERR_NOMEM;
+    power[0] = l->count ? l->area_power : 0.0;
+    for (uint32_t i = 0; i < s->punctual_count; i++)
+        power[1 + i] = punctual_power(&s->punctual[i], radius);
+    const rtk_environment *env = l->environment;
+    power[n - 1] = env ? RTK_PI * radius * radius * 4.0 * RTK_PI * env->mean_radiance : 0.0;
+    for (uint32_t i = 0; i < n; i++) {
+        if (!(power[i] > 0.0) || !isfinite(power[i]))
+            power[i] = 0.0;
+        total += power[i];
+    }
+    double run = 0.0;
+    for (uint32_t i = 0; i < n; i++) {
+        pick[i] = total > 0.0 ? (float)(power[i] / total) : 0.0f;
+        cdf[i] = (float)(total > 0.0 ? run / total : 0.0);
+        run += power[i];
+    }
+    cdf[n] = 1.0f;
+    /* Slots after the last one with power end at 1, so that no u_pick < 1
+     * reaches them. */
+    for (uint32_t i = n; i-- > 0 && !(power[i] > 0.0);)
+        cdf[i] = 1.0f;
+    l->slot_count = total > 0.0 ? n : 0;
+    free(power);
     return RTK_OK;
 }
 
@@ -270,4 +423,176 @@ RTK_API uint32_t rtk_scene_punctual_count(const rtk_scene *s)
 RTK_API const rtk_punctual_light *rtk_scene_punctual(const rtk_scene *s, uint32_t i)
 {
     return i < s->punctual_count ? &s->punctual[i] : NULL;
+}
+
+RTK_API float rtk_spot_falloff(const rtk_punctual_light *light, float cos_axis)
+{
+    if (cos_axis <= light->cos_outer)
+        return 0.0f;
+    if (cos_axis >= light->cos_inner)
+        return 1.0f;
+    float t = (cos_axis - light->cos_outer) / (light->cos_inner - light->cos_outer);
+    return t * t * (3.0f - 2.0f * t);
+}
+
+/* The slot u_pick falls in, with u_pick rescaled to [0, 1) within it. */
+static uint32_t pick_slot(const rtk_lights *l, float *u_pick)
+{
+    uint32_t lo = 0, hi = l->slot_count; /* cdf[lo] <= u < cdf[hi] */
+    float u = *u_pick;
+    if (!(u < 1.0f))
+        u = u >= 1.0f ? 0x1.fffffep-1f : 0.0f; /* NaN as 0 */
+    else if (!(u >= 0.0f))
+        u = 0.0f;
+    while (hi - lo > 1) {
+        uint32_t mid = (lo + hi) / 2;
+        if (l->slot_cdf[mid] <= u)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    float r = (u - l->slot_cdf[lo]) / l->slot_pick[lo];
+    *u_pick = r < 1.0f ? (r > 0.0f ? r : 0.0f) : 0x1.fffffep-1f;
+    return lo;
+}
+
+/* The shadow ray from p (normal ng) towards direction wi at infinity. */
+static rtk_ray ray_to_infinity(rtk_vec3 p, rtk_vec3 ng, rtk_vec3 wi)
+{
+    rtk_ray r = {rtk_offset_ray_origin(p, facing(ng, wi)), 0.0f, wi, INFINITY};
+    return r;
+}
+
+/* A point on an emitting triangle as seen from p. */
+static int incident_area(const rtk_scene *s, rtk_vec3 p, rtk_vec3 ng, float u_pick, rtk_vec2 u, float pick,
+                         rtk_light_incident *out)
+{
+    rtk_light_sample ls;
+    sample_emitter(s, s->lights, u_pick, u, &ls);
+    rtk_vec3 d = rtk_vec3_sub(ls.p, p);
+    float dist2 = rtk_vec3_dot(d, d);
+    if (!(dist2 > 0.0f))
+        return 0;
+    float inv = 1.0f / sqrtf(dist2);
+    out->wi = rtk_vec3_scale(d, inv);
+    float cos_l = -rtk_vec3_dot(ls.n, out->wi);
+    if (!(cos_l > 0.0f))
+        return 0;
+    out->pdf = ls.pdf_area * dist2 / cos_l * pick;
+    out->dist = dist2 * inv;
+    out->li = ls.le;
+    out->delta = 0;
+    out->shadow = rtk_shadow_ray(p, ng, ls.p, ls.n);
+    return out->pdf > 0.0f && out->pdf < INFINITY;
+}
+
+/* A punctual light as seen from p. */
+static int incident_punctual(const rtk_punctual_light *pl, rtk_vec3 p, rtk_vec3 ng, float pick,
+                             rtk_light_incident *out)
+{
+    out->pdf = pick;
+    out->delta = 1;
+    if (pl->type == RTK_LIGHT_DIRECTIONAL) {
+        out->wi = rtk_vec3_neg(pl->direction);
+        out->dist = INFINITY;
+        out->li = pl->intensity;
+        out->shadow = ray_to_infinity(p, ng, out->wi);
+        return 1;
+    }
+    rtk_vec3 d = rtk_vec3_sub(pl->position, p);
+    float r2 = rtk_vec3_dot(d, d);
+    if (!(r2 > 0.0f))
+        return 0;
+    float dist = sqrtf(r2);
+    out->wi = rtk_vec3_scale(d, 1.0f / dist);
+    out->dist = dist;
+    float scale = 1.0f / r2;
+    if (pl->type == RTK_LIGHT_SPOT) {
+        float falloff = rtk_spot_falloff(pl, -rtk_vec3_dot(out->wi, pl->direction));
+        if (!(falloff > 0.0f))
+            return 0;
+        scale *= falloff;
+    }
+    out->li = rtk_rgb_scale(pl->intensity, scale);
+    out->shadow = rtk_shadow_ray(p, ng, pl->position, rtk_vec3_make(0.0f, 0.0f, 0.0f));
+    return isfinite(scale);
+}
+
+/* rtk_sample_incident_light when the emitters are not the only light
+ * (kept out of line, so that the common case stays a short call). */
+static __attribute__((noinline)) int sample_any(const rtk_scene *s, rtk_vec3 p, rtk_vec3 ng, float u_pick, rtk_vec2 u,
+                                                rtk_light_incident *out)
+{
+    const rtk_lights *l = s->lights;
+    uint32_t slot = pick_slot(l, &u_pick);
+    float pick = l->slot_pick[slot];
+    if (slot == 0)
+        return incident_area(s, p, ng, u_pick, u, pick, out);
+    if (slot <= s->punctual_count)
+        return incident_punctual(&s->punctual[slot - 1], p, ng, pick, out);
+    float pdf = rtk_environment_sample(l->environment, u, &out->wi, &out->li);
+    out->pdf = pdf * pick;
+    out->dist = INFINITY;
+    out->delta = 0;
+    out->shadow = ray_to_infinity(p, ng, out->wi);
+    return out->pdf > 0.0f && isfinite(out->pdf);
+}
+
+RTK_API int rtk_sample_incident_light(const rtk_scene *s, rtk_vec3 p, rtk_vec3 ng, float u_pick, rtk_vec2 u,
+                                      rtk_light_incident *out)
+{
+    const rtk_lights *l = s->lights;
+    if (!l || l->slot_count == 0)
+        return 0;
+    if (l->slot_pick[0] == 1.0f) /* the emitters alone: u_pick as it is */
+        return incident_area(s, p, ng, u_pick, u, 1.0f, out);
+    return sample_any(s, p, ng, u_pick, u, out);
+}
+
+/* The geometric normal of emitter light (its emitting side). */
+static rtk_vec3 emitter_normal(const rtk_scene *s, uint32_t prim, uint32_t inst)
+{
+    rtk_vec3 a, b, c;
+    if (inst == RTK_INVALID_ID)
+        rtk_scene_triangle(s, prim, &a, &b, &c);
+    else
+        rtk_instance_triangle(s, inst, prim, &a, &b, &c);
+    rtk_vec3 n = rtk_vec3_normalize(rtk_vec3_cross(rtk_vec3_sub(b, a), rtk_vec3_sub(c, a)));
+    return inst != RTK_INVALID_ID && s->instances[inst].mirrored ? rtk_vec3_neg(n) : n;
+}
+
+/* rtk_incident_light_pdf for a hit on an emitter of area density pdf_area
+ * (kept out of line: most hits are not on emitters). */
+static __attribute__((noinline)) float emitter_pdf(const rtk_scene *s, const rtk_ray *ray, const rtk_hit *hit,
+                                                   float pdf_area)
+{
+    rtk_vec3 n = emitter_normal(s, hit->prim, hit->inst);
+    float len2 = rtk_vec3_dot(ray->dir, ray->dir);
+    float cos_l = -rtk_vec3_dot(n, ray->dir) / sqrtf(len2);
+    if (!(cos_l > 0.0f))
+        return 0.0f; /* the back of a one-sided emitter */
+    float pdf = pdf_area * hit->t * hit->t * len2 / cos_l * s->lights->slot_pick[0];
+    return isfinite(pdf) ? pdf : 0.0f;
+}
+
+RTK_API float rtk_incident_light_pdf(const rtk_scene *s, rtk_vec3 p, const rtk_ray *ray, const rtk_hit *hit)
+{
+    (void)p; /* the ray leaves p: its length to the hit is hit->t x |dir| */
+    const rtk_lights *l = s->lights;
+    if (!l || l->slot_count == 0)
+        return 0.0f;
+    if (!hit || hit->prim == RTK_INVALID_ID) {
+        float pick = l->slot_pick[l->slot_count - 1];
+        return pick > 0.0f ? rtk_environment_pdf(l->environment, ray->dir) * pick : 0.0f;
+    }
+    float pdf_area = area_pdf(s, l, hit);
+    return pdf_area > 0.0f ? emitter_pdf(s, ray, hit, pdf_area) : 0.0f;
+}
+
+RTK_API rtk_rgb rtk_scene_environment(const rtk_scene *s, rtk_vec3 dir)
+{
+    const rtk_lights *l = s->lights;
+    if (!l || !l->environment)
+        return rtk_rgb_make(0.0f, 0.0f, 0.0f);
+    return rtk_environment_radiance(l->environment, dir);
 }

@@ -1,8 +1,10 @@
-/* arealight: direct lighting from emissive triangles with soft shadows.
- * Lights are sampled by the kernel in proportion to power with a uniform
- * point on the chosen triangle (area density converted to solid angle);
- * optionally combined with cosine-weighted BSDF sampling by multiple
- * importance sampling (power heuristic). Surfaces are Lambertian.
+/* arealight: direct lighting with soft shadows from every light the
+ * kernel's light service knows: emissive triangles, point, spot and
+ * directional lights and the environment, one chosen per light sample in
+ * proportion to power (rtk_sample_incident_light); optionally combined
+ * with cosine-weighted BSDF sampling by multiple importance sampling
+ * (power heuristic; delta lights take the light sample alone). Surfaces
+ * are Lambertian; camera rays that miss see the environment.
  *
  * Parameters:
  *   light_samples  int [1, 4096]  1      light samples per camera ray
@@ -40,9 +42,12 @@ static uint32_t arealight_needs(const void *state)
 static rtk_status arealight_prepare(void *state, const rtk_scene *scene)
 {
     (void)state;
-    if (rtk_scene_light_count(scene) == 0)
-        rtk_log(RTK_LOG_WARN, "arealight: the scene has no emissive triangles (MTL Ke, glTF emissive): "
-                              "only emitters seen directly would show, and there are none");
+    rtk_light_incident li;
+    const rtk_vec2 mid = {0.5f, 0.5f};
+    if (!rtk_scene_light_count(scene) && !rtk_scene_punctual_count(scene) &&
+        !rtk_sample_incident_light(scene, rtk_vec3_make(0, 0, 0), rtk_vec3_make(0, 0, 0), 0.5f, mid, &li))
+        rtk_log(RTK_LOG_WARN, "arealight: the scene has no lights (emissive triangles: MTL Ke, glTF emissive; "
+                              "config lights or environment): the image will be black");
     return RTK_OK;
 }
 
@@ -61,13 +66,38 @@ static float power_heuristic(float f, float g)
     return f * f / (f * f + g * g);
 }
 
+/* Light the BSDF sample br from p (cosine pdf pdf_bsdf) finds: the front
+ * of an emitter or, on a miss, the environment, with its MIS weight
+ * against light sampling in *w (0: nothing found). */
+static rtk_rgb bsdf_sample_light(rtk_ctx *ctx, rtk_vec3 p, const rtk_ray *br, float pdf_bsdf, float *w)
+{
+    const rtk_scene *scene = rtk_ctx_scene(ctx);
+    rtk_hit bh;
+    int hit = rtk_trace(ctx, br, &bh);
+    float pdf_light = rtk_incident_light_pdf(scene, p, br, hit ? &bh : NULL);
+    *w = 0.0f;
+    if (pdf_light <= 0.0f)
+        return rtk_rgb_make(0, 0, 0);
+    if (!hit) {
+        *w = power_heuristic(pdf_bsdf, pdf_light);
+        return rtk_scene_environment(scene, br->dir);
+    }
+    rtk_surface e;
+    rtk_surface_at(scene, br, &bh, &e);
+    if (e.front_face)
+        *w = power_heuristic(pdf_bsdf, pdf_light);
+    return e.emission;
+}
+
 static void arealight_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
 {
     const arealight *a = state;
     const rtk_scene *scene = rtk_ctx_scene(ctx);
     rtk_hit hit;
-    if (!rtk_trace(ctx, ray, &hit))
+    if (!rtk_trace(ctx, ray, &hit)) {
+        out->radiance = rtk_scene_environment(scene, ray->dir);
         return;
+    }
     rtk_surface s;
     rtk_surface_at(scene, ray, &hit, &s);
     out->albedo = s.base_color;
@@ -77,32 +107,25 @@ static void arealight_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rt
     rtk_rgb direct = rtk_rgb_make(0, 0, 0);
     rtk_vec3 org = rtk_offset_ray_origin(s.p, s.ng);
     const float inv_pi = (float)(1.0 / RTK_PI);
+    rtk_vec3 b1, b2;
+    basis(s.ns, &b1, &b2);
     for (int i = 0; i < a->samples; i++) {
-        rtk_light_sample ls;
+        rtk_light_incident li;
         float u_pick = rtk_sample_1d(ctx);
         rtk_vec2 u = rtk_sample_2d(ctx);
-        if (rtk_scene_sample_light(scene, u_pick, u, &ls)) {
-            rtk_vec3 d = rtk_vec3_sub(ls.p, s.p);
-            float dist2 = rtk_vec3_dot(d, d);
-            rtk_vec3 wi = rtk_vec3_scale(d, 1.0f / sqrtf(dist2));
-            float cos_s = rtk_vec3_dot(s.ns, wi), cos_l = -rtk_vec3_dot(ls.n, wi);
-            if (cos_s > 0.0f && cos_l > 0.0f && rtk_vec3_dot(s.ng, wi) > 0.0f && dist2 > 0.0f) {
-                /* Each end offset along its own normal: no self-hit, even
-                 * where the light is seen edge-on. */
-                rtk_ray shadow = rtk_shadow_ray(s.p, s.ng, ls.p, ls.n);
-                if (!rtk_occluded(ctx, &shadow)) {
-                    float pdf_light = ls.pdf_area * dist2 / cos_l; /* solid angle */
-                    float w = a->mis ? power_heuristic(pdf_light, cos_s * inv_pi) : 1.0f;
-                    float k = inv_pi * cos_s / pdf_light * w;
-                    direct = rtk_rgb_add(direct, rtk_rgb_scale(rtk_rgb_mul(s.base_color, ls.le), k));
-                }
+        if (rtk_sample_incident_light(scene, s.p, s.ng, u_pick, u, &li)) {
+            float cos_s = rtk_vec3_dot(s.ns, li.wi);
+            /* The shadow ray's ends sit off each surface along its own
+             * normal: no self-hit, even where a light is seen edge-on. */
+            if (cos_s > 0.0f && rtk_vec3_dot(s.ng, li.wi) > 0.0f && !rtk_occluded(ctx, &li.shadow)) {
+                float w = a->mis && !li.delta ? power_heuristic(li.pdf, cos_s * inv_pi) : 1.0f;
+                float k = inv_pi * cos_s / li.pdf * w;
+                direct = rtk_rgb_add(direct, rtk_rgb_scale(rtk_rgb_mul(s.base_color, li.li), k));
             }
         }
         if (!a->mis)
             continue;
         /* BSDF sample: cosine-weighted; f cos / pdf = base colour. */
-        rtk_vec3 b1, b2;
-        basis(s.ns, &b1, &b2);
         rtk_vec2 v = rtk_sample_2d(ctx);
         float r = sqrtf(v.x), phi = 2.0f * (float)RTK_PI * v.y;
         float z = sqrtf(fmaxf(0.0f, 1.0f - v.x));
@@ -111,20 +134,10 @@ static void arealight_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rt
         if (rtk_vec3_dot(dir, s.ng) <= 0.0f)
             continue;
         rtk_ray br = {org, 0.0f, dir, INFINITY};
-        rtk_hit bh;
-        if (!rtk_trace(ctx, &br, &bh))
-            continue;
-        float pdf_area = rtk_scene_light_pdf(scene, &bh);
-        if (pdf_area <= 0.0f)
-            continue;
-        rtk_surface e;
-        rtk_surface_at(scene, &br, &bh, &e);
-        if (!e.front_face)
-            continue;
-        float cos_l = -rtk_vec3_dot(e.ng, dir);
-        float pdf_light = pdf_area * bh.t * bh.t / cos_l;
-        float w = power_heuristic(z * inv_pi, pdf_light);
-        direct = rtk_rgb_add(direct, rtk_rgb_scale(rtk_rgb_mul(s.base_color, e.emission), w));
+        float w;
+        rtk_rgb le = bsdf_sample_light(ctx, s.p, &br, z * inv_pi, &w);
+        if (w > 0.0f)
+            direct = rtk_rgb_add(direct, rtk_rgb_scale(rtk_rgb_mul(s.base_color, le), w));
     }
     out->radiance = rtk_rgb_add(L, rtk_rgb_scale(direct, 1.0f / (float)a->samples));
 }
@@ -155,7 +168,7 @@ static const rtk_plugin arealight_plugin = {
     .kind = RTK_KIND_INTEGRATOR,
     .name = "arealight",
     .version = "1.0",
-    .summary = "direct light from emissive triangles, soft shadows, optional MIS",
+    .summary = "direct light from every light (area, punctual, environment), soft shadows, optional MIS",
     .params = arealight_params,
     .param_count = RTK_COUNTOF(arealight_params),
     .functions = &arealight_fns,

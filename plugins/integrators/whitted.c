@@ -1,7 +1,8 @@
 /* whitted: classic recursive ray tracing. Point, spot and directional
  * lights with hard shadows; Lambert diffuse plus a Cook-Torrance GGX lobe
  * (Schlick Fresnel, Smith masking); perfect mirrors; dielectrics with
- * exact Fresnel, refraction and total internal reflection.
+ * exact Fresnel, refraction and total internal reflection. Rays that
+ * leave the scene see the environment (rtk_scene_environment).
  *
  * Materials: MTL illum 3 or 5 is a mirror of reflectance Ks; illum 4, 6, 7
  * or 9, or glTF transmission > 0, is a dielectric of index Ni / ior; glTF
@@ -119,13 +120,10 @@ static rtk_rgb direct(rtk_ctx *ctx, const rtk_surface *s, rtk_vec3 wo)
             wi = rtk_vec3_scale(d, 1.0f / sqrtf(r2));
             scale = 1.0f / r2;
             if (l->type == RTK_LIGHT_SPOT) {
-                float c = -rtk_vec3_dot(wi, l->direction);
-                if (c <= l->cos_outer)
+                float falloff = rtk_spot_falloff(l, -rtk_vec3_dot(wi, l->direction));
+                if (falloff <= 0.0f)
                     continue;
-                if (c < l->cos_inner) {
-                    float t = (c - l->cos_outer) / (l->cos_inner - l->cos_outer);
-                    scale *= t * t * (3.0f - 2.0f * t);
-                }
+                scale *= falloff;
             }
             shadow = rtk_shadow_ray(s->p, s->ng, l->position, rtk_vec3_make(0.0f, 0.0f, 0.0f));
             tmax = 1.0f;
@@ -150,9 +148,11 @@ static rtk_rgb trace(const whitted *w, rtk_ctx *ctx, const rtk_ray *ray, const r
 {
     rtk_rgb black = rtk_rgb_make(0, 0, 0);
     rtk_hit hit;
-    if (weight < 1e-4f || !rtk_trace(ctx, ray, &hit))
+    if (weight < 1e-4f)
         return black;
     const rtk_scene *scene = rtk_ctx_scene(ctx);
+    if (!rtk_trace(ctx, ray, &hit))
+        return rtk_scene_environment(scene, ray->dir);
     rtk_surface s;
     rtk_surface_at_footprint(scene, ray, diff, &hit, &s);
     rtk_ray_differential next;

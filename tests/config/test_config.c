@@ -604,6 +604,113 @@ static void test_bad_scenes(void)
     CHECK(seen > 0);
 }
 
+/* Writes a width x height RGB (nchannels 3) or grey (1) EXR of value v
+ * into the temporary directory. */
+static void write_map(const char *name, int nchannels, float v)
+{
+    float px[4 * 2 * 3];
+    for (int i = 0; i < 24; i++)
+        px[i] = i == 4 ? v : 0.5f;
+    static const char *const rgb[] = {"R", "G", "B"}, *const grey[] = {"Y"};
+    char path[512];
+    snprintf(path, sizeof path, "%s/%s", tmpdir, name);
+    CHECK(rtk_image_write(path, 4, 2, nchannels, nchannels == 3 ? rgb : grey, px, 0) == RTK_OK);
+}
+
+/* Loads the scene of config path with needs and expects every string
+ * after needs in the error (none: success, and an environment exactly
+ * when needs has RTK_NEED_LIGHTS). */
+static void expect_scene(int line, const char *path, uint32_t needs, ...)
+{
+    rtk_config *cfg = expect_ok(line, path, NULL);
+    if (!cfg)
+        return;
+    rtk_scene *scene = NULL;
+    rtk_status st = rtk_config_load_scene(cfg, needs, &scene);
+    va_list ap;
+    va_start(ap, needs);
+    const char *needle = va_arg(ap, const char *);
+    checks++;
+    if (!needle && (st != RTK_OK || (scene->lights && scene->lights->environment) != !!(needs & RTK_NEED_LIGHTS))) {
+        failures++;
+        fprintf(stderr, "%s:%d: %s: scene %s: %s\n", __FILE__, line, path, st ? "failed" : "loaded with the wrong environment",
+                st ? rtk_error_message() : "");
+    } else if (needle && (st == RTK_OK || scene)) {
+        failures++;
+        fprintf(stderr, "%s:%d: %s: scene loaded, expected an error\n", __FILE__, line, path);
+    }
+    for (; needle && st != RTK_OK; needle = va_arg(ap, const char *)) {
+        checks++;
+        if (!strstr(rtk_error_message(), needle)) {
+            failures++;
+            fprintf(stderr, "%s:%d: error lacks \"%s\":\n  %s\n", __FILE__, line, needle, rtk_error_message());
+        }
+    }
+    va_end(ap);
+    rtk_scene_free(scene);
+    rtk_config_destroy(cfg);
+}
+
+/* The environment group: a file or a colour, and each way to get it wrong. */
+static void test_environment(void)
+{
+    write_file("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    write_map("sky.exr", 3, 2.0f);
+    const char *p = write_file("env.cfg", "scene = \"tri.obj\";\nenvironment = { file = \"sky.exr\"; strength = 2.5;\n"
+                                          "  rotation = -30; };\n");
+    rtk_config *cfg = expect_ok(__LINE__, p, NULL);
+    if (cfg) {
+        CHECK(cfg->environment.given && ends_with(cfg->environment.file, "/sky.exr"));
+        CHECK(cfg->environment.strength == 2.5f && cfg->environment.rotation == -30.0f);
+        rtk_config_destroy(cfg);
+    }
+    expect_scene(__LINE__, p, RTK_NEED_LIGHTS, NULL);
+    expect_scene(__LINE__, p, 0, NULL);
+    p = write_file("env_color.cfg", "scene = \"tri.obj\";\nenvironment = { color = [0.5, 1.0, 2.0]; };\n");
+    cfg = expect_ok(__LINE__, p, NULL);
+    if (cfg) {
+        CHECK(cfg->environment.given && !cfg->environment.file && cfg->environment.strength == 1.0f);
+        CHECK(cfg->environment.color.r == 0.5f && cfg->environment.color.g == 1.0f && cfg->environment.color.b == 2.0f);
+        rtk_config_destroy(cfg);
+    }
+    expect_scene(__LINE__, p, RTK_NEED_LIGHTS, NULL);
+
+    p = write_file("env_both.cfg", "scene = \"tri.obj\";\nenvironment = { file = \"sky.exr\";\n color = [1, 1, 1]; };\n");
+    expect_error(__LINE__, p, NULL, "env_both.cfg:3", "both file and color", "keep one", NULL);
+    p = write_file("env_none.cfg", "scene = \"tri.obj\";\nenvironment = { strength = 2.0; };\n");
+    expect_error(__LINE__, p, NULL, "env_none.cfg:2", "environment: give file", "color = [r, g, b]", NULL);
+    p = write_file("env_missing.cfg", "scene = \"tri.obj\";\nenvironment = {\n file = \"nosky.exr\"; };\n");
+    expect_error(__LINE__, p, NULL, "env_missing.cfg:3", "environment: file", "nosky.exr", "cannot be read",
+                 "relative to the config's folder", NULL);
+    p = write_file("env_key.cfg", "scene = \"tri.obj\";\nenvironment = { file = \"sky.exr\";\n strenght = 2.0; };\n");
+    expect_error(__LINE__, p, NULL, "env_key.cfg:3", "unknown key 'strenght'", "did you mean 'strength'", NULL);
+    p = write_file("env_neg.cfg", "scene = \"tri.obj\";\nenvironment = { color = [1, -1, 1]; };\n");
+    expect_error(__LINE__, p, NULL, "env_neg.cfg:2", "negative", NULL);
+    p = write_file("env_strength.cfg", "scene = \"tri.obj\";\nenvironment = { color = [1, 1, 1]; strength = -1; };\n");
+    expect_error(__LINE__, p, NULL, "env_strength.cfg:2", "strength", "out of range", NULL);
+    p = write_file("env_string.cfg", "scene = \"tri.obj\";\nenvironment = \"sky.exr\";\n");
+    expect_error(__LINE__, p, NULL, "env_string.cfg:2", "expected a group like environment = { file", NULL);
+    p = write_file("env_dir.cfg", "scene = \"tri.obj\";\nenvironment = { file = \".\"; };\n");
+    expect_error(__LINE__, p, NULL, "env_dir.cfg:2", "is not a regular file", NULL);
+
+    /* Pixels are read with the scene, when the integrator wants lights. */
+    write_map("nan.exr", 3, NAN);
+    p = write_file("env_nan.cfg", "scene = \"tri.obj\";\n\nenvironment = { file = \"nan.exr\"; };\n");
+    expect_scene(__LINE__, p, RTK_NEED_LIGHTS, "env_nan.cfg:3: environment", "nan.exr", "pixel (1, 0) channel 1 is nan",
+                 "fix or clamp", NULL);
+    expect_scene(__LINE__, p, 0, NULL);
+    write_map("neg.exr", 3, -2.0f);
+    p = write_file("env_negpx.cfg", "scene = \"tri.obj\";\nenvironment = { file = \"neg.exr\"; };\n");
+    expect_scene(__LINE__, p, RTK_NEED_LIGHTS, "env_negpx.cfg:2: environment", "is -2", NULL);
+    write_map("grey.exr", 1, 1.0f);
+    p = write_file("env_grey.cfg", "scene = \"tri.obj\";\nenvironment = { file = \"grey.exr\"; };\n");
+    expect_scene(__LINE__, p, RTK_NEED_LIGHTS, "env_grey.cfg:2: environment", "has 1 channel", "RGB (3) or RGBA (4)",
+                 NULL);
+    p = write_file("notimage.exr", "this is not an image\n");
+    p = write_file("env_text.cfg", "scene = \"tri.obj\";\nenvironment = { file = \"notimage.exr\"; };\n");
+    expect_scene(__LINE__, p, RTK_NEED_LIGHTS, "env_text.cfg:2: environment", "notimage.exr", NULL);
+}
+
 /* Removes the temporary tree (files and one level of directories). */
 static void remove_tree(const char *dir)
 {
@@ -652,6 +759,7 @@ int main(void)
     test_includes();
     test_paths();
     test_bad_scenes();
+    test_environment();
     rtk_registry_destroy(registry);
     remove_tree(tmpdir);
     printf("%d checks, %d failed\n", checks, failures);
