@@ -48,12 +48,28 @@
  * lobe, f = weight_i f_i and pdf = p_i x the event's probability.
  * rtk_bsdf_pdf is sum_i p_i pdf_i over the non-delta lobes.
  *
- * Energy (white furnace, single scattering): Lambert, Oren-Nayar at
- * sigma 0 and the smooth dielectric keep all of it; the microfacet lobes
- * lose the light that would scatter again between microfacets. GGX with
- * F = 1, wo normal: 0.003 lost at alpha 0.05, 0.05 at 0.2, 0.31 at 0.5,
- * 0.69 at 1; tests/scene/bsdf prints the tables for every lobe. Energy
- * compensation (Kulla and Conty 2017) is not applied.
+ * Energy: every lobe keeps its white-furnace albedo (the mean of
+ * f |wi.z| / pdf with albedo 1, F = 1 for GGX, white tint) <= 1; Lambert
+ * and the smooth dielectric keep all of it. The others lose this much
+ * (1 - albedo, wo at 0 / 60 / 89 degrees from the normal; tests/scene/bsdf
+ * measures it against quadrature and prints the full tables):
+ *   Oren-Nayar sigma 0.5            0.126 / 0.076 / 0.002 (Fujii's model)
+ *   Oren-Nayar sigma 1              0.223 / 0.134 / 0.003
+ *   GGX alpha 0.05 / 0.2            0.003 / 0.007 / 0.064, 0.052 / 0.105 / 0.029
+ *   GGX alpha 0.5 / 1               0.312 / 0.301 / 0.040, 0.693 / 0.548 / 0.071
+ *   rough dielectric 1.5, outside   alpha 0.05: 0.0003 / 0.002 / 0.056,
+ *                                   0.2: 0.005 / 0.028 / 0.033, 0.5: 0.032 /
+ *                                   0.107 / 0.066, 1: 0.106 / 0.258 / 0.118
+ *   rough dielectric 1.5, inside    alpha 0.05: 0.003 / 0.009 / 0.083,
+ *                                   1: 0.58 / 0.49 / 0.44
+ *   plastic f0 0.04                 alpha 0.05: 0.082 / 0.079 / 0.378,
+ *                                   1: 0.110 / 0.129 / 0.850
+ *   plastic f0 0.2                  alpha 0.05: 0.191 / 0.185 / 0.336,
+ *                                   1: 0.329 / 0.317 / 0.731
+ * The microfacet lobes lose the light that would scatter again between
+ * microfacets (single scattering; Kulla and Conty's 2017 compensation is
+ * not applied), plastic also Fa (1 - F(wo.z)) of its base (see
+ * RTK_LOBE_PLASTIC). A mixture's albedo is the weighted sum of its lobes'.
  * All functions are pure: [any thread]. */
 #ifndef RTK_BSDF_H
 #define RTK_BSDF_H
@@ -156,13 +172,16 @@ typedef enum rtk_lobe_type {
     RTK_LOBE_ROUGH_DIELECTRIC = 4,
     /* Plastic: a Lambert base under a dielectric coat. Coat: the GGX
      * reflection of alpha with Schlick's F from f0 (f0 in [0, 1] per
-     * channel, 0.04 for ior 1.5). Base: f = albedo / pi (1 - F(wo.z))
-     * (1 - F(wi.z)) / (1 - Fa), Fa = f0 + (1 - f0) / 21 the cosine-weighted
-     * mean of Schlick's F; that is albedo / pi (1 - f0) (21 / 20)
-     * (1 - (1 - wo.z)^5) (1 - (1 - wi.z)^5), reciprocal, and its albedo is
-     * albedo (1 - F(wo.z)), so the lobe's is F(wo.z) + albedo (1 - F(wo.z))
-     * minus the coat's single-scattering loss, <= 1 (measured by
-     * tests/scene/bsdf). Sampling: the coat with probability
+     * channel, 0.04 for ior 1.5): F(wo.m) D G2 / (4 wo.z wi.z). Base:
+     * f = albedo / pi (1 - F(wo.z)) (1 - F(wi.z)), reciprocal, of albedo
+     * albedo (1 - F(wo.z)) (1 - Fa), Fa = f0 + (1 - f0) / 21 the cosine-
+     * weighted mean of Schlick's F. Dividing the base by (1 - Fa) would
+     * keep the smooth coat's energy exactly, but a rough coat reflects
+     * more than F(wo.z) (Schlick's F is convex in the cosine) and the sum
+     * then exceeds 1 (1.0009 at f0 0.04, alpha 0.05, 60 degrees), so the
+     * base is not normalised: the lobe loses up to Fa (1 - F(wo.z)) of
+     * the light, 0.08 at f0 0.04 (the table at the top). Sampling: the
+     * coat with probability
      * Pc = c / (c + luminance(albedo (1 - F(wo.z)))), c = max(luminance(
      * F(wo.z)), 0.05), else the base cosine-weighted; pdf =
      * Pc pdf_coat + (1 - Pc) wi.z / pi. Flags: reflection, glossy and

@@ -152,12 +152,6 @@ static rtk_rgb rgb_gray(float v)
     return rtk_rgb_make(v, v, v);
 }
 
-static float pow5(float x)
-{
-    float x2 = x * x;
-    return x2 * x2 * x;
-}
-
 static rtk_rgb schlick_rgb(float c, rtk_rgb f0)
 {
     return rtk_rgb_make(schlick(c, f0.r), schlick(c, f0.g), schlick(c, f0.b));
@@ -242,11 +236,10 @@ static float plastic_eval_pdf(const rtk_lobe *l, rtk_vec3 wo, rtk_vec3 wi, rtk_r
     float pc = plastic_coat_probability(l, wo.z);
     if (f) {
         rtk_rgb fr = schlick_rgb(c, l->f0);
-        float base = INV_PI * (21.0f / 20.0f) * (1.0f - pow5(1.0f - clamp01(wo.z))) *
-                     (1.0f - pow5(1.0f - clamp01(wi.z)));
-        f->r = fr.r * spec + l->albedo.r * (1.0f - l->f0.r) * base;
-        f->g = fr.g * spec + l->albedo.g * (1.0f - l->f0.g) * base;
-        f->b = fr.b * spec + l->albedo.b * (1.0f - l->f0.b) * base;
+        rtk_rgb fo = schlick_rgb(clamp01(wo.z), l->f0), fi = schlick_rgb(clamp01(wi.z), l->f0);
+        f->r = fr.r * spec + l->albedo.r * INV_PI * (1.0f - fo.r) * (1.0f - fi.r);
+        f->g = fr.g * spec + l->albedo.g * INV_PI * (1.0f - fo.g) * (1.0f - fi.g);
+        f->b = fr.b * spec + l->albedo.b * INV_PI * (1.0f - fo.b) * (1.0f - fi.b);
     }
     return pc * coat_pdf + (1.0f - pc) * wi.z * INV_PI;
 }
@@ -412,9 +405,13 @@ static int rough_dielectric_sample(const rtk_lobe *l, rtk_vec3 wo, float u_choic
     if (u_choice < reflect_probability(fr, l->tint)) {
         wi = reflect_about(wo, m);
         out->flags = RTK_BSDF_REFLECTION | RTK_BSDF_GLOSSY;
+        if (!(wi.z > 0.0f))
+            return 0;
     } else {
         wi = rtk_vec3_add(rtk_vec3_scale(wo, -1.0f / eta), rtk_vec3_scale(m, om / eta - cos_t));
         out->flags = RTK_BSDF_TRANSMISSION | RTK_BSDF_GLOSSY;
+        if (!(wi.z < 0.0f))
+            return 0;
     }
     out->wi = rtk_vec3_make(wi.x, wi.y, sign * wi.z);
     return 1;
@@ -479,8 +476,10 @@ static int lobe_probabilities(const rtk_bsdf *b, float p[RTK_BSDF_MAX_LOBES])
 }
 
 /* Sum of weight_i f_i (into *f when given) and returns sum of p_i pdf_i
- * over the non-delta lobes. */
-static float mixture_eval_pdf(const rtk_bsdf *b, const float *p, int n, rtk_vec3 wo, rtk_vec3 wi, rtk_rgb *f)
+ * over the non-delta lobes; lobe `one`'s own pdf goes to *one_pdf when
+ * given. */
+static float mixture_eval_pdf(const rtk_bsdf *b, const float *p, int n, rtk_vec3 wo, rtk_vec3 wi, rtk_rgb *f, int one,
+                              float *one_pdf)
 {
     float pdf = 0.0f;
     if (f)
@@ -488,6 +487,8 @@ static float mixture_eval_pdf(const rtk_bsdf *b, const float *p, int n, rtk_vec3
     for (int i = 0; i < n; i++) {
         rtk_rgb fi;
         float pi = lobe_eval_pdf(&b->lobe[i], wo, wi, f ? &fi : NULL);
+        if (i == one && one_pdf)
+            *one_pdf = pi;
         pdf += p[i] * pi;
         if (f)
             *f = rtk_rgb_add(*f, rtk_rgb_mul(b->weight[i], fi));
@@ -500,7 +501,7 @@ rtk_rgb rtk_bsdf_eval(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec3 wi)
     float p[RTK_BSDF_MAX_LOBES];
     int n = lobe_probabilities(bsdf, p);
     rtk_rgb f;
-    mixture_eval_pdf(bsdf, p, n, wo, wi, &f);
+    mixture_eval_pdf(bsdf, p, n, wo, wi, &f, -1, NULL);
     return f;
 }
 
@@ -508,7 +509,7 @@ float rtk_bsdf_pdf(const rtk_bsdf *bsdf, rtk_vec3 wo, rtk_vec3 wi)
 {
     float p[RTK_BSDF_MAX_LOBES];
     int n = lobe_probabilities(bsdf, p);
-    return mixture_eval_pdf(bsdf, p, n, wo, wi, NULL);
+    return mixture_eval_pdf(bsdf, p, n, wo, wi, NULL, -1, NULL);
 }
 
 unsigned rtk_bsdf_flags(const rtk_bsdf *bsdf)
@@ -542,8 +543,13 @@ int rtk_bsdf_sample(const rtk_bsdf *bsdf, rtk_vec3 wo, float u_lobe, rtk_vec2 u,
         s.f = rtk_rgb_mul(bsdf->weight[i], s.f);
         s.pdf *= p[i];
     } else {
-        /* f and pdf through the same code as eval and pdf, so that they agree exactly. */
-        s.pdf = mixture_eval_pdf(bsdf, p, n, wo, s.wi, &s.f);
+        /* f and pdf through the same code as eval and pdf, so that they agree exactly; a
+         * direction the chosen lobe cannot return (a reflection below the surface) fails
+         * even where another lobe's pdf covers it. */
+        float own = 0.0f;
+        s.pdf = mixture_eval_pdf(bsdf, p, n, wo, s.wi, &s.f, i, &own);
+        if (!(own > 0.0f))
+            return 0;
     }
     if (!(s.pdf > 0.0f))
         return 0;
