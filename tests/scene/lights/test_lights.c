@@ -9,7 +9,8 @@
  *   header's closed form, and rtk_incident_light_pdf returns the pdf of
  *   every sample (environment and area) for the direction it took;
  * - the choice between area, point, spot, directional and environment
- *   lights follows the header's power table (chi-square);
+ *   lights follows the header's power table (chi-square), an emission
+ *   texture counting with its mean;
  * - a constant environment L over a white Lambertian plane gives L through
  *   the shipped arealight (light sampling alone and with MIS), within 5
  *   standard errors of the samples' mean;
@@ -34,7 +35,7 @@
 #include "../../check.h"
 
 #define PI 3.14159265358979323846
-#define NCHI2 3
+#define NCHI2 4
 /* Chi-square bins over the sphere: NPHI in phi, NCOS in cos theta. */
 #define NPHI 32
 #define NCOS 16
@@ -106,26 +107,34 @@ static void chi2_check(const char *label, const long *observed, const double *pr
           label, total, cells, pooled, chi2, dof, p, threshold, impossible);
 }
 
-/* The parallelogram o, o + e1, o + e1 + e2, o + e2 with a material of
- * its own; its front side is e1 x e2. */
-static void add_rect(rtk_scene *s, rtk_vec3 o, rtk_vec3 e1, rtk_vec3 e2, rtk_rgb albedo, rtk_rgb le)
+/* A material of albedo and emission le x texture emission_tex (-1: none). */
+static uint32_t add_material(rtk_scene *s, rtk_rgb albedo, rtk_rgb le, int emission_tex)
 {
     rtk_material m = rtk_material_default();
-    m.base_color = albedo, m.emission = le;
-    uint32_t mat = RTK_INVALID_ID, v[4];
-    rtk_scene_add_material(s, &m, &mat);
+    m.base_color = albedo, m.emission = le, m.emission_tex = emission_tex;
+    uint32_t id = RTK_INVALID_ID;
+    rtk_scene_add_material(s, &m, &id);
+    return id;
+}
+
+/* The parallelogram o, o + e1, o + e1 + e2, o + e2 of material mat, uv
+ * (0, 0) to (1, 1); its front side is e1 x e2. */
+static void add_rect(rtk_scene *s, rtk_vec3 o, rtk_vec3 e1, rtk_vec3 e2, uint32_t mat)
+{
+    uint32_t v[4];
     const rtk_vec3 corner[4] = {o, rtk_vec3_add(o, e1), rtk_vec3_add(rtk_vec3_add(o, e1), e2), rtk_vec3_add(o, e2)};
     for (int k = 0; k < 4; k++)
         rtk_scene_add_vertex(s, corner[k].x, corner[k].y, corner[k].z, &v[k]);
-    rtk_scene_add_triangle(s, v[0], v[1], v[2], NULL, NULL, mat);
-    rtk_scene_add_triangle(s, v[0], v[2], v[3], NULL, NULL, mat);
+    const float uv0[6] = {0, 0, 1, 0, 1, 1}, uv1[6] = {0, 0, 1, 1, 0, 1};
+    rtk_scene_add_triangle(s, v[0], v[1], v[2], NULL, uv0, mat);
+    rtk_scene_add_triangle(s, v[0], v[2], v[3], NULL, uv1, mat);
 }
 
 /* The square y = 0, |x|, |z| <= half, facing +y, white. */
 static void add_floor(rtk_scene *s, float half)
 {
     add_rect(s, rtk_vec3_make(-half, 0.0f, -half), rtk_vec3_make(0.0f, 0.0f, 2.0f * half),
-             rtk_vec3_make(2.0f * half, 0.0f, 0.0f), rtk_rgb_make(1, 1, 1), rtk_rgb_make(0, 0, 0));
+             rtk_vec3_make(2.0f * half, 0.0f, 0.0f), add_material(s, rtk_rgb_make(1, 1, 1), rtk_rgb_make(0, 0, 0), -1));
 }
 
 /* A finished, built scene holding a floor of half-size half. */
@@ -409,7 +418,7 @@ static void test_choice(void)
     add_floor(s, 1.0f);
     const float le = 4.0f; /* a 0.5 x 0.5 light at y = 1 facing down */
     add_rect(s, rtk_vec3_make(-0.25f, 1.0f, -0.25f), rtk_vec3_make(0.5f, 0.0f, 0.0f), rtk_vec3_make(0.0f, 0.0f, 0.5f),
-             rtk_rgb_make(0, 0, 0), rtk_rgb_make(le, le, le));
+             add_material(s, rtk_rgb_make(0, 0, 0), rtk_rgb_make(le, le, le), -1));
     rtk_punctual_light point = {.type = RTK_LIGHT_POINT, .position = {0.5f, 0.8f, 0.0f}, .intensity = {1, 1, 1}};
     rtk_punctual_light spot = {.type = RTK_LIGHT_SPOT, .position = {-0.5f, 0.9f, 0.0f}, .direction = {0, -1, 0},
                                .intensity = {2, 2, 2}, .cos_inner = (float)cos(30.0 * PI / 180.0),
@@ -503,6 +512,44 @@ static void test_choice(void)
     check(got_floor && got_back && rtk_incident_light_pdf(s, down.org, &down, &hf) == 0.0f &&
               rtk_incident_light_pdf(s, up.org, &up, &hb) == 0.0f,
           "rtk_incident_light_pdf is 0 on a surface that does not emit and on the back of an emitter");
+    rtk_scene_free(s);
+}
+
+/* Two equal emitters, one through an emission texture of mean 1/4: the
+ * choice counts the texture's mean (power 1 : 1/4), and a sampled point's
+ * radiance is the factor x the texel there. */
+static void test_emission_texture(void)
+{
+    float px[4 * 4 * 3];
+    for (int i = 0; i < 48; i++)
+        px[i] = 0.25f;
+    const char *path = write_exr("quarter.exr", 4, 4, px);
+    rtk_scene *s = rtk_scene_new("lights-texture", RTK_NEED_NORMALS | RTK_NEED_UVS | RTK_NEED_MATERIALS |
+                                                       RTK_NEED_TEXTURES | RTK_NEED_LIGHTS);
+    int tex = -1;
+    rtk_scene_add_texture(s, "quarter.exr", path, NULL, 0, 0, &tex);
+    const rtk_vec3 e1 = {0.5f, 0.0f, 0.0f}, e2 = {0.0f, 0.0f, 0.5f};
+    add_rect(s, rtk_vec3_make(-1.0f, 1.0f, 0.0f), e1, e2, add_material(s, rtk_rgb_make(0, 0, 0), rtk_rgb_make(2, 2, 2), -1));
+    add_rect(s, rtk_vec3_make(0.5f, 1.0f, 0.0f), e1, e2, add_material(s, rtk_rgb_make(0, 0, 0), rtk_rgb_make(2, 2, 2), tex));
+    rtk_status st = rtk_scene_finish(s);
+    check(st == RTK_OK && rtk_scene_light_count(s) == 4, "two emitting quads with an emission texture on one%s%s",
+          st ? ": " : "", st ? rtk_error_message() : "");
+    long observed[2] = {0, 0}, wrong = 0, drawn = 0;
+    const long n = 100000;
+    for (long i = 0; st == RTK_OK && i < n; i++) {
+        rtk_light_sample ls;
+        if (!rtk_scene_sample_light(s, uniform(), uniform2(), &ls)) {
+            wrong++;
+            continue;
+        }
+        int textured = ls.prim >= 2;
+        observed[textured]++, drawn++;
+        if (fabsf(ls.le.g / (textured ? 0.5f : 2.0f) - 1.0f) > 1e-6f) /* bilinear weights sum to 1 within rounding */
+            wrong++;
+    }
+    const double prob[2] = {0.8, 0.2};
+    check(wrong == 0, "emission texture: Le = factor x texel at every sampled point (%ld off)", wrong);
+    chi2_check("emitters chosen by area x factor x their emission texture's mean (4 : 1)", observed, prob, 2, drawn);
     rtk_scene_free(s);
 }
 
@@ -685,11 +732,12 @@ int main(void)
     test_map_sampling();
     test_constant_sampling();
     test_choice();
+    test_emission_texture();
     test_furnace();
     test_mapping();
     test_bad_maps();
     rtk_registry_destroy(reg);
-    const char *names[] = {"map.exr", "index.exr", "bright.exr", "grey.exr"};
+    const char *names[] = {"map.exr", "index.exr", "bright.exr", "grey.exr", "quarter.exr"};
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
         char path[600];
         snprintf(path, sizeof path, "%s/%s", tmpdir, names[i]);
