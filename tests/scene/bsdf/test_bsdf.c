@@ -1334,6 +1334,14 @@ static int wanted(int argc, char **argv, const char *name)
 
 int main(int argc, char **argv)
 {
+    static const char *const groups[] = {"base", "rough", "plastic", "mixture"};
+    int known = argc < 2;
+    for (int g = 0; g < 4 && !known; g++)
+        known = strcmp(argv[1], groups[g]) == 0;
+    if (!known || argc > 2) {
+        fprintf(stderr, "usage: test_bsdf [base|rough|plastic|mixture] (no argument: all groups)\n");
+        return 2;
+    }
     rng_state = 0x5eed5eedull;
     sidak_threshold = 1.0 - pow(1.0 - ALPHA_FAMILY, 1.0 / NCHI2);
     printf("chi-square: %d tests of %ld samples each, %dx%d bins, family-wise alpha %g -> Sidak threshold %.4g\n",
