@@ -702,9 +702,10 @@ static rtk_scene *mirror_scene(int mirror)
     rtk_scene_add_texture(s, NULL, in_tmp("checker.exr"), NULL, 0, 0, &m.base_tex);
     uint32_t textured = 0, glass = 0;
     rtk_scene_add_material(s, &m, &textured);
-    rtk_material mm = rtk_material_default();
-    mm.illum = 3;
-    mm.specular = rtk_rgb_make(1, 1, 1);
+    rtk_material mm = rtk_material_default(); /* a smooth white metal: a perfect mirror */
+    mm.model = RTK_MODEL_METALLIC_ROUGHNESS;
+    mm.metallic = 1.0f;
+    mm.roughness = 0.0f;
     rtk_scene_add_material(s, &mm, &glass);
     float r = (float)sqrt(0.5);
     add_quad(s, rtk_vec3_make(1, 0, 1), rtk_vec3_make(r, 0, -r), rtk_vec3_make(0, 1, 0), textured, 1);
