@@ -25,7 +25,8 @@ RTK_EXTERN_C_BEGIN
  * its 3.1 meaning).
  * 3.3: rtk_shadow_ray (rtk/lights.h), the shadow ray between two points
  * offset each along its own surface's normal; BSDFs (rtk/bsdf.h:
- * rtk_bsdf_eval, rtk_bsdf_sample, rtk_bsdf_pdf, rtk_bsdf_flags);
+ * rtk_bsdf_eval, rtk_bsdf_sample, rtk_bsdf_pdf, rtk_bsdf_flags;
+ * rtk_surface_bsdf, a hit's material as a BSDF);
  * rtk_sample_seek (rtk/sampler.h), draws by dimension; all lights as one
  * service (rtk/lights.h: rtk_sample_incident_light, rtk_incident_light_pdf,
  * rtk_scene_environment, rtk_spot_falloff). */

@@ -172,7 +172,7 @@ static const rtk_plugin arealight_plugin = {
     .params = arealight_params,
     .param_count = RTK_COUNTOF(arealight_params),
     .functions = &arealight_fns,
-    .conform = "direct-area-light",
+    .conform = "direct-area-light,environment-light",
 };
 
 RTK_PLUGIN_ENTRY(arealight_plugin)

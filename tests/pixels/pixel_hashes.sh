@@ -33,15 +33,15 @@ shared=$src/../shared/data
 
 # name | config | overrides (space-separated KEY=VALUE)
 runs=(
-  "headlight-median-box-independent|$cornell/cornell.cfg|"
+  "headlight-median-box-independent|$cornell/cornell-headlight.cfg|"
   "ao-sah-gaussian-stratified|$cornell/cornell-ao.cfg|accelerator.plugin=sah filter.plugin=gaussian sampler.type=stratified"
   "ao-lbvh-mitchell-sobol|$cornell/cornell-ao.cfg|accelerator.plugin=lbvh filter.plugin=mitchell sampler.type=sobol"
   "arealight-sah-triangle-sobol|$cornell/cornell-arealight.cfg|accelerator.plugin=sah filter.plugin=triangle sampler.type=sobol"
   "arealight-nomis-lanczos-importance|$cornell/cornell-arealight.cfg|integrator.mis=false filter.plugin=lanczos film.reconstruction=importance"
   "whitted-embree-box-stratified|$cornell/cornell-whitted.cfg|accelerator.plugin=embree sampler.type=stratified"
   "whitted-median-mitchell-aovs|$cornell/cornell-whitted.cfg|filter.plugin=mitchell film.aovs=[albedo,normal,depth]"
-  "heatmap-sah-box-independent|$cornell/cornell.cfg|integrator.plugin=heatmap accelerator.plugin=sah"
-  "heatmap-lbvh-gaussian-independent|$cornell/cornell.cfg|integrator.plugin=heatmap accelerator.plugin=lbvh filter.plugin=gaussian"
+  "heatmap-sah-box-independent|$cornell/cornell-headlight.cfg|integrator.plugin=heatmap accelerator.plugin=sah"
+  "heatmap-lbvh-gaussian-independent|$cornell/cornell-headlight.cfg|integrator.plugin=heatmap accelerator.plugin=lbvh filter.plugin=gaussian"
 )
 if [ -d "$shared" ]; then
   runs+=(

@@ -19,6 +19,12 @@
  *                                                total internal reflection, a parallel slab
  *   headlight-shading  ambient float: 0          Kd x |cos| on a quad, front and back; depth and
  *                                                normal AOVs
+ *   environment-light  (defaults)                constant sky L: a miss sees L, a white floor L, at
+ *                                                a black wall's foot L/2, in a black corner L/4, a
+ *                                                white sphere L
+ *   path-tracing       max_depth int: 0, 1, 2,   closed furnace Le (1 - rho^(k+1)) / (1 - rho), the
+ *                        3, 1024                 square light rho L F at depth 1, a white sphere
+ *                                                under a constant sky L
  *
  * Tolerances: a Monte Carlo estimate passes within 5 standard errors of
  * its sample count (ambient-occlusion: each cosine-weighted ray is a
@@ -83,9 +89,14 @@ static rtk_material diffuse(float albedo, float le)
     return rtk_conform_diffuse(rtk_rgb_make(albedo, albedo, albedo), le);
 }
 
+/* Smooth glass of index 1.5 (glTF: transmission 1, roughness 0, white):
+ * rtk_surface_bsdf's smooth dielectric. */
 static rtk_material glass(void)
 {
     rtk_material m = rtk_material_default();
+    m.model = RTK_MODEL_METALLIC_ROUGHNESS;
+    m.metallic = 0.0f;
+    m.roughness = 0.0f;
     m.transmission = 1.0f;
     m.ior = 1.5f;
     return m;
@@ -440,9 +451,12 @@ static double point_truth(void)
 static void mirror_scene(rtk_scene *s, const void *arg)
 {
     if (*(const int *)arg) {
+        /* A smooth metal of reflectance 0.8 (glTF metallic 1, roughness 0). */
         rtk_material mirror = rtk_material_default();
-        mirror.illum = 3;
-        mirror.specular = rtk_rgb_make(0.8f, 0.8f, 0.8f);
+        mirror.model = RTK_MODEL_METALLIC_ROUGHNESS;
+        mirror.metallic = 1.0f;
+        mirror.roughness = 0.0f;
+        mirror.base_color = rtk_rgb_make(0.8f, 0.8f, 0.8f);
         add_quad(s, v3(-5, -5, 0), v3(10, 0, 0), v3(0, 10, 0), add_material(s, mirror));
     }
     uint32_t card = add_material(s, diffuse(0.6f, 0));
@@ -488,7 +502,10 @@ static void parallel_scene(rtk_scene *s, const void *arg)
     add_quad(s, v3(x - h, -h, -10.0), v3(2 * h, 0, 0), v3(0, 2 * h, 0), add_material(s, diffuse(0, 1.0f)));
 }
 
-/* A glTF file with a rho = 0.5 floor quad and a KHR_lights_punctual point
+/* A glTF file with a Lambertian rho = 0.5 floor quad (metallic 0,
+ * roughness 0, KHR_materials_specular specularFactor 0: a plastic of
+ * f0 = 0, whose coat reflects (1 - cos)^5, under 1e-7 on this ray and
+ * light, and whose base has Oren-Nayar sigma 0) and a KHR_lights_punctual point
  * light on a translated node at the same place as point_scene's light:
  * the loader places it, and the integrator lights the floor by the same
  * law. Written to a temporary directory and removed. */
@@ -514,14 +531,15 @@ static void whitted_gltf(tally *t, const rtk_plugin *p)
     f = written ? fopen(gltf, "w") : NULL;
     if (f) {
         fputs("{\"asset\": {\"version\": \"2.0\"},\n"
-              " \"extensionsUsed\": [\"KHR_lights_punctual\"],\n"
+              " \"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_specular\"],\n"
               " \"extensions\": {\"KHR_lights_punctual\": {\"lights\": [\n"
               "   {\"type\": \"point\", \"color\": [1.0, 1.0, 1.0], \"intensity\": 3.0}]}},\n"
               " \"scene\": 0, \"scenes\": [{\"nodes\": [0, 1]}],\n"
               " \"nodes\": [{\"mesh\": 0},\n"
               "   {\"translation\": [0.3, 2.0, -0.4], \"extensions\": {\"KHR_lights_punctual\": {\"light\": 0}}}],\n"
               " \"materials\": [{\"pbrMetallicRoughness\": {\"baseColorFactor\": [0.5, 0.5, 0.5, 1.0],\n"
-              "   \"metallicFactor\": 0.0}}],\n"
+              "   \"metallicFactor\": 0.0, \"roughnessFactor\": 0.0},\n"
+              "   \"extensions\": {\"KHR_materials_specular\": {\"specularFactor\": 0.0}}}],\n"
               " \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"indices\": 1, \"material\": 0}]}],\n"
               " \"buffers\": [{\"uri\": \"quad.bin\", \"byteLength\": 60}],\n"
               " \"bufferViews\": [{\"buffer\": 0, \"byteOffset\": 0, \"byteLength\": 48},\n"
@@ -708,6 +726,194 @@ static void headlight_shading_profile(tally *t, const rtk_plugin *p)
     bench_close(&b);
 }
 
+/* ---- environment-light ---- */
+
+/* The constant environment's radiance (per channel, so a swapped channel shows). */
+static const float env_l[3] = {0.6f, 0.9f, 0.3f};
+
+/* Gives s the constant environment env_l. */
+static rtk_status constant_sky(rtk_scene *s)
+{
+    rtk_environment *env = NULL;
+    rtk_status st = rtk_environment_constant(rtk_rgb_make(env_l[0], env_l[1], env_l[2]), 1.0f, &env);
+    return st == RTK_OK ? rtk_scene_set_environment(s, env) : st;
+}
+
+/* A white Lambertian sphere of radius 1 at the origin, 24 x 48 facets,
+ * each facing out; convex, so every facet sees its whole hemisphere. */
+static void white_sphere(rtk_scene *s)
+{
+    enum { rows = 24, cols = 48 };
+    uint32_t m = add_material(s, diffuse(1.0f, 0.0f));
+    uint32_t ids[rows + 1][cols];
+    for (int i = 0; i <= rows; i++)
+        for (int j = 0; j < cols; j++) {
+            double th = M_PI * i / rows, ph = 2.0 * M_PI * j / cols;
+            rtk_scene_add_vertex(s, (float)(sin(th) * cos(ph)), (float)cos(th), (float)(sin(th) * sin(ph)), &ids[i][j]);
+        }
+    for (int i = 0; i < rows; i++)
+        for (int j = 0; j < cols; j++) {
+            uint32_t a = ids[i][j], b = ids[i][(j + 1) % cols], c = ids[i + 1][j], d = ids[i + 1][(j + 1) % cols];
+            /* (b - a) x (c - a) points out for rows going down from +y and columns turning to +z */
+            if (i > 0)
+                rtk_scene_add_triangle(s, a, b, c, NULL, NULL, m);
+            if (i < rows - 1)
+                rtk_scene_add_triangle(s, b, d, c, NULL, NULL, m);
+        }
+}
+
+/* Floor of albedo 1 (y = 0, up) with black occluders; fill one of the
+ * ao_* scenes' shapes with the white floor first. */
+static void env_plane(rtk_scene *s)
+{
+    add_quad(s, v3(-big, 0, -big), v3(0, 0, 2 * big), v3(2 * big, 0, 0), add_material(s, diffuse(1.0f, 0.0f)));
+}
+
+static void env_wall(rtk_scene *s)
+{
+    uint32_t black = add_material(s, diffuse(0.0f, 0.0f));
+    add_quad(s, v3(-big, 0, -big), v3(0, 0, 2 * big), v3(big, 0, 0), add_material(s, diffuse(1.0f, 0.0f)));
+    add_quad(s, v3(0, 0, -big), v3(0, big, 0), v3(0, 0, 2 * big), black);
+}
+
+static void env_corner(rtk_scene *s)
+{
+    uint32_t black = add_material(s, diffuse(0.0f, 0.0f));
+    add_quad(s, v3(-big, 0, -big), v3(0, 0, big), v3(big, 0, 0), add_material(s, diffuse(1.0f, 0.0f)));
+    add_quad(s, v3(0, 0, -big), v3(0, big, 0), v3(0, 0, big), black);
+    add_quad(s, v3(-big, 0, 0), v3(big, 0, 0), v3(0, big, 0), black);
+}
+
+static void env_sphere(rtk_scene *s)
+{
+    white_sphere(s);
+}
+
+/* Each channel c of the radiance along ray, over n samples, against
+ * truth x env_l[c]: within 5 standard errors of the samples' own
+ * variance, or exactly when exact is set. */
+static void env_expect(tally *t, const rtk_plugin *p, const char *const *set, const char *label, const char *what,
+                       void (*fill)(rtk_scene *), const rtk_ray *ray, double truth, int exact)
+{
+    bench b;
+    if (bench_open(t, p, set, what, &b)) {
+        if ((b.scene = rtk_scene_new(what, b.needs))) {
+            fill(b.scene);
+            if (constant_sky(b.scene) != RTK_OK) {
+                rtk_scene_free(b.scene);
+                b.scene = NULL;
+            }
+        }
+        if (bench_ready(t, &b, what)) {
+            int n = exact ? 16 : 20000;
+            for (int c = 0; c < 2; c++) {
+                double se = 0.0, mean = bench_mean(&b, ray, 9, n, c, &se), want = truth * env_l[c];
+                int ok = exact ? fabs(mean - want) <= 1e-6 * want : fabs(mean - want) <= 5.0 * se + 1e-6 * want;
+                check(t, ok, "%s%s [%s channel]: %.6f, truth %.6f (%s %.2g)", what, label, c ? "green" : "red", mean,
+                      want, exact ? "to" : "5 SE =", exact ? 1e-6 * want : 5.0 * se);
+            }
+        }
+    }
+    bench_close(&b);
+}
+
+/* A constant environment L: a ray that leaves the scene sees L; a white
+ * Lambertian floor shows L x the fraction of its cosine-weighted
+ * hemisphere that sees the sky past black occluders (the AO answers); a
+ * white sphere shows L. Run with the plugin's defaults. */
+static void environment_light_profile(tally *t, const rtk_plugin *p)
+{
+    const char *const none[] = {NULL};
+    rtk_ray miss = make_ray(v3(0, 1, 0), rtk_vec3_normalize(v3(0.3, 0.5, -0.8)));
+    env_expect(t, p, none, "", "a ray that leaves the scene sees L", env_plane, &miss, 1.0, 1);
+    rtk_ray down = make_ray(v3(0.3, 0.01, -0.2), v3(0, -1, 0));
+    env_expect(t, p, none, "", "white floor under the sky shows L", env_plane, &down, 1.0, 0);
+    rtk_ray wall = make_ray(v3(-1e-3, 0.01, 0), v3(0, -1, 0));
+    env_expect(t, p, none, "", "white floor at the foot of a black wall shows L / 2", env_wall, &wall, 0.5, 0);
+    rtk_ray corner = make_ray(v3(-1e-3, 0.01, -1e-3), v3(0, -1, 0));
+    env_expect(t, p, none, "", "white floor in a corner of black walls shows L / 4", env_corner, &corner, 0.25, 0);
+    rtk_ray top = make_ray(v3(0.05, 3, 0.02), v3(0, -1, 0));
+    env_expect(t, p, none, "", "white sphere seen from above shows L", env_sphere, &top, 1.0, 0);
+    rtk_ray side = make_ray(v3(3, 0.1, 0.2), v3(-1, 0, 0));
+    env_expect(t, p, none, "", "white sphere seen from the side shows L", env_sphere, &side, 1.0, 0);
+}
+
+/* ---- path-tracing ---- */
+
+/* A closed box, 4 on a side, every inner face Lambertian with albedo
+ * furnace_rho and emitting furnace_le: the radiance after at most k
+ * bounces is Le (1 + rho + ... + rho^k), Le / (1 - rho) in the limit. */
+static const float furnace_rho = 0.5f, furnace_le = 1.0f;
+
+static void closed_furnace(rtk_scene *s)
+{
+    uint32_t wall = add_material(s, diffuse(furnace_rho, furnace_le));
+    add_quad(s, v3(-2, -2, -2), v3(0, 0, 4), v3(4, 0, 0), wall);
+    add_quad(s, v3(-2, 2, -2), v3(4, 0, 0), v3(0, 0, 4), wall);
+    add_quad(s, v3(-2, -2, -2), v3(4, 0, 0), v3(0, 4, 0), wall);
+    add_quad(s, v3(-2, -2, 2), v3(0, 4, 0), v3(4, 0, 0), wall);
+    add_quad(s, v3(-2, -2, -2), v3(0, 4, 0), v3(0, 0, 4), wall);
+    add_quad(s, v3(2, -2, -2), v3(0, 0, 4), v3(0, 4, 0), wall);
+}
+
+/* Global illumination with max_depth bounces: the closed furnace at 0
+ * (exactly Le), 1, 2, 3 and 1024 bounces; the square light's direct light
+ * at max_depth = 1; a white sphere under a constant sky shows L at 1, 3
+ * and 1024 bounces. */
+static void path_tracing_profile(tally *t, const rtk_plugin *p)
+{
+    static const char *const depths[] = {"0", "1", "2", "3", "1024"};
+    rtk_ray into_wall = make_ray(v3(0.1, -0.3, 0.2), rtk_vec3_normalize(v3(0.4, -1, 0.25)));
+    for (size_t k = 0; k < RTK_COUNTOF(depths); k++) {
+        const char *const set[] = {"max_depth", depths[k], NULL};
+        char what[128];
+        int d = atoi(depths[k]);
+        double truth = furnace_le * (1.0 - pow(furnace_rho, d + 1)) / (1.0 - furnace_rho);
+        snprintf(what, sizeof what, "closed furnace (rho %.2g, Le %.2g) [max_depth=%s]", (double)furnace_rho,
+                 (double)furnace_le, depths[k]);
+        bench b;
+        if (bench_open(t, p, set, what, &b)) {
+            if ((b.scene = rtk_scene_new(what, b.needs)))
+                closed_furnace(b.scene);
+            if (bench_ready(t, &b, what)) {
+                int n = d == 0 ? 16 : 20000;
+                double se = 0.0, mean = bench_mean(&b, &into_wall, 3, n, 1, &se);
+                int ok = d == 0 ? mean == truth : fabs(mean - truth) <= 5.0 * se;
+                check(t, ok, "%s: Le (1 - rho^(k+1)) / (1 - rho): %.6f, truth %.6f (%s %.2g)", what, mean, truth,
+                      d == 0 ? "exactly, to" : "5 SE =", d == 0 ? 0.0 : 5.0 * se);
+            }
+        }
+        bench_close(&b);
+    }
+    {
+        const char *const set[] = {"max_depth", "1", NULL};
+        const rtk_vec3 up = v3(0, 1, 0);
+        double A = (double)square_a / light_h, q = A / sqrt(1.0 + A * A);
+        double F = 4.0 / M_PI * q * atan(q);
+        bench b;
+        const char *what = "square light, direct only [max_depth=1]: Lo = rho L F";
+        if (bench_open(t, p, set, what, &b)) {
+            if ((b.scene = rtk_scene_new(what, b.needs)))
+                square_light(b.scene);
+            if (bench_ready(t, &b, what)) {
+                rtk_ray ray = make_ray(rtk_vec3_scale(up, 0.01f), rtk_vec3_neg(up));
+                double se = 0.0, mean = bench_mean(&b, &ray, 5, 20000, 1, &se), truth = rho * light_l * F;
+                check(t, fabs(mean - truth) <= 5.0 * se, "%s: %.6f, truth %.6f (5 SE = %.2g)", what, mean, truth,
+                      5.0 * se);
+            }
+        }
+        bench_close(&b);
+    }
+    static const char *const sky_depths[] = {"1", "3", "1024"};
+    rtk_ray side = make_ray(v3(3, 0.1, 0.2), v3(-1, 0, 0));
+    for (size_t k = 0; k < RTK_COUNTOF(sky_depths); k++) {
+        const char *const set[] = {"max_depth", sky_depths[k], NULL};
+        char label[64];
+        snprintf(label, sizeof label, " [max_depth=%s]", sky_depths[k]);
+        env_expect(t, p, set, label, "white sphere under a constant sky shows L", env_sphere, &side, 1.0, 0);
+    }
+}
+
 /* ---- profiles ---- */
 
 /* A parameter a profile sets. */
@@ -718,7 +924,7 @@ typedef struct profile_param {
 
 typedef struct profile {
     const char *name;        /* first member: rtk_suggest reads the names through it */
-    const char *abi31_name;  /* what a descriptor of ABI 3.1 calls it */
+    const char *abi31_name;  /* what a descriptor of ABI 3.1 calls it ("": newer than 3.1) */
     profile_param params[2]; /* name NULL past the last */
     void (*run)(tally *t, const rtk_plugin *p);
 } profile;
@@ -729,6 +935,8 @@ static const profile profiles[] = {
      direct_area_light_profile},
     {"whitted-recursion", "whitted", {{"max_depth", RTK_PARAM_INT}, {NULL, 0}}, whitted_recursion_profile},
     {"headlight-shading", "headlight", {{"ambient", RTK_PARAM_FLOAT}, {NULL, 0}}, headlight_shading_profile},
+    {"environment-light", "", {{NULL, 0}, {NULL, 0}}, environment_light_profile},
+    {"path-tracing", "", {{"max_depth", RTK_PARAM_INT}, {NULL, 0}}, path_tracing_profile},
 };
 
 /* The longest profile name an item is compared with; longer items are unknown. */

@@ -8,7 +8,7 @@
 # usage: test_profile_list.sh RTK PLUGIN_DIR
 set -u
 rtk=$1 dir=$2
-known='known: ambient-occlusion, direct-area-light, whitted-recursion, headlight-shading'
+known='known: ambient-occlusion, direct-area-light, whitted-recursion, headlight-shading, environment-light, path-tracing'
 failed=0
 out=
 run() { # conform plugin $1; its output in $out; fails when the run passed
@@ -49,10 +49,10 @@ has 'did you mean "headlight-shading"?'
 has "$known"
 lacks 'conform profile "ambient-occlusion" is known'
 
-plugin=profile_unknown_word # "ambient-occlusion,path-tracing"
+plugin=profile_unknown_word # "ambient-occlusion,photon-mapping"
 run $plugin
 order ""
-has 'conform profile "path-tracing" is known'
+has 'conform profile "photon-mapping" is known'
 has "$known"
 lacks 'did you mean'
 
