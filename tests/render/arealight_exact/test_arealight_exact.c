@@ -1,5 +1,6 @@
-/* arealight (the shipped plugin, loaded from the build tree) against the
- * exact irradiance of a polygon light, at points that see the light
+/* arealight and path at max_depth 1 (the shipped plugins, loaded from the
+ * build tree) against the exact irradiance of a polygon light and against
+ * each other, at points that see the light
  * edge-on as well as ordinary points. The scene is the Cornell box's
  * ceiling light (y = 0.5487, facing down, radiance L), the ceiling 0.1 mm
  * above it and the back wall (z = 0.5592, albedo rho, Lambertian). A wall
@@ -113,13 +114,14 @@ static double max_cos_at_light(const double x[3])
 }
 
 /* Mean and standard error of the green radiance along ray over samples
- * camera samples. */
-static double li_mean(const rtk_integrator_fns *f, void *state, const rtk_scene *scene, const rtk_ray *ray, double *se)
+ * camera samples drawn with seed. */
+static double li_mean(const rtk_integrator_fns *f, void *state, const rtk_scene *scene, const rtk_ray *ray,
+                      uint64_t seed, double *se)
 {
     rtk_ctx ctx;
     memset(&ctx, 0, sizeof ctx);
     ctx.scene = scene;
-    ctx.seed = 11;
+    ctx.seed = seed;
     double sum = 0.0, sum2 = 0.0;
     for (int i = 0; i < samples; i++) {
         rtk_ctx_start_sample(&ctx, (uint64_t)i, 0);
@@ -138,21 +140,39 @@ typedef struct probe {
     float below, x;
 } probe;
 
-static void run_mode(const rtk_plugin *p, const rtk_plugin *accel, const char *light_samples, const char *mis)
+static const probe probes[] = {
+    {1e-4f, 0.278f}, {3e-4f, 0.278f}, {8e-4f, 0.278f}, {3e-4f, 0.1f}, /* edge-on: |cos| < 1/256 */
+    {0.02f, 0.278f}, {0.1f, 0.278f},  {0.3f, 0.2f},                    /* ordinary */
+};
+#define PROBES (sizeof probes / sizeof probes[0])
+
+/* One integrator's settings: the plugin and up to two parameters. */
+typedef struct mode {
+    const char *plugin;
+    const char *key[2], *value[2];
+    char label[64];
+} mode;
+
+/* Renders every probe with mode m and seed; the means and standard errors
+ * go to mean[] and se[]. 0 when the plugin could not be set up. */
+static int run_mode(rtk_registry *reg, const rtk_plugin *accel, mode *m, uint64_t seed, double mean[PROBES],
+                    double se[PROBES])
 {
-    static const probe probes[] = {
-        {1e-4f, 0.278f}, {3e-4f, 0.278f}, {8e-4f, 0.278f}, {3e-4f, 0.1f}, /* edge-on: |cos| < 1/256 */
-        {0.02f, 0.278f}, {0.1f, 0.278f},  {0.3f, 0.2f},                    /* ordinary */
-    };
-    const rtk_integrator_fns *f = p->functions;
-    rtk_params *params = rtk_params_defaults(p), *ap = rtk_params_defaults(accel);
+    const rtk_plugin *p = NULL;
+    if (m->key[1])
+        snprintf(m->label, sizeof m->label, "%s %s=%s %s=%s", m->plugin, m->key[0], m->value[0], m->key[1],
+                 m->value[1]);
+    else
+        snprintf(m->label, sizeof m->label, "%s %s=%s", m->plugin, m->key[0], m->value[0]);
+    rtk_status st = rtk_registry_find(reg, RTK_KIND_INTEGRATOR, m->plugin, &p);
+    const rtk_integrator_fns *f = st == RTK_OK ? p->functions : NULL;
+    rtk_params *params = st == RTK_OK ? rtk_params_defaults(p) : NULL, *ap = rtk_params_defaults(accel);
     void *state = NULL;
     rtk_scene *scene = NULL;
-    rtk_status st = params && ap ? RTK_OK : rtk_error(RTK_ERR_NOMEM, "out of memory");
-    if (st == RTK_OK)
-        st = rtk_params_set_text(params, "light_samples", light_samples);
-    if (st == RTK_OK)
-        st = rtk_params_set_text(params, "mis", mis);
+    if (st == RTK_OK && !(params && ap))
+        st = rtk_error(RTK_ERR_NOMEM, "out of memory");
+    for (int k = 0; k < 2 && m->key[k] && st == RTK_OK; k++)
+        st = rtk_params_set_text(params, m->key[k], m->value[k]);
     if (st == RTK_OK)
         st = f->create(params, &state);
     if (st == RTK_OK && !(scene = make_scene(f->needs(state))))
@@ -161,38 +181,52 @@ static void run_mode(const rtk_plugin *p, const rtk_plugin *accel, const char *l
         st = rtk_bvh_build(scene, accel, ap, 1);
     if (st == RTK_OK && f->prepare)
         st = f->prepare(state, scene);
-    check(st == RTK_OK, "arealight light_samples=%s mis=%s: set up%s%s", light_samples, mis,
-          st == RTK_OK ? "" : ": ", st == RTK_OK ? "" : rtk_error_message());
-    for (size_t k = 0; st == RTK_OK && k < sizeof probes / sizeof probes[0]; k++) {
+    check(st == RTK_OK, "%s: set up%s%s", m->label, st == RTK_OK ? "" : ": ", st == RTK_OK ? "" : rtk_error_message());
+    for (size_t k = 0; st == RTK_OK && k < PROBES; k++) {
         float y = light_y - probes[k].below;
         double x[3] = {probes[k].x, y, wall_z}, n[3] = {0.0, 0.0, -1.0};
         double truth = rho * polygon_irradiance(x, n) / M_PI, cmax = max_cos_at_light(x);
         rtk_ray ray = {rtk_vec3_make(probes[k].x, y, wall_z - 0.01f), 0.0f, rtk_vec3_make(0.0f, 0.0f, 1.0f), INFINITY};
-        double se = 0.0, mean = li_mean(f, state, scene, &ray, &se);
-        check(fabs(mean - truth) <= 5.0 * se,
-              "arealight light_samples=%s mis=%s, wall at x %.3f, %.4f below the light (|cos| at the light <= %.2e%s): "
+        mean[k] = li_mean(f, state, scene, &ray, seed, &se[k]);
+        check(fabs(mean[k] - truth) <= 5.0 * se[k],
+              "%s, wall at x %.3f, %.4f below the light (|cos| at the light <= %.2e%s): "
               "Lo %.7g, exact rho E / pi %.7g, ratio %.4f (5 SE = %.2e)",
-              light_samples, mis, probes[k].x, probes[k].below, cmax, cmax < 1.0 / 256.0 ? ", edge-on" : "", mean,
-              truth, mean / truth, 5.0 * se);
+              m->label, probes[k].x, probes[k].below, cmax, cmax < 1.0 / 256.0 ? ", edge-on" : "", mean[k], truth,
+              mean[k] / truth, 5.0 * se[k]);
     }
     if (state)
         f->destroy(state);
     rtk_scene_free(scene);
     rtk_params_destroy(params);
     rtk_params_destroy(ap);
+    return st == RTK_OK;
 }
 
 int main(void)
 {
     rtk_registry *reg = NULL;
-    const rtk_plugin *p = NULL, *accel = NULL;
-    if (rtk_registry_create(&reg) != RTK_OK || rtk_registry_find(reg, RTK_KIND_INTEGRATOR, "arealight", &p) ||
-        rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "median", &accel)) {
+    const rtk_plugin *accel = NULL;
+    if (rtk_registry_create(&reg) != RTK_OK || rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "median", &accel)) {
         printf("FAIL  shipped plugins found: %s\n", rtk_error_message());
         return 1;
     }
-    run_mode(p, accel, "1", "false");
-    run_mode(p, accel, "4", "true");
+    /* path at max_depth 1 is direct light: equal to arealight within the
+     * two estimates' noise, and both to the exact value. */
+    mode modes[] = {
+        {"arealight", {"light_samples", "mis"}, {"1", "false"}, ""},
+        {"arealight", {"light_samples", "mis"}, {"4", "true"}, ""},
+        {"path", {"max_depth", NULL}, {"1", NULL}, ""},
+    };
+    double mean[3][PROBES], se[3][PROBES];
+    int ok[3];
+    for (int i = 0; i < 3; i++)
+        ok[i] = run_mode(reg, accel, &modes[i], 11u + (uint64_t)i, mean[i], se[i]); /* independent estimates */
+    for (int a = 0; a < 2 && ok[2]; a++)
+        for (size_t k = 0; ok[a] && k < PROBES; k++) {
+            double tol = 5.0 * sqrt(se[a][k] * se[a][k] + se[2][k] * se[2][k]);
+            check(fabs(mean[2][k] - mean[a][k]) <= tol,
+                  "%s equals %s within noise, %.4f below the light at x %.3f: %.7g vs %.7g (5 SE = %.2e)", modes[2].label, modes[a].label, probes[k].below, probes[k].x, mean[2][k], mean[a][k], tol);
+        }
     rtk_registry_destroy(reg);
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
