@@ -7,6 +7,7 @@
 #include "render/render.h"
 #include "image/image.h"
 #include "check.h"
+#include "scratch.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -19,31 +20,6 @@
 #include <sys/wait.h>
 #include <unistd.h>
 #include <zlib.h>
-
-static char tmpdir[256];
-
-static const char *in_tmp(const char *name)
-{
-    static char buffers[8][600];
-    static int next;
-    char *p = buffers[next++ % 8];
-    snprintf(p, 600, "%s/%s", tmpdir, name);
-    return p;
-}
-
-static const char *write_file(const char *name, const void *data, size_t size)
-{
-    const char *path = in_tmp(name);
-    FILE *f = fopen(path, "wb");
-    if (!f || fwrite(data, 1, size, f) != size) {
-        printf("FAIL  cannot write %s\n", path);
-        exit(1);
-    }
-    fclose(f);
-    return path;
-}
-
-static const char *write_text(const char *name, const char *text) { return write_file(name, text, strlen(text)); }
 
 static int has(const char *text, const char *part) { return text && part && strstr(text, part) != NULL; }
 
@@ -59,28 +35,6 @@ static void on_alarm(int sig)
 /* Runs under a watchdog of seconds (generous: each case takes well under
  * a second when it works; the defects hung or took minutes). */
 static void watchdog(unsigned seconds) { alarm(seconds); }
-
-/* Captures what the kernel prints on stderr while fn runs. */
-static char captured[16384];
-static void capture_begin(int *saved)
-{
-    fflush(stderr);
-    *saved = dup(2);
-    int fd = open(in_tmp("stderr.txt"), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    dup2(fd, 2);
-    close(fd);
-}
-static void capture_end(int saved)
-{
-    fflush(stderr);
-    dup2(saved, 2);
-    close(saved);
-    FILE *f = fopen(in_tmp("stderr.txt"), "rb");
-    size_t n = f ? fread(captured, 1, sizeof captured - 1, f) : 0;
-    captured[n] = '\0';
-    if (f)
-        fclose(f);
-}
 
 static void test_obj_indices(void)
 {
@@ -608,22 +562,10 @@ static void test_names(void)
     rtk_scene_free(s);
 }
 
-/* Removes one entry; goes on past one that cannot be removed. */
-static int remove_entry(const char *path, const struct stat *sb, int flag, struct FTW *ftw)
-{
-    (void)sb, (void)flag, (void)ftw;
-    remove(path);
-    return 0;
-}
-
 int main(void)
 {
     signal(SIGALRM, on_alarm);
-    snprintf(tmpdir, sizeof tmpdir, "%s/rtk-hostile-XXXXXX", getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp");
-    if (!mkdtemp(tmpdir)) {
-        printf("FAIL  cannot create a temporary folder\n");
-        return 1;
-    }
+    scratch_begin("rtk-hostile");
     test_obj_indices();
     test_polygons();
     test_image_formats();
@@ -634,7 +576,7 @@ int main(void)
     test_boundary();
     test_budget();
     test_names();
-    nftw(tmpdir, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+    scratch_end();
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }

@@ -34,6 +34,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "scratch.h"
 
 #ifndef RTK_SOURCE_ROOT
 #define RTK_SOURCE_ROOT "."
@@ -41,29 +42,6 @@
 
 #define DATA RTK_SOURCE_ROOT "/tests/scene/material/data/"
 #define ALL_NEEDS (RTK_NEED_NORMALS | RTK_NEED_UVS | RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS)
-
-static char tmpdir[256];
-
-static const char *in_tmp(const char *name)
-{
-    static char path[8][512];
-    static int next;
-    char *p = path[next++ & 7];
-    snprintf(p, 512, "%s/%s", tmpdir, name);
-    return p;
-}
-
-static const char *write_text(const char *name, const char *text)
-{
-    const char *path = in_tmp(name);
-    FILE *f = fopen(path, "wb");
-    if (!f || fwrite(text, 1, strlen(text), f) != strlen(text)) {
-        printf("FAIL  cannot write %s\n", path);
-        exit(1);
-    }
-    fclose(f);
-    return path;
-}
 
 /* A w x 1 EXR whose texel x is rgba[4 x .. 4 x + 3]. */
 static void write_strip(const char *name, int w, const float *rgba)
@@ -73,28 +51,6 @@ static void write_strip(const char *name, int w, const float *rgba)
         printf("FAIL  cannot write %s: %s\n", name, rtk_error_message());
         exit(1);
     }
-}
-
-/* What the kernel prints on stderr between capture_begin and capture_end. */
-static char captured[65536];
-static void capture_begin(int *saved)
-{
-    fflush(stderr);
-    *saved = dup(2);
-    int fd = open(in_tmp("stderr.txt"), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    dup2(fd, 2);
-    close(fd);
-}
-static void capture_end(int saved)
-{
-    fflush(stderr);
-    dup2(saved, 2);
-    close(saved);
-    FILE *f = fopen(in_tmp("stderr.txt"), "rb");
-    size_t n = f ? fread(captured, 1, sizeof captured - 1, f) : 0;
-    captured[n] = '\0';
-    if (f)
-        fclose(f);
 }
 
 /* Whether one line of captured holds all of a, b and c. */
@@ -777,11 +733,7 @@ static void test_corpora(void)
 
 int main(void)
 {
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/rtk_material_XXXXXX");
-    if (!mkdtemp(tmpdir)) {
-        printf("FAIL  cannot make a temporary folder\n");
-        return 1;
-    }
+    scratch_begin("rtk-material");
     write_textured_files();
     test_obj_inputs();
     test_gltf_inputs();
@@ -791,10 +743,7 @@ int main(void)
     test_textured_rules();
     test_furnace();
     test_corpora();
-    char cmd[300];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-    if (system(cmd) != 0)
-        printf("note: could not remove %s\n", tmpdir);
+    scratch_end();
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }
