@@ -6,6 +6,10 @@
 
 #include "../scene/scene.h"
 
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
 RTK_EXTERN_C_BEGIN
 
 /* ---- instancing (instance.c) ---- */
@@ -173,6 +177,29 @@ void rtk_bvh_prepare_inputs(const rtk_scene *s, uint32_t threads, rtk_bounds *bo
                             rtk_vec3 *vertices);
 /* 1 if ray has finite origin/direction, non-zero direction, tmin <= tmax. */
 int rtk_ray_valid(const rtk_ray *ray);
+
+/* One coordinate of rtk_offset_ray_origin (Waechter and Binder 2019, Ray
+ * Tracing Gems ch. 6): a fixed step near 0, else n x 256 ulps. */
+static inline float rtk_offset_component(float p, float n)
+{
+    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
+    if (fabsf(p) < origin)
+        return p + float_scale * n;
+    int32_t of = (int32_t)(int_scale * n);
+    int32_t bits;
+    memcpy(&bits, &p, sizeof bits);
+    bits += p < 0.0f ? -of : of;
+    float out;
+    memcpy(&out, &bits, sizeof out);
+    return out;
+}
+
+/* rtk_offset_ray_origin inlined, for the kernel's own shadow rays. */
+static inline rtk_vec3 rtk_offset_point(rtk_vec3 p, rtk_vec3 n)
+{
+    return rtk_vec3_make(rtk_offset_component(p.x, n.x), rtk_offset_component(p.y, n.y),
+                         rtk_offset_component(p.z, n.z));
+}
 
 #include "bvh_wide.h"
 #include "bvh_cache.h"

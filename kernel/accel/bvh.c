@@ -123,24 +123,9 @@ RTK_API int rtk_intersect_triangle(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, r
     return 1;
 }
 
-static float offset_component(float p, float n)
-{
-    /* Waechter and Binder 2019 (Ray Tracing Gems ch. 6). */
-    const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
-    if (fabsf(p) < origin)
-        return p + float_scale * n;
-    int32_t of = (int32_t)(int_scale * n);
-    int32_t bits;
-    memcpy(&bits, &p, sizeof bits);
-    bits += p < 0.0f ? -of : of;
-    float out;
-    memcpy(&out, &bits, sizeof out);
-    return out;
-}
-
 RTK_API rtk_vec3 rtk_offset_ray_origin(rtk_vec3 p, rtk_vec3 n)
 {
-    return rtk_vec3_make(offset_component(p.x, n.x), offset_component(p.y, n.y), offset_component(p.z, n.z));
+    return rtk_offset_point(p, n);
 }
 
 int rtk_ray_valid(const rtk_ray *r)

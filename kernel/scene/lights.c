@@ -288,7 +288,7 @@ static rtk_vec3 facing(rtk_vec3 n, rtk_vec3 d)
 RTK_API rtk_ray rtk_shadow_ray(rtk_vec3 p, rtk_vec3 np, rtk_vec3 q, rtk_vec3 nq)
 {
     rtk_vec3 d = rtk_vec3_sub(q, p);
-    rtk_vec3 from = rtk_offset_ray_origin(p, facing(np, d)), to = rtk_offset_ray_origin(q, facing(nq, rtk_vec3_neg(d)));
+    rtk_vec3 from = rtk_offset_point(p, facing(np, d)), to = rtk_offset_point(q, facing(nq, rtk_vec3_neg(d)));
     rtk_ray r = {from, 0.0f, rtk_vec3_sub(to, from), 1.0f};
     return r;
 }
@@ -459,7 +459,7 @@ static uint32_t pick_slot(const rtk_lights *l, float *u_pick)
 /* The shadow ray from p (normal ng) towards direction wi at infinity. */
 static rtk_ray ray_to_infinity(rtk_vec3 p, rtk_vec3 ng, rtk_vec3 wi)
 {
-    rtk_ray r = {rtk_offset_ray_origin(p, facing(ng, wi)), 0.0f, wi, INFINITY};
+    rtk_ray r = {rtk_offset_point(p, facing(ng, wi)), 0.0f, wi, INFINITY};
     return r;
 }
 

@@ -282,25 +282,31 @@ static void surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differ
         out->uv.x = w * t[0] + u * t[2] + v * t[4];
         out->uv.y = w * t[1] + u * t[3] + v * t[5];
     }
-    rtk_material m = rtk_material_default();
+    /* Read in place: a material is large, and this runs at every hit. */
+    const rtk_material *m = NULL;
+    rtk_material fallback;
     out->material = RTK_INVALID_ID;
     if (materials) {
         uint32_t id = s->tri_material[hit->prim];
         if (id < s->material_count) {
-            m = s->materials[id];
+            m = &s->materials[id];
             out->material = id;
         }
     }
-    out->base_color = m.base_color;
-    out->alpha = m.alpha;
-    out->emission = m.emission;
-    out->specular = m.specular;
-    out->shininess = m.shininess;
-    out->ior = m.ior;
-    out->metallic = m.metallic;
-    out->roughness = m.roughness;
-    out->transmission = m.transmission;
-    out->illum = m.illum;
+    if (!m) {
+        fallback = rtk_material_default();
+        m = &fallback;
+    }
+    out->base_color = m->base_color;
+    out->alpha = m->alpha;
+    out->emission = m->emission;
+    out->specular = m->specular;
+    out->shininess = m->shininess;
+    out->ior = m->ior;
+    out->metallic = m->metallic;
+    out->roughness = m->roughness;
+    out->transmission = m->transmission;
+    out->illum = m->illum;
     if (materials && s->colors) {
         float vc[4];
         rtk_vertex_color(s, hit->prim, u, v, vc);
@@ -311,7 +317,7 @@ static void surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differ
         float texel[4];
         rtk_uv_footprint footprint[2];
         tex_query q = {hit->prim, u, v, {NULL, NULL}};
-        const int slots[3] = {m.base_tex, m.alpha_tex, m.emission_tex};
+        const int slots[3] = {m->base_tex, m->alpha_tex, m->emission_tex};
         int mip = 0;
         for (int k = 0; k < 3; k++)
             mip |= usable(s, slots[k]) && s->textures[slots[k]].filter == RTK_TEX_TRILINEAR;
@@ -320,20 +326,21 @@ static void surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differ
         if (diff && mip && s->uvs1 && uv_footprint(s->uvs1, hit->prim, a, b, c, out->p, ng, diff, &footprint[1]))
             q.fp[1] = &footprint[1];
         int alpha_done = 0;
-        if (usable(s, m.base_tex)) {
-            lookup(s, m.base_tex, m.base_wrap, &m.base_uv, &q, texel);
+        if (usable(s, m->base_tex)) {
+            lookup(s, m->base_tex, m->base_wrap, &m->base_uv, &q, texel);
             out->base_color = rtk_rgb_mul(out->base_color, rtk_rgb_make(texel[0], texel[1], texel[2]));
-            if (m.alpha_tex == m.base_tex && same_use(m.alpha_wrap, m.base_wrap, &m.alpha_uv, &m.base_uv)) {
+            if (m->alpha_tex == m->base_tex && same_use(m->alpha_wrap, m->base_wrap, &m->alpha_uv, &m->base_uv)) {
                 out->alpha *= texel[3];
                 alpha_done = 1;
             }
         }
-        if (!alpha_done && usable(s, m.alpha_tex)) {
-            lookup(s, m.alpha_tex, m.alpha_wrap, &m.alpha_uv, &q, texel);
-            out->alpha *= m.alpha_tex == m.base_tex ? texel[3] : rtk_texture_coverage(&s->textures[m.alpha_tex], texel);
+        if (!alpha_done && usable(s, m->alpha_tex)) {
+            lookup(s, m->alpha_tex, m->alpha_wrap, &m->alpha_uv, &q, texel);
+            out->alpha *=
+                m->alpha_tex == m->base_tex ? texel[3] : rtk_texture_coverage(&s->textures[m->alpha_tex], texel);
         }
-        if (usable(s, m.emission_tex)) {
-            lookup(s, m.emission_tex, m.emission_wrap, &m.emission_uv, &q, texel);
+        if (usable(s, m->emission_tex)) {
+            lookup(s, m->emission_tex, m->emission_wrap, &m->emission_uv, &q, texel);
             out->emission = rtk_rgb_mul(out->emission, rtk_rgb_make(texel[0], texel[1], texel[2]));
         }
         /* The normal map bends the normal on the authored side (so a
@@ -341,7 +348,7 @@ static void surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differ
          * which then turns to the ray's side; a bent normal that would
          * face away from the ray is not used. */
         rtk_vec3 n = out->front_face ? out->ns : rtk_vec3_neg(out->ns);
-        if (rtk_apply_normal_map(s, &m, hit->prim, u, v, &n)) {
+        if (rtk_apply_normal_map(s, m, hit->prim, u, v, &n)) {
             if (!out->front_face)
                 n = rtk_vec3_neg(n);
             if (rtk_vec3_dot(n, out->ng) > 0.0f)
