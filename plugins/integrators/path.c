@@ -50,6 +50,19 @@ static uint32_t path_needs(const void *state)
     return RTK_NEED_NORMALS | RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS;
 }
 
+/* A scene with nothing that emits renders black: say so once, up front. */
+static rtk_status path_prepare(void *state, const rtk_scene *scene)
+{
+    (void)state;
+    rtk_light_incident sky;
+    const rtk_vec2 mid = {0.5f, 0.5f};
+    if (!rtk_scene_light_count(scene) && !rtk_scene_punctual_count(scene) &&
+        !rtk_sample_incident_light(scene, rtk_vec3_make(0, 0, 0), rtk_vec3_make(0, 0, 0), 0.5f, mid, &sky))
+        rtk_log(RTK_LOG_WARN, "path: the scene has no lights (emissive triangles: MTL Ke, glTF emissive; config "
+                              "lights or environment): the image will be black");
+    return RTK_OK;
+}
+
 static float power_heuristic(float f, float g)
 {
     return f * f / (f * f + g * g);
@@ -227,6 +240,7 @@ static const rtk_integrator_fns path_fns = {
     .size = sizeof(rtk_integrator_fns),
     .create = path_create,
     .needs = path_needs,
+    .prepare = path_prepare,
     .li = path_li,
     .destroy = path_destroy,
 };
