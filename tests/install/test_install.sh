@@ -71,7 +71,7 @@ check "an installed plugin needs nothing ldd cannot find" lacks "not found"
 
 run "$rtk" plugins
 check "installed rtk plugins: runs (RPATH finds librtk)" succeeded
-for name in headlight ao sah lbvh median box gaussian; do
+for name in headlight ao arealight whitted path heatmap sah lbvh median box gaussian; do
     check "installed rtk plugins: lists $name" matches "^[a-z]+ +$name "
 done
 check "installed rtk plugins: nothing refused" lacks "refused"
