@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "scratch.h"
 
 #ifdef RTK_HAVE_MESHOPT
 #include <meshoptimizer.h>
@@ -27,30 +28,8 @@
 
 #define ALL_NEEDS (RTK_NEED_NORMALS | RTK_NEED_UVS | RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS)
 
-static char tmpdir[256];
 static const rtk_plugin *builder;
 static rtk_params *builder_params;
-
-static const char *in_tmp(const char *name)
-{
-    static char path[8][512];
-    static int next;
-    char *p = path[next++ & 7];
-    snprintf(p, 512, "%s/%s", tmpdir, name);
-    return p;
-}
-
-static const char *write_bytes(const char *name, const void *data, size_t size)
-{
-    const char *path = in_tmp(name);
-    FILE *f = fopen(path, "wb");
-    if (!f || fwrite(data, 1, size, f) != size) {
-        printf("FAIL  cannot write %s\n", path);
-        exit(1);
-    }
-    fclose(f);
-    return path;
-}
 
 /* ---- a glTF's buffer, buffer views and accessors, built up in memory ---- */
 
@@ -103,14 +82,14 @@ static const char *write_gltf(const char *name, const gbuf *g, const char *body)
 {
     char bin[256];
     snprintf(bin, sizeof bin, "%s.bin", name);
-    write_bytes(bin, g->data, g->size ? g->size : 4);
+    write_file(bin, g->data, g->size ? g->size : 4);
     size_t cap = strlen(body) + strlen(g->views) + strlen(g->accessors) + 1024;
     char *json = malloc(cap);
     snprintf(json, cap,
              "{\"asset\":{\"version\":\"2.0\"},%s,\"buffers\":[{\"uri\":\"%s\",\"byteLength\":%zu}],"
              "\"bufferViews\":[%s],\"accessors\":[%s]}",
              body, bin, g->size ? g->size : 4, g->views, g->accessors);
-    const char *path = write_bytes(name, json, strlen(json));
+    const char *path = write_file(name, json, strlen(json));
     free(json);
     return path;
 }
@@ -141,7 +120,7 @@ static const char *write_glb_bin(const char *name, uint32_t version, const char 
         memcpy(out + 24 + n, "BIN\0", 4);
         memcpy(out + 28 + n, bin, bin_size);
     }
-    const char *path = write_bytes(name, out, total);
+    const char *path = write_file(name, out, total);
     free(out);
     return path;
 }
@@ -217,7 +196,7 @@ static void test_refusals(void)
     for (int i = 0; i < deep; i++)
         json[n++] = ']';
     sprintf(json + n, "}}");
-    expect_refused("15,000 nested arrays (.gltf)", write_bytes("deep.gltf", json, strlen(json)), RTK_ERR_PARSE,
+    expect_refused("15,000 nested arrays (.gltf)", write_file("deep.gltf", json, strlen(json)), RTK_ERR_PARSE,
                    "nested more than 100 levels", NULL);
     expect_refused("15,000 nested arrays (.glb)", write_glb("deep.glb", 2, json), RTK_ERR_PARSE,
                    "nested more than 100 levels", NULL);
@@ -247,7 +226,7 @@ static void test_refusals(void)
     expect_refused("glTF 1.0 binary", write_glb("v1.glb", 1, "{\"asset\":{\"version\":\"1.0\"}}"),
                    RTK_ERR_UNSUPPORTED, "glTF 1.0", NULL);
     expect_refused("glTF 1.0 text",
-                   write_bytes("v1.gltf", "{\"asset\":{\"version\":\"1.0\"},\"meshes\":{}}", 39),
+                   write_file("v1.gltf", "{\"asset\":{\"version\":\"1.0\"},\"meshes\":{}}", 39),
                    RTK_ERR_UNSUPPORTED, "glTF 1.0", NULL);
 
     /* Draco: an accessor without a buffer view, the data in the extension;
@@ -264,12 +243,12 @@ static void test_refusals(void)
 #ifdef RTK_HAVE_DRACO
     /* Decoded before anything else reads the primitive: four zero bytes
      * are no Draco mesh, said in rtk's words. */
-    expect_refused("Draco", write_bytes("draco_zero.gltf", draco, strlen(draco)), RTK_ERR_PARSE,
+    expect_refused("Draco", write_file("draco_zero.gltf", draco, strlen(draco)), RTK_ERR_PARSE,
                    "KHR_draco_mesh_compression", "could not decode", NULL);
     expect_refused("Draco (.glb)", write_glb("draco_zero.glb", 2, draco), RTK_ERR_PARSE,
                    "KHR_draco_mesh_compression", NULL);
 #else
-    expect_refused("Draco", write_bytes("draco_zero.gltf", draco, strlen(draco)), RTK_ERR_UNSUPPORTED,
+    expect_refused("Draco", write_file("draco_zero.gltf", draco, strlen(draco)), RTK_ERR_UNSUPPORTED,
                    "KHR_draco_mesh_compression", "requires", NULL);
     expect_refused("Draco (.glb)", write_glb("draco_zero.glb", 2, draco), RTK_ERR_UNSUPPORTED,
                    "KHR_draco_mesh_compression", NULL);
@@ -283,10 +262,10 @@ static void test_refusals(void)
 #ifdef RTK_HAVE_MESHOPT
     /* Decoded once tinygltf has parsed the file: four zero bytes are no
      * meshopt vertex stream. */
-    expect_refused("EXT_meshopt_compression", write_bytes("meshopt_bad.gltf", meshopt, strlen(meshopt)),
+    expect_refused("EXT_meshopt_compression", write_file("meshopt_bad.gltf", meshopt, strlen(meshopt)),
                    RTK_ERR_PARSE, "buffer view 0: EXT_meshopt_compression: the data does not decode", NULL);
 #else
-    expect_refused("EXT_meshopt_compression", write_bytes("meshopt_bad.gltf", meshopt, strlen(meshopt)),
+    expect_refused("EXT_meshopt_compression", write_file("meshopt_bad.gltf", meshopt, strlen(meshopt)),
                    RTK_ERR_UNSUPPORTED, "EXT_meshopt_compression", NULL);
 #endif
     free(g);
@@ -925,8 +904,8 @@ static void test_meshopt(void)
         if (glb) {
             path = write_glb_bin("meshopt.glb", 2, json, packed, 480);
         } else {
-            write_bytes("meshopt.bin", packed, 480);
-            path = write_bytes("meshopt.gltf", json, strlen(json));
+            write_file("meshopt.bin", packed, 480);
+            path = write_file("meshopt.gltf", json, strlen(json));
         }
         const char *what = glb ? "meshopt .glb" : "meshopt .gltf";
 #ifdef RTK_HAVE_MESHOPT
@@ -952,7 +931,7 @@ static void test_meshopt(void)
 #ifdef RTK_HAVE_MESHOPT
     /* Data that does not decode: rtk's message, naming the view. */
     memset(packed, 0xff, sizeof packed);
-    write_bytes("meshopt.bin", packed, 480);
+    write_file("meshopt.bin", packed, 480);
     expect_refused("meshopt data that does not decode", in_tmp("meshopt.gltf"), RTK_ERR_PARSE,
                    "buffer view 0: EXT_meshopt_compression: the data does not decode", NULL);
 #endif
@@ -1048,11 +1027,7 @@ static void test_samples(void)
 int main(void)
 {
     setvbuf(stdout, NULL, _IOLBF, 0);
-    snprintf(tmpdir, sizeof tmpdir, "/tmp/rtk-gltf-XXXXXX");
-    if (!mkdtemp(tmpdir)) {
-        printf("FAIL  cannot make a temporary directory\n");
-        return 1;
-    }
+    scratch_begin("rtk-gltf");
     rtk_registry *reg = NULL;
     if (rtk_registry_create(&reg) != RTK_OK ||
         rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "sah", &builder) != RTK_OK) {
@@ -1076,10 +1051,8 @@ int main(void)
     test_samples();
     rtk_params_destroy(builder_params);
     rtk_registry_destroy(reg);
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
-    if (!getenv("KEEP") && system(cmd) != 0)
-        printf("note  could not remove %s\n", tmpdir);
+    if (!getenv("KEEP"))
+        scratch_end();
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }

@@ -8,6 +8,7 @@
 #include "image/image.h"
 #include "check.h"
 #include "scratch.h"
+#include "capture.h"
 
 #include <errno.h>
 #include <fcntl.h>

@@ -14,6 +14,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "scratch.h"
+
 #ifndef RTK_SOURCE_ROOT
 #define RTK_SOURCE_ROOT "."
 #endif
@@ -21,7 +23,6 @@
 #define ALL_NEEDS (RTK_NEED_NORMALS | RTK_NEED_UVS | RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS)
 
 static int passed, failed;
-static char tmpdir[256];
 
 static void check(int ok, const char *what, int line)
 {
@@ -35,30 +36,6 @@ static void check(int ok, const char *what, int line)
 
 #define CHECK(cond) check((cond) != 0, #cond, __LINE__)
 #define CHECK_NEAR(a, b, tol) check(fabs((double)(a) - (double)(b)) <= (tol), #a " ~ " #b, __LINE__)
-
-/* Path of name inside the temporary folder (one of a few rotating buffers). */
-static const char *tmp_path(const char *name)
-{
-    static char buffers[8][512];
-    static int next;
-    char *p = buffers[next++ % 8];
-    snprintf(p, 512, "%s/%s", tmpdir, name);
-    return p;
-}
-
-static const char *write_file(const char *name, const void *data, size_t size)
-{
-    const char *path = tmp_path(name);
-    FILE *f = fopen(path, "wb");
-    if (!f || fwrite(data, 1, size, f) != size) {
-        printf("FAILED: cannot write %s\n", path);
-        exit(1);
-    }
-    fclose(f);
-    return path;
-}
-
-static const char *write_text(const char *name, const char *text) { return write_file(name, text, strlen(text)); }
 
 static int message_has(const char *text) { return strstr(rtk_error_message(), text) != NULL; }
 
@@ -198,7 +175,7 @@ static void test_obj_quad(void)
 
     /* Extensions are matched without regard to case. */
     write_text("QUAD2.OBJ", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
-    s = load(tmp_path("QUAD2.OBJ"), 0);
+    s = load(in_tmp("QUAD2.OBJ"), 0);
     CHECK(s && s->triangle_count == 1);
     rtk_scene_free(s);
 }
@@ -215,7 +192,7 @@ static void test_obj_errors(void)
     /* 1e39 does not fit a float: the loader sees an infinite coordinate. */
     expect_refused(write_text("inf.obj", "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n"), RTK_ERR_INVALID, "vertex 2",
                    __LINE__);
-    expect_refused(tmp_path("absent.obj"), RTK_ERR_IO, "absent.obj", __LINE__);
+    expect_refused(in_tmp("absent.obj"), RTK_ERR_IO, "absent.obj", __LINE__);
     expect_refused(write_text("scene.fbx", "nothing"), RTK_ERR_UNSUPPORTED, ".obj", __LINE__);
     expect_refused(write_text("utf16.obj", "\xFF\xFE" "v"), RTK_ERR_UNSUPPORTED, "UTF-16", __LINE__);
 }
@@ -269,7 +246,7 @@ static void test_obj_polygons(void)
     printf("obj: concave polygons and faces of more than 255 corners\n");
     static const double ell[6][2] = {{0, 0}, {2, 0}, {2, 1}, {1, 1}, {1, 2}, {0, 2}};
     polygon_obj("ell.obj", ell, 6);
-    rtk_scene *s = load(tmp_path("ell.obj"), 0);
+    rtk_scene *s = load(in_tmp("ell.obj"), 0);
     CHECK(s && s->triangle_count == 4);
     if (s)
         CHECK_NEAR(total_area(s), 3.0, 1e-6);
@@ -277,7 +254,7 @@ static void test_obj_polygons(void)
 
     static const double concave_quad[4][2] = {{0, 0}, {2, 0}, {0.5, 0.5}, {0, 2}};
     polygon_obj("dart.obj", concave_quad, 4);
-    s = load(tmp_path("dart.obj"), 0);
+    s = load(in_tmp("dart.obj"), 0);
     CHECK(s && s->triangle_count == 2);
     if (s)
         CHECK_NEAR(total_area(s), shoelace(concave_quad, 4), 1e-6);
@@ -291,7 +268,7 @@ static void test_obj_polygons(void)
         star[i][1] = r * sin(a);
     }
     polygon_obj("star.obj", (const double(*)[2])star, STAR);
-    s = load(tmp_path("star.obj"), 0);
+    s = load(in_tmp("star.obj"), 0);
     CHECK(s && s->triangle_count + s->dropped_degenerate == STAR - 2);
     if (s)
         CHECK_NEAR(total_area(s), shoelace((const double(*)[2])star, STAR), 1e-4);
@@ -563,22 +540,9 @@ static void test_shared_data(void)
     rtk_scene_free(s);
 }
 
-static int remove_entry(const char *path, const struct stat *st, int type, struct FTW *ftw)
-{
-    (void)st;
-    (void)type;
-    (void)ftw;
-    return remove(path);
-}
-
 int main(void)
 {
-    const char *base = getenv("TMPDIR");
-    snprintf(tmpdir, sizeof tmpdir, "%s/rtk-test-loaders-XXXXXX", base && base[0] ? base : "/tmp");
-    if (!mkdtemp(tmpdir)) {
-        printf("FAILED: cannot create a temporary folder\n");
-        return 1;
-    }
+    scratch_begin("rtk-test-loaders");
     test_obj_quad();
     test_obj_errors();
     test_obj_degenerate();
@@ -587,7 +551,7 @@ int main(void)
     test_glb();
     test_gltf_errors();
     test_shared_data();
-    nftw(tmpdir, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+    scratch_end();
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }

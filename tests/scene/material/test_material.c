@@ -35,6 +35,7 @@
 
 #include "check.h"
 #include "scratch.h"
+#include "capture.h"
 
 #ifndef RTK_SOURCE_ROOT
 #define RTK_SOURCE_ROOT "."
