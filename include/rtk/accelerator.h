@@ -56,6 +56,9 @@ typedef struct rtk_build_args {
      * accelerator traverses itself (then there is none). */
     void *scratch;
     size_t scratch_bytes;
+    /* ABI 3.4. The kernel's record of the build's phases (rtk_build_phase);
+     * NULL when nobody records them. Builders pass args, never read it. */
+    void *phase_log;
 } rtk_build_args;
 
 /* args->scratch when it holds bytes (and the kernel that made args knows
@@ -66,6 +69,15 @@ static inline void *rtk_build_scratch(const rtk_build_args *args, size_t bytes)
         return NULL;
     return args->scratch_bytes >= bytes ? args->scratch : NULL;
 }
+
+/* Marks the start of the build's phase name (a static string, e.g.
+ * "morton sort") and whether it runs on parallel > 0 threads or on one
+ * (parallel 0): the previous phase ends here, the last at the build's
+ * return. `rtk bench --verbose` prints each phase's time and share, and
+ * the serial fraction (one-thread phases over the whole build). Free when
+ * nobody records (args->phase_log NULL, or args from an older kernel).
+ * [main thread, the thread that called build] (ABI 3.4) */
+RTK_API void rtk_build_phase(rtk_build_args *args, const char *name, int parallel);
 
 /* Flags of rtk_accelerator_fns.build_flags. */
 enum {
@@ -106,6 +118,13 @@ typedef struct rtk_accelerator_fns {
     /* RTK_BUILD_* flags (ABI 3.2; older plugins, whose table ends
      * before this, get the vertices). */
     uint32_t build_flags;
+    /* ABI 3.4. Optional, both or neither, and only with closest and any:
+     * the plugin's own traversal of count rays at once (rays valid, as
+     * for closest and any), hits[i] / occluded[i] (0 or 1) as closest /
+     * any would give them for rays[i]. Without them the kernel calls
+     * closest and any once per ray. [any thread, concurrently] */
+    void (*closest_batch)(const void *state, const rtk_ray *rays, uint32_t count, rtk_hit *hits);
+    void (*any_batch)(const void *state, const rtk_ray *rays, uint32_t count, uint8_t *occluded);
 } rtk_accelerator_fns;
 
 RTK_EXTERN_C_END

@@ -39,7 +39,27 @@ typedef struct rtk_integrator_fns {
     void (*li)(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out);
     /* Frees the instance. [main thread] */
     void (*destroy)(void *state);
+    /* ABI 3.4, optional: radiance for count camera rays at once (up to
+     * RTK_BATCH_MAX: the samples of a few pixels of a tile, in film
+     * order), out[i] pre-filled as for li, so that an integrator traces
+     * in waves through rtk_trace_batch and rtk_occluded_batch. Sample i's
+     * numbers are drawn after rtk_ctx_select(ctx, i). out[i] must equal
+     * what li gives for rays[i] as sample i, bit for bit: rtk conform
+     * checks it, and the renderer calls li_batch when it is set.
+     * [any thread, concurrently] */
+    void (*li_batch)(const void *state, rtk_ctx *ctx, const rtk_ray *rays, uint32_t count, rtk_li_result *out);
 } rtk_integrator_fns;
+
+/* Most camera rays one li_batch call receives. */
+#define RTK_BATCH_MAX 256u
+
+/* Inside li_batch: makes sample i of the batch (0 <= i < count) the one
+ * whose numbers rtk_sample_1d, rtk_sample_2d and rtk_sample_seek draw,
+ * whose camera ray rtk_ctx_camera_differential describes and rtk_trace
+ * recognises. Each sample keeps its own position in its stream, so
+ * draws of different samples may interleave. Outside li_batch, i = 0
+ * selects the one current sample. [ctx's thread] (ABI 3.4) */
+RTK_API void rtk_ctx_select(rtk_ctx *ctx, uint32_t i);
 
 RTK_EXTERN_C_END
 

@@ -29,9 +29,13 @@ RTK_EXTERN_C_BEGIN
  * rtk_surface_bsdf, a hit's material as a BSDF);
  * rtk_sample_seek (rtk/sampler.h), draws by dimension; all lights as one
  * service (rtk/lights.h: rtk_sample_incident_light, rtk_incident_light_pdf,
- * rtk_scene_environment, rtk_spot_falloff). */
+ * rtk_scene_environment, rtk_spot_falloff).
+ * 3.4: ray batches (rtk_trace_batch, rtk_occluded_batch;
+ * rtk_integrator_fns.li_batch with rtk_ctx_select;
+ * rtk_accelerator_fns.closest_batch and any_batch); build phases
+ * (rtk_build_args.phase_log, rtk_build_phase). */
 #define RTK_ABI_MAJOR 3
-#define RTK_ABI_MINOR 3
+#define RTK_ABI_MINOR 4
 
 /* Name of the one symbol a plugin exports. */
 #define RTK_PLUGIN_ENTRY_NAME "rtk_plugin_entry"

@@ -42,6 +42,20 @@ RTK_API int rtk_trace(rtk_ctx *ctx, const rtk_ray *ray, rtk_hit *hit);
 /* 1 if anything lies on the ray within [tmin, tmax]. [ctx's thread] */
 RTK_API int rtk_occluded(rtk_ctx *ctx, const rtk_ray *ray);
 
+/* rtk_trace on count rays at once: hits[i] is what rtk_trace(ctx,
+ * &rays[i], &hits[i]) fills, bit for bit (ties, cut-outs and instances
+ * included; hits[i].prim == RTK_INVALID_ID on a miss), and the counters
+ * advance the same. Coherent rays (a tile's camera rays) are traced
+ * together, incoherent ones one at a time. Returns the number of hits.
+ * Inside li_batch, rays[i] counts as sample i's camera ray when it equals
+ * the ray li_batch received as rays[i]. [ctx's thread] (ABI 3.4) */
+RTK_API uint32_t rtk_trace_batch(rtk_ctx *ctx, const rtk_ray *rays, uint32_t count, rtk_hit *hits);
+
+/* rtk_occluded on count rays at once: occluded[i] = rtk_occluded(ctx,
+ * &rays[i]) (0 or 1). Returns the number occluded. [ctx's thread]
+ * (ABI 3.4) */
+RTK_API uint32_t rtk_occluded_batch(rtk_ctx *ctx, const rtk_ray *rays, uint32_t count, uint8_t *occluded);
+
 /* The scene this context renders. [ctx's thread] */
 RTK_API const rtk_scene *rtk_ctx_scene(const rtk_ctx *ctx);
 

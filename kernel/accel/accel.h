@@ -162,6 +162,13 @@ rtk_status rtk_bvh_finish(rtk_scene *s, uint32_t threads, void *spare, size_t sp
 /* Traversal of the whole scene, instances included. Return 1 on hit. */
 RTK_KERNEL_API int rtk_bvh_closest(const rtk_scene *scene, const rtk_ray *ray, rtk_hit *hit);
 RTK_KERNEL_API int rtk_bvh_any(const rtk_scene *scene, const rtk_ray *ray);
+/* rtk_bvh_closest / rtk_bvh_any on count valid rays: hits[i] as
+ * rtk_bvh_closest fills it for rays[i] (prim RTK_INVALID_ID on a miss),
+ * occluded[i] 0 or 1. Through the plugin's batch functions, the wide
+ * tree's packets (bvh_wide.h) or one ray at a time. The thread's camera
+ * ray mark (rtk_alpha_camera_ray) holds for every ray. [any thread] */
+RTK_KERNEL_API void rtk_bvh_closest_batch(const rtk_scene *scene, const rtk_ray *rays, uint32_t count, rtk_hit *hits);
+RTK_KERNEL_API void rtk_bvh_any_batch(const rtk_scene *scene, const rtk_ray *rays, uint32_t count, uint8_t *occluded);
 /* Traversal of the scene's own triangles only (hit->inst is not set);
  * work, if not NULL, receives the counts. */
 int rtk_bvh_closest_own(const rtk_scene *scene, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work);

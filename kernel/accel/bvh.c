@@ -279,6 +279,68 @@ int rtk_bvh_any(const rtk_scene *s, const rtk_ray *ray)
     return rtk_bvh_any_own(s, ray, NULL);
 }
 
+/* The plugin's batch functions when its table has them (ABI 3.4). */
+static int own_batch(const rtk_accelerator_fns *f)
+{
+    return f->size >= offsetof(rtk_accelerator_fns, any_batch) + sizeof f->any_batch && f->closest_batch &&
+           f->any_batch;
+}
+
+void rtk_bvh_closest_batch(const rtk_scene *s, const rtk_ray *rays, uint32_t count, rtk_hit *hits)
+{
+    if (!s->instance_count && s->own_traversal && own_batch(s->own_traversal)) {
+        for (uint32_t i = 0; i < count; i++) {
+            hits[i].prim = RTK_INVALID_ID;
+            hits[i].t = rays[i].tmax;
+            hits[i].u = hits[i].v = 0.0f;
+        }
+        s->own_traversal->closest_batch(s->own_state, rays, count, hits);
+        for (uint32_t i = 0; i < count; i++) {
+            hits[i].inst = RTK_INVALID_ID;
+            if (hits[i].prim >= s->triangle_count)
+                hits[i].prim = RTK_INVALID_ID;
+        }
+        return;
+    }
+    const int packets = !s->instance_count && s->wide && s->wide->path >= RTK_SIMD_AVX2 && !s->own_traversal;
+    for (uint32_t i = 0; i < count;) {
+        uint32_t end = i;
+        while (packets && end < count && rays[end].tmin >= 0.0f)
+            end++;
+        if (end > i) {
+            rtk_wide_closest_batch(s, s->wide->path, rays + i, end - i, hits + i);
+            i = end;
+        } else {
+            if (!rtk_bvh_closest(s, &rays[i], &hits[i]))
+                hits[i].prim = RTK_INVALID_ID;
+            i++;
+        }
+    }
+}
+
+void rtk_bvh_any_batch(const rtk_scene *s, const rtk_ray *rays, uint32_t count, uint8_t *occluded)
+{
+    if (!s->instance_count && s->own_traversal && own_batch(s->own_traversal)) {
+        s->own_traversal->any_batch(s->own_state, rays, count, occluded);
+        for (uint32_t i = 0; i < count; i++)
+            occluded[i] = occluded[i] != 0;
+        return;
+    }
+    const int packets = !s->instance_count && s->wide && s->wide->path >= RTK_SIMD_AVX2 && !s->own_traversal;
+    for (uint32_t i = 0; i < count;) {
+        uint32_t end = i;
+        while (packets && end < count && rays[end].tmin >= 0.0f)
+            end++;
+        if (end > i) {
+            rtk_wide_any_batch(s, s->wide->path, rays + i, end - i, occluded + i);
+            i = end;
+        } else {
+            occluded[i] = (uint8_t)(rtk_bvh_any(s, &rays[i]) != 0);
+            i++;
+        }
+    }
+}
+
 int rtk_bvh_closest_measure(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
 {
     if (s->instance_count)

@@ -142,6 +142,16 @@ int rtk_wide_closest(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray,
                      rtk_trace_work *work);
 int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_trace_work *work);
 
+/* Closest hit / any hit of count valid rays on s->wide with a supported
+ * wide path, as rtk_wide_closest / rtk_wide_any give them one by one
+ * (hits[i].prim RTK_INVALID_ID on a miss, occluded[i] 0 or 1): rays
+ * whose directions and origins agree are traced as packets sharing each
+ * node's visit, the others one at a time. [any thread] */
+void rtk_wide_closest_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count,
+                            rtk_hit *hits);
+void rtk_wide_any_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count,
+                        uint8_t *occluded);
+
 /* The same without counts, by path (NULL for RTK_SIMD_BINARY, and for SSE
  * and the AVX paths off x86): rtk_bvh_closest / rtk_bvh_any reach a ray's traversal
  * through one indirect call instead of three calls. */

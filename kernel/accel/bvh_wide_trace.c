@@ -775,3 +775,18 @@ int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk
         return scalar_any(s, ray, work);
     }
 }
+
+void rtk_wide_closest_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count,
+                            rtk_hit *hits)
+{
+    for (uint32_t i = 0; i < count; i++)
+        if (!rtk_wide_closest_path[path](s, &rays[i], &hits[i]))
+            hits[i].prim = RTK_INVALID_ID;
+}
+
+void rtk_wide_any_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count,
+                        uint8_t *occluded)
+{
+    for (uint32_t i = 0; i < count; i++)
+        occluded[i] = (uint8_t)(rtk_wide_any_path[path](s, &rays[i]) != 0);
+}

@@ -38,7 +38,7 @@ static size_t min_table_size(rtk_plugin_kind kind)
 {
     switch (kind) {
     case RTK_KIND_INTEGRATOR:
-        return sizeof(rtk_integrator_fns);
+        return offsetof(rtk_integrator_fns, li_batch);
     case RTK_KIND_ACCELERATOR:
         return offsetof(rtk_accelerator_fns, closest);
     case RTK_KIND_FILTER:
@@ -62,9 +62,18 @@ static rtk_status check_functions(const rtk_plugin *p, const char *path)
     } else if (p->kind == RTK_KIND_ACCELERATOR) {
         const rtk_accelerator_fns *f = p->functions;
         missing = !f->create ? "create" : !f->build ? "build" : !f->destroy ? "destroy" : NULL;
-        if (!missing && size >= sizeof(rtk_accelerator_fns) && !f->closest != !f->any)
+        if (!missing && size >= offsetof(rtk_accelerator_fns, any) + sizeof f->any && !f->closest != !f->any)
             return rtk_error(RTK_ERR_PLUGIN, "%s: accelerator '%s' sets only one of 'closest' and 'any'; "
                              "its own traversal needs both", path, p->name);
+        if (!missing && size >= offsetof(rtk_accelerator_fns, any_batch) + sizeof f->any_batch) {
+            if (!f->closest_batch != !f->any_batch)
+                return rtk_error(RTK_ERR_PLUGIN, "%s: accelerator '%s' sets only one of 'closest_batch' and "
+                                 "'any_batch'; its batch traversal needs both", path, p->name);
+            if (f->closest_batch && !f->closest)
+                return rtk_error(RTK_ERR_PLUGIN, "%s: accelerator '%s' sets 'closest_batch' and 'any_batch' "
+                                 "without 'closest' and 'any': batches need the plugin's own traversal",
+                                 path, p->name);
+        }
     } else {
         const rtk_filter_fns *f = p->functions;
         missing = !f->create      ? "create"

@@ -30,6 +30,7 @@ typedef struct render_job {
     rtk_filter_sampler fsampler; /* RTK_RECON_IMPORTANCE */
     uint64_t seed;
     rtk_film film;
+    int batches; /* the integrator's li_batch renders (batches_wanted) */
     uint32_t tiles_x, tiles_y, tile_count;
     atomic_uint next_tile;
     atomic_uint tiles_done;
@@ -66,7 +67,100 @@ static void fail(render_job *job, rtk_status st)
     pthread_mutex_unlock(&job->merge_lock);
 }
 
-static void render_tile(render_job *job, uint32_t index, rtk_ctx *ctx, uint64_t *bad)
+/* The integrator's li_batch (ABI 3.4), or NULL. */
+static void (*batch_fn(const rtk_integrator_fns *f))(const void *, rtk_ctx *, const rtk_ray *, uint32_t,
+                                                     rtk_li_result *)
+{
+    return f->size >= offsetof(rtk_integrator_fns, li_batch) + sizeof f->li_batch ? f->li_batch : NULL;
+}
+
+/* One worker's room for a batch of camera samples. */
+typedef struct sample_batch {
+    rtk_ray rays[RTK_BATCH_MAX];
+    rtk_li_result out[RTK_BATCH_MAX];
+    rtk_sample_state state[RTK_BATCH_MAX];
+    float fx[RTK_BATCH_MAX], fy[RTK_BATCH_MAX], fw[RTK_BATCH_MAX];
+    int px[RTK_BATCH_MAX], py[RTK_BATCH_MAX];
+} sample_batch;
+
+/* Starts sample s of pixel (x, y): its film position and weight, and its
+ * camera ray, leaving ctx at li's first draw. */
+static rtk_ray start_sample(render_job *job, rtk_ctx *ctx, uint32_t x, uint32_t y, uint32_t s, float *fx,
+                            float *fy, float *fw)
+{
+    rtk_ctx_start_sample(ctx, (uint64_t)y * job->film.width + x, s);
+    rtk_vec2 jitter = rtk_sample_2d(ctx);
+    *fx = (float)x + jitter.x, *fy = (float)y + jitter.y, *fw = 1.0f;
+    if (job->recon == RTK_RECON_IMPORTANCE) {
+        /* The filter places the sample around the pixel centre. */
+        float dx, dy;
+        rtk_filter_sampler_sample(&job->fsampler, jitter, &dx, &dy, fw);
+        *fx = (float)x + 0.5f + dx;
+        *fy = (float)y + 0.5f + dy;
+    }
+    rtk_ray ray = rtk_camera_ray(&job->camera, *fx, *fy);
+    ctx->film_x = *fx, ctx->film_y = *fy; /* for rtk_ctx_camera_differential */
+    ctx->camera_ray = ray;                /* for rtk_trace's single-sided test */
+    ctx->dim_base = ctx->dim;             /* rtk_sample_seek counts from here */
+    return ray;
+}
+
+static void init_result(rtk_li_result *r)
+{
+    memset(r, 0, sizeof *r);
+    r->depth = INFINITY;
+}
+
+/* Adds one sample's result to the tile (dropping non-finite radiance). */
+static void add_sample(render_job *job, rtk_film_tile *tile, int x, int y, float fx, float fy, float fw,
+                       const rtk_li_result *r, uint64_t *bad)
+{
+    if (!isfinite(r->radiance.r) || !isfinite(r->radiance.g) || !isfinite(r->radiance.b)) {
+        (*bad)++;
+        return;
+    }
+    float values[RTK_FILM_CHANNELS];
+    values[0] = r->radiance.r, values[1] = r->radiance.g, values[2] = r->radiance.b;
+    values[3] = r->albedo.r, values[4] = r->albedo.g, values[5] = r->albedo.b;
+    values[6] = r->normal.x, values[7] = r->normal.y, values[8] = r->normal.z;
+    values[9] = isfinite(r->depth) ? r->depth : 0.0f;
+    if (job->recon == RTK_RECON_IMPORTANCE)
+        rtk_film_tile_add(tile, x, y, fw, values);
+    else
+        rtk_film_tile_splat(tile, &job->film, fx, fy, values, job->filter, job->fstate, job->radius);
+}
+
+/* Runs li_batch on the n samples gathered in b and adds them in order. */
+static void flush_batch(render_job *job, rtk_ctx *ctx, sample_batch *b, uint32_t n, rtk_film_tile *tile,
+                        uint64_t *bad)
+{
+    ctx->batch = b->state;
+    ctx->batch_rays = b->rays;
+    ctx->batch_count = n;
+    ctx->batch_current = 0;
+    rtk_ctx_load_sample(ctx, &b->state[0]);
+    batch_fn(job->integrator)(job->istate, ctx, b->rays, n, b->out);
+    ctx->batch_count = 0;
+    ctx->batch = NULL;
+    ctx->batch_rays = NULL;
+    for (uint32_t i = 0; i < n; i++)
+        add_sample(job, tile, b->px[i], b->py[i], b->fx[i], b->fy[i], b->fw[i], &b->out[i], bad);
+}
+
+/* RTK_BATCH=off renders one camera ray at a time through li even where
+ * the integrator has li_batch: the images must be equal, bit for bit. */
+static int batches_wanted(void)
+{
+    const char *e = getenv("RTK_BATCH");
+    if (!e || !*e || strcmp(e, "on") == 0)
+        return 1;
+    if (strcmp(e, "off") == 0)
+        return 0;
+    rtk_warn_once("RTK_BATCH unknown", "RTK_BATCH=%s is neither on nor off; batches stay on", e);
+    return 1;
+}
+
+static void render_tile(render_job *job, uint32_t index, rtk_ctx *ctx, sample_batch *batch, uint64_t *bad)
 {
     uint32_t tx = index % job->tiles_x, ty = index / job->tiles_x;
     uint32_t x0 = tx * TILE_SIZE, y0 = ty * TILE_SIZE;
@@ -78,44 +172,33 @@ static void render_tile(render_job *job, uint32_t index, rtk_ctx *ctx, uint64_t 
         fail(job, st);
         return;
     }
-    float values[RTK_FILM_CHANNELS];
+    uint32_t n = 0;
     for (uint32_t y = y0; y < y1; y++) {
         for (uint32_t x = x0; x < x1; x++) {
-            uint64_t pixel = (uint64_t)y * job->film.width + x;
             for (uint32_t s = 0; s < job->spp; s++) {
-                rtk_ctx_start_sample(ctx, pixel, s);
-                rtk_vec2 jitter = rtk_sample_2d(ctx);
-                float fx = (float)x + jitter.x, fy = (float)y + jitter.y, fw = 1.0f;
-                if (job->recon == RTK_RECON_IMPORTANCE) {
-                    /* The filter places the sample around the pixel centre. */
-                    float dx, dy;
-                    rtk_filter_sampler_sample(&job->fsampler, jitter, &dx, &dy, &fw);
-                    fx = (float)x + 0.5f + dx;
-                    fy = (float)y + 0.5f + dy;
-                }
-                rtk_ray ray = rtk_camera_ray(&job->camera, fx, fy);
-                ctx->film_x = fx, ctx->film_y = fy; /* for rtk_ctx_camera_differential */
-                ctx->camera_ray = ray;              /* for rtk_trace's single-sided test */
-                ctx->dim_base = ctx->dim;           /* rtk_sample_seek counts from here */
-                rtk_li_result r;
-                memset(&r, 0, sizeof r);
-                r.depth = INFINITY;
-                job->integrator->li(job->istate, ctx, &ray, &r);
-                if (!isfinite(r.radiance.r) || !isfinite(r.radiance.g) || !isfinite(r.radiance.b)) {
-                    (*bad)++;
+                float fx, fy, fw;
+                rtk_ray ray = start_sample(job, ctx, x, y, s, &fx, &fy, &fw);
+                if (!batch) {
+                    rtk_li_result r;
+                    init_result(&r);
+                    job->integrator->li(job->istate, ctx, &ray, &r);
+                    add_sample(job, &tile, (int)x, (int)y, fx, fy, fw, &r, bad);
                     continue;
                 }
-                values[0] = r.radiance.r, values[1] = r.radiance.g, values[2] = r.radiance.b;
-                values[3] = r.albedo.r, values[4] = r.albedo.g, values[5] = r.albedo.b;
-                values[6] = r.normal.x, values[7] = r.normal.y, values[8] = r.normal.z;
-                values[9] = isfinite(r.depth) ? r.depth : 0.0f;
-                if (job->recon == RTK_RECON_IMPORTANCE)
-                    rtk_film_tile_add(&tile, (int)x, (int)y, fw, values);
-                else
-                    rtk_film_tile_splat(&tile, &job->film, fx, fy, values, job->filter, job->fstate, job->radius);
+                rtk_ctx_save_sample(ctx, &batch->state[n]);
+                batch->rays[n] = ray;
+                init_result(&batch->out[n]);
+                batch->fx[n] = fx, batch->fy[n] = fy, batch->fw[n] = fw;
+                batch->px[n] = (int)x, batch->py[n] = (int)y;
+                if (++n == RTK_BATCH_MAX) {
+                    flush_batch(job, ctx, batch, n, &tile, bad);
+                    n = 0;
+                }
             }
         }
     }
+    if (n)
+        flush_batch(job, ctx, batch, n, &tile, bad);
     pthread_mutex_lock(&job->merge_lock);
     job->pending[index] = tile;
     job->ready[index] = 1;
@@ -132,13 +215,19 @@ static void *worker(void *arg)
     ctx.scene = job->scene;
     ctx.camera = &job->camera;
     rtk_ctx_set_sampler(&ctx, job->sampler, job->seed, job->spp);
+    sample_batch *batch = NULL;
+    if (job->batches && !(batch = malloc(sizeof *batch))) {
+        fail(job, rtk_error(RTK_ERR_NOMEM, "out of memory for a batch of %u camera samples", RTK_BATCH_MAX));
+        return NULL;
+    }
     uint64_t bad = 0;
     for (;;) {
         uint32_t i = atomic_fetch_add(&job->next_tile, 1);
         if (i >= job->tile_count || atomic_load(&job->failed))
             break;
-        render_tile(job, i, &ctx, &bad);
+        render_tile(job, i, &ctx, batch, &bad);
     }
+    free(batch);
     pthread_mutex_lock(&job->merge_lock);
     job->rays += ctx.rays;
     job->invalid_rays += ctx.invalid_rays;
@@ -229,6 +318,7 @@ rtk_status rtk_render_film(const rtk_film_render *r, float *pixels, rtk_render_s
     job.scene = r->scene;
     job.camera = *r->camera;
     job.integrator = r->integrator;
+    job.batches = batch_fn(r->integrator) && batches_wanted();
     job.istate = r->integrator_state;
     job.filter = r->filter;
     job.fstate = r->filter_state;

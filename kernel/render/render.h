@@ -66,7 +66,27 @@ struct rtk_ctx {
     const rtk_camera *camera;
     float film_x, film_y;
     rtk_ray camera_ray;        /* that ray itself, as li received it */
+    /* Inside li_batch (render.c): the batch's camera rays and every
+     * sample's state but the current one's, which lives in the fields
+     * above (rtk_ctx_select swaps them); batch_count 0 outside. */
+    const rtk_ray *batch_rays;
+    struct rtk_sample_state *batch;
+    uint32_t batch_count, batch_current;
 };
+
+/* One sample's position in its stream and its camera ray: the fields of
+ * rtk_ctx that rtk_ctx_select saves and restores. */
+typedef struct rtk_sample_state {
+    rtk_pcg32 rng;
+    uint64_t pixel, sample, sample_hash;
+    uint32_t pass_sample, dim, dim_base;
+    float film_x, film_y;
+    rtk_ray camera_ray;
+} rtk_sample_state;
+
+/* Saves ctx's current sample into *st / makes *st ctx's current sample. */
+void rtk_ctx_save_sample(const rtk_ctx *ctx, rtk_sample_state *st);
+void rtk_ctx_load_sample(rtk_ctx *ctx, const rtk_sample_state *st);
 
 /* Picks ctx's generator, seed and samples per pixel (0 taken as 1). A
  * zeroed ctx with only seed set is the independent generator. */

@@ -267,6 +267,33 @@ void rtk_ctx_start_sample(rtk_ctx *ctx, uint64_t pixel, uint64_t sample)
     ctx->sample_hash = mix64(ctx->seed ^ mix64(pixel ^ mix64(pass)));
 }
 
+void rtk_ctx_save_sample(const rtk_ctx *ctx, rtk_sample_state *st)
+{
+    st->rng = ctx->rng;
+    st->pixel = ctx->pixel, st->sample = ctx->sample, st->sample_hash = ctx->sample_hash;
+    st->pass_sample = ctx->pass_sample, st->dim = ctx->dim, st->dim_base = ctx->dim_base;
+    st->film_x = ctx->film_x, st->film_y = ctx->film_y;
+    st->camera_ray = ctx->camera_ray;
+}
+
+void rtk_ctx_load_sample(rtk_ctx *ctx, const rtk_sample_state *st)
+{
+    ctx->rng = st->rng;
+    ctx->pixel = st->pixel, ctx->sample = st->sample, ctx->sample_hash = st->sample_hash;
+    ctx->pass_sample = st->pass_sample, ctx->dim = st->dim, ctx->dim_base = st->dim_base;
+    ctx->film_x = st->film_x, ctx->film_y = st->film_y;
+    ctx->camera_ray = st->camera_ray;
+}
+
+RTK_API void rtk_ctx_select(rtk_ctx *ctx, uint32_t i)
+{
+    if (i >= ctx->batch_count || i == ctx->batch_current)
+        return;
+    rtk_ctx_save_sample(ctx, &ctx->batch[ctx->batch_current]);
+    rtk_ctx_load_sample(ctx, &ctx->batch[i]);
+    ctx->batch_current = i;
+}
+
 RTK_API void rtk_sample_seek(rtk_ctx *ctx, uint32_t dim)
 {
     ctx->dim = ctx->dim_base + dim;

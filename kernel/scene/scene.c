@@ -48,6 +48,79 @@ RTK_API int rtk_occluded(rtk_ctx *ctx, const rtk_ray *ray)
     return rtk_bvh_any(ctx->scene, ray);
 }
 
+/* Whether rays[i] of a batch counts as a camera ray: inside li_batch when
+ * it is the ray li_batch received as rays[i], outside as for rtk_trace. */
+static int batch_camera_ray(const rtk_ctx *ctx, const rtk_ray *rays, uint32_t i)
+{
+    if (!ctx->batch_count)
+        return camera_ray(ctx, &rays[i]);
+    return ctx->scene->single_sided && ctx->camera && i < ctx->batch_count &&
+           memcmp(&rays[i], &ctx->batch_rays[i], sizeof rays[i]) == 0;
+}
+
+/* Rays [i, end) from i that share rays[i]'s validity and, in a
+ * single-sided scene, whether they are camera rays: the runs one batch
+ * traversal takes. */
+static uint32_t batch_run(const rtk_ctx *ctx, const rtk_ray *rays, uint32_t i, uint32_t count, int *valid,
+                          int *camera)
+{
+    *valid = rtk_ray_valid(&rays[i]);
+    *camera = *valid && batch_camera_ray(ctx, rays, i);
+    if (!*valid)
+        return i + 1;
+    uint32_t end = i + 1;
+    while (end < count && rtk_ray_valid(&rays[end]) && batch_camera_ray(ctx, rays, end) == *camera)
+        end++;
+    return end;
+}
+
+RTK_API uint32_t rtk_trace_batch(rtk_ctx *ctx, const rtk_ray *rays, uint32_t count, rtk_hit *hits)
+{
+    ctx->rays += count;
+    uint32_t got = 0;
+    for (uint32_t i = 0; i < count;) {
+        int valid, camera;
+        uint32_t end = batch_run(ctx, rays, i, count, &valid, &camera);
+        if (!valid) {
+            ctx->invalid_rays++;
+            hits[i].prim = hits[i].inst = RTK_INVALID_ID;
+            hits[i].t = INFINITY;
+            hits[i].u = hits[i].v = 0.0f;
+        } else {
+            if (camera)
+                rtk_alpha_camera_ray(1);
+            rtk_bvh_closest_batch(ctx->scene, rays + i, end - i, hits + i);
+            if (camera)
+                rtk_alpha_camera_ray(0);
+            for (uint32_t k = i; k < end; k++)
+                got += hits[k].prim != RTK_INVALID_ID;
+        }
+        i = end;
+    }
+    return got;
+}
+
+RTK_API uint32_t rtk_occluded_batch(rtk_ctx *ctx, const rtk_ray *rays, uint32_t count, uint8_t *occluded)
+{
+    ctx->rays += count;
+    uint32_t got = 0;
+    for (uint32_t i = 0; i < count;) {
+        uint32_t end = i;
+        while (end < count && rtk_ray_valid(&rays[end]))
+            end++;
+        if (end > i) {
+            rtk_bvh_any_batch(ctx->scene, rays + i, end - i, occluded + i);
+            for (uint32_t k = i; k < end; k++)
+                got += occluded[k];
+            i = end;
+        } else {
+            ctx->invalid_rays++;
+            occluded[i++] = 0;
+        }
+    }
+    return got;
+}
+
 RTK_API int rtk_trace_measure(rtk_ctx *ctx, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
 {
     ctx->rays++;
