@@ -55,6 +55,8 @@ typedef struct rtk_film_render {
     uint64_t seed;                         /* default 0 */
     uint32_t threads;                      /* default 1 */
     int progress;                          /* 1: progress bar on stderr; default 0 */
+    int one_ray_at_a_time;                 /* 1: li for every sample, even where the integrator
+                                              has li_batch (rtk conform compares); default 0 */
 } rtk_film_render;
 
 #define RTK_FILM_RENDER_DEFAULTS \

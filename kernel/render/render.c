@@ -318,7 +318,7 @@ rtk_status rtk_render_film(const rtk_film_render *r, float *pixels, rtk_render_s
     job.scene = r->scene;
     job.camera = *r->camera;
     job.integrator = r->integrator;
-    job.batches = batch_fn(r->integrator) && batches_wanted();
+    job.batches = batch_fn(r->integrator) && !r->one_ray_at_a_time && batches_wanted();
     job.istate = r->integrator_state;
     job.filter = r->filter;
     job.fstate = r->filter_state;

@@ -48,42 +48,101 @@ static void basis(rtk_vec3 n, rtk_vec3 *b1, rtk_vec3 *b2)
     *b2 = rtk_vec3_make(b, s + n.y * n.y * a, -n.y);
 }
 
+/* The hit's surface (the current sample's camera ray) into out's AOVs. */
+static void surface(const ao *a, rtk_ctx *ctx, const rtk_ray *ray, const rtk_hit *hit, rtk_surface *s,
+                    rtk_li_result *out)
+{
+    /* Textures only matter with albedo: then the pixel footprint picks their detail. */
+    rtk_ray_differential diff;
+    int has_diff = a->albedo && rtk_ctx_camera_differential(ctx, &diff);
+    rtk_surface_at_footprint(rtk_ctx_scene(ctx), ray, has_diff ? &diff : NULL, hit, s);
+    out->albedo = s->base_color;
+    out->normal = s->ns;
+    out->depth = hit->t * rtk_vec3_length(ray->dir);
+}
+
+/* Occlusion ray i of a->rays around s (the current sample's draws in
+ * order); 0 when its direction is below the geometric surface (possible
+ * with interpolated normals): it would start inside and counts as blocked. */
+static int occlusion_ray(const ao *a, rtk_ctx *ctx, const rtk_surface *s, rtk_vec3 b1, rtk_vec3 b2, rtk_ray *r)
+{
+    rtk_vec2 u = rtk_sample_2d(ctx);
+    float rad = sqrtf(u.x), phi = 2.0f * (float)RTK_PI * u.y;
+    float z = sqrtf(fmaxf(0.0f, 1.0f - u.x));
+    r->org = rtk_offset_ray_origin(s->p, s->ng);
+    r->tmin = 0.0f;
+    r->tmax = a->distance;
+    r->dir = rtk_vec3_add(rtk_vec3_add(rtk_vec3_scale(b1, rad * cosf(phi)), rtk_vec3_scale(b2, rad * sinf(phi))),
+                          rtk_vec3_scale(s->ns, z));
+    return rtk_vec3_dot(r->dir, s->ng) > 0.0f;
+}
+
+static void finish(const ao *a, int open, rtk_rgb base_color, rtk_li_result *out)
+{
+    float v = (float)open / (float)a->rays;
+    out->radiance = a->albedo ? rtk_rgb_scale(base_color, v) : rtk_rgb_make(v, v, v);
+}
+
 static void ao_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
 {
     const ao *a = state;
     rtk_hit hit;
     if (!rtk_trace(ctx, ray, &hit))
         return;
-    /* Textures only matter with albedo: then the pixel footprint picks their detail. */
-    rtk_ray_differential diff;
-    int has_diff = a->albedo && rtk_ctx_camera_differential(ctx, &diff);
     rtk_surface s;
-    rtk_surface_at_footprint(rtk_ctx_scene(ctx), ray, has_diff ? &diff : NULL, &hit, &s);
+    surface(a, ctx, ray, &hit, &s, out);
     rtk_vec3 b1, b2;
     basis(s.ns, &b1, &b2);
-    rtk_ray r;
-    r.org = rtk_offset_ray_origin(s.p, s.ng);
-    r.tmin = 0.0f;
-    r.tmax = a->distance;
     int open = 0;
     for (int i = 0; i < a->rays; i++) {
-        rtk_vec2 u = rtk_sample_2d(ctx);
-        float rad = sqrtf(u.x), phi = 2.0f * (float)RTK_PI * u.y;
-        float z = sqrtf(fmaxf(0.0f, 1.0f - u.x));
-        r.dir = rtk_vec3_add(rtk_vec3_add(rtk_vec3_scale(b1, rad * cosf(phi)), rtk_vec3_scale(b2, rad * sinf(phi))),
-                             rtk_vec3_scale(s.ns, z));
-        /* A direction below the geometric surface (possible with
-         * interpolated normals) would start inside: it counts as blocked. */
-        if (rtk_vec3_dot(r.dir, s.ng) <= 0.0f)
-            continue;
-        if (!rtk_occluded(ctx, &r))
+        rtk_ray r;
+        if (occlusion_ray(a, ctx, &s, b1, b2, &r) && !rtk_occluded(ctx, &r))
             open++;
     }
-    float v = (float)open / (float)a->rays;
-    out->radiance = a->albedo ? rtk_rgb_scale(s.base_color, v) : rtk_rgb_make(v, v, v);
-    out->albedo = s.base_color;
-    out->normal = s.ns;
-    out->depth = hit.t * rtk_vec3_length(ray->dir);
+    finish(a, open, s.base_color, out);
+}
+
+/* Occlusion rays gathered from several samples before one batch call. */
+#define AO_WAVE 1024u
+
+/* The camera rays traced as a batch; then every hit's occlusion rays,
+ * sample after sample, traced in waves of AO_WAVE. */
+static void ao_li_batch(const void *state, rtk_ctx *ctx, const rtk_ray *rays, uint32_t count, rtk_li_result *out)
+{
+    const ao *a = state;
+    rtk_hit hits[RTK_BATCH_MAX];
+    int open[RTK_BATCH_MAX] = {0};
+    rtk_ray wave[AO_WAVE];
+    uint16_t owner[AO_WAVE];
+    uint8_t blocked[AO_WAVE];
+    uint32_t n = 0;
+    rtk_trace_batch(ctx, rays, count, hits);
+    for (uint32_t i = 0; i < count; i++) {
+        if (hits[i].prim == RTK_INVALID_ID)
+            continue;
+        rtk_ctx_select(ctx, i);
+        rtk_surface s;
+        surface(a, ctx, &rays[i], &hits[i], &s, &out[i]);
+        rtk_vec3 b1, b2;
+        basis(s.ns, &b1, &b2);
+        for (int k = 0; k < a->rays; k++) {
+            if (!occlusion_ray(a, ctx, &s, b1, b2, &wave[n]))
+                continue;
+            owner[n++] = (uint16_t)i;
+            if (n == AO_WAVE) {
+                rtk_occluded_batch(ctx, wave, n, blocked);
+                for (uint32_t j = 0; j < n; j++)
+                    open[owner[j]] += !blocked[j];
+                n = 0;
+            }
+        }
+    }
+    rtk_occluded_batch(ctx, wave, n, blocked);
+    for (uint32_t j = 0; j < n; j++)
+        open[owner[j]] += !blocked[j];
+    for (uint32_t i = 0; i < count; i++)
+        if (hits[i].prim != RTK_INVALID_ID)
+            finish(a, open[i], out[i].albedo, &out[i]);
 }
 
 static void ao_destroy(void *state)
@@ -105,6 +164,7 @@ static const rtk_integrator_fns ao_fns = {
     .create = ao_create,
     .needs = ao_needs,
     .li = ao_li,
+    .li_batch = ao_li_batch,
     .destroy = ao_destroy,
 };
 

@@ -31,12 +31,9 @@ static uint32_t headlight_needs(const void *state)
     return RTK_NEED_NORMALS | RTK_NEED_MATERIALS | RTK_NEED_TEXTURES;
 }
 
-static void headlight_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
+/* The camera ray's colour at its hit (the current sample's). */
+static void shade(const headlight *h, rtk_ctx *ctx, const rtk_ray *ray, rtk_hit hit, rtk_li_result *out)
 {
-    const headlight *h = state;
-    rtk_hit hit;
-    if (!rtk_trace(ctx, ray, &hit))
-        return;
     /* The camera ray's pixel footprint picks the texture detail. */
     rtk_ray_differential diff;
     int has_diff = rtk_ctx_camera_differential(ctx, &diff);
@@ -49,6 +46,27 @@ static void headlight_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rt
     out->albedo = s.base_color;
     out->normal = s.ns;
     out->depth = hit.t * rtk_vec3_length(ray->dir);
+}
+
+static void headlight_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
+{
+    rtk_hit hit;
+    if (rtk_trace(ctx, ray, &hit))
+        shade(state, ctx, ray, hit, out);
+}
+
+/* The camera rays traced as one batch, then shaded one by one. */
+static void headlight_li_batch(const void *state, rtk_ctx *ctx, const rtk_ray *rays, uint32_t count,
+                               rtk_li_result *out)
+{
+    rtk_hit hits[RTK_BATCH_MAX];
+    rtk_trace_batch(ctx, rays, count, hits);
+    for (uint32_t i = 0; i < count; i++) {
+        if (hits[i].prim == RTK_INVALID_ID)
+            continue;
+        rtk_ctx_select(ctx, i);
+        shade(state, ctx, &rays[i], hits[i], &out[i]);
+    }
 }
 
 static void headlight_destroy(void *state)
@@ -66,6 +84,7 @@ static const rtk_integrator_fns headlight_fns = {
     .create = headlight_create,
     .needs = headlight_needs,
     .li = headlight_li,
+    .li_batch = headlight_li_batch,
     .destroy = headlight_destroy,
 };
 

@@ -7,6 +7,7 @@
 #include "conform.h"
 
 #include <ctype.h>
+#include <stddef.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -167,6 +168,43 @@ static int emitters_only(const rtk_plugin *p, const char *label)
     return 0;
 }
 
+/* li_batch gives what li gives, bit for bit: job (rendered through
+ * li_batch into batched) again one ray at a time into single, for each
+ * sampler; the pixels and the rays traced must be equal. */
+static void check_batches(rtk_conform_runner *r, rtk_film_render *job, float *batched, float *single, size_t count,
+                          const char *label)
+{
+    static const rtk_sampler_type samplers[] = {RTK_SAMPLER_INDEPENDENT, RTK_SAMPLER_STRATIFIED, RTK_SAMPLER_SOBOL};
+    static const char *const names[] = {"independent", "stratified", "sobol"};
+    job->threads = 1;
+    for (size_t k = 0; k < sizeof samplers / sizeof samplers[0]; k++) {
+        rtk_render_stats sa, sb;
+        job->sampler = samplers[k];
+        job->one_ray_at_a_time = 0;
+        rtk_status s1 = rtk_render_film(job, batched, &sa);
+        job->one_ray_at_a_time = 1;
+        rtk_status s2 = s1 == RTK_OK ? rtk_render_film(job, single, &sb) : s1;
+        char name[256];
+        snprintf(name, sizeof name, "li_batch equals li bit for bit (%s sampler) [%s]", names[k], label);
+        if (s1 != RTK_OK || s2 != RTK_OK) {
+            rtk_conform_check(r, 0, name, "%s", rtk_error_message());
+            continue;
+        }
+        size_t differ = 0, first = count;
+        for (size_t i = 0; i < count; i++)
+            if (memcmp(&batched[i], &single[i], sizeof(float)) != 0 && differ++ == 0)
+                first = i;
+        rtk_conform_check(r, differ == 0 && sa.rays == sb.rays && sa.invalid_rays == sb.invalid_rays, name,
+                          "%zu of %zu values differ (first: pixel %zu channel %zu, %.9g through li_batch, %.9g "
+                          "through li); rays %llu against %llu",
+                          differ, count, first / RTK_FILM_CHANNELS, first % RTK_FILM_CHANNELS,
+                          differ ? (double)batched[first] : 0.0, differ ? (double)single[first] : 0.0,
+                          (unsigned long long)sa.rays, (unsigned long long)sb.rays);
+    }
+    job->sampler = RTK_SAMPLER_INDEPENDENT;
+    job->one_ray_at_a_time = 0;
+}
+
 /* The generic checks of one instance of the integrator p, label its
  * parameter set. */
 static void check_integrator(rtk_conform_runner *r, const rtk_plugin *p, void *state, const char *label)
@@ -235,6 +273,8 @@ static void check_integrator(rtk_conform_runner *r, const rtk_plugin *p, void *s
             rtk_conform_check(r, memcmp(a, b, count * sizeof(float)) == 0, name, "images differ");
             snprintf(name, sizeof name, "traces rays through the kernel [%s]", label);
             rtk_conform_check(r, sa.rays > 0, name, "no ray was traced");
+            if (f->size >= offsetof(rtk_integrator_fns, li_batch) + sizeof f->li_batch && f->li_batch)
+                check_batches(r, &job, a, b, count, label);
         }
         free(a);
         free(b);
