@@ -57,6 +57,43 @@ RTK_KERNEL_API void rtk_instance_triangle(const rtk_scene *s, uint32_t inst, uin
  * counting each mesh once. */
 RTK_KERNEL_API void rtk_scene_memory(const rtk_scene *s, size_t *geometry, size_t *bvh, size_t *instances);
 
+/* ---- build phases (build_phase.c) ---- */
+
+/* Phases a build log keeps; later marks are counted, their time goes to
+ * the last phase kept. */
+#define RTK_BUILD_LOG_MAX 32
+/* One phase: name (a static string), wall-clock seconds, and where it ran. */
+typedef struct rtk_build_phase_time {
+    const char *name;
+    double seconds;
+    int parallel; /* 1: on several threads, 0: on one, -1: not known */
+    int builder;  /* marked by the builder (rtk_build_phase), not the kernel */
+} rtk_build_phase_time;
+/* A build's phases in the order they ran (CLOCK_MONOTONIC), as
+ * rtk_bvh_build records them into scene->build_log. A build inside
+ * another's (an instanced scene's meshes) appends to the open log. A
+ * zeroed log is closed. [one build at a time] */
+typedef struct rtk_build_log {
+    rtk_build_phase_time phases[RTK_BUILD_LOG_MAX];
+    uint32_t count;
+    uint32_t dropped;  /* marks past RTK_BUILD_LOG_MAX */
+    double seconds;    /* from the outermost begin to its end */
+    double begun, at;  /* when the build and the open phase started */
+    uint32_t depth;    /* builds open (0: closed, marks are ignored) */
+} rtk_build_log;
+/* Opens log for a build (NULL: nothing): clears it unless a build is
+ * already open, whose log it then extends. */
+RTK_KERNEL_API void rtk_build_log_begin(rtk_build_log *log);
+/* Ends the open phase and starts phase name (parallel as in
+ * rtk_build_phase_time); nothing when log is NULL or closed. */
+RTK_KERNEL_API void rtk_build_log_mark(rtk_build_log *log, const char *name, int parallel, int builder);
+/* Ends the build that rtk_build_log_begin opened: the outermost closes
+ * the open phase and sets seconds. */
+RTK_KERNEL_API void rtk_build_log_end(rtk_build_log *log);
+/* 1 when rtk_parallel_ranges(n, threads, min_chunk, ...) runs on
+ * several threads: a phase's parallel flag. */
+int rtk_ranges_parallel(uint32_t n, uint32_t threads, uint32_t min_chunk);
+
 /* ---- BVH (bvh.c) ---- */
 
 /* Builds scene's BVH with an accelerator plugin, checks the tree the plugin

@@ -958,13 +958,21 @@ rtk_status rtk_bvh_finish(rtk_scene *s, uint32_t threads, void *spare, size_t sp
             return st;
         rtk_warn_once("wide BVH", "%s; tracing the binary tree", rtk_error_message());
     }
-    if (!validated && (st = rtk_bvh_validate_scene(s, threads, &s->bvh_depth)) != RTK_OK)
-        return st;
+    if (!validated) {
+        rtk_build_log_mark(s->build_log, "kernel: validation",
+                           threads > 1 && s->node_count >= VALIDATION_PARALLEL_NODES, 0);
+        if ((st = rtk_bvh_validate_scene(s, threads, &s->bvh_depth)) != RTK_OK)
+            return st;
+    }
+    rtk_build_log_mark(s->build_log, "kernel: leaf check", rtk_ranges_parallel(s->node_count, threads, 65536), 0);
     return rtk_bvh_check_leaves(s, threads);
 }
 
-rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads)
+/* rtk_bvh_build, its phases marked in s->build_log (opened by the caller). */
+static rtk_status build_tree(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads)
 {
+    rtk_build_log *log = s->build_log;
+    rtk_build_log_mark(log, "kernel: allocate", 0, 0);
     rtk_bvh_release(s);
     free(s->nodes);
     free(s->prim_ids);
@@ -1022,8 +1030,10 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
         st = RTK_ERR_NOMEM;
         goto fail;
     }
-    if (bounds || vertices)
+    if (bounds || vertices) {
+        rtk_build_log_mark(log, "kernel: builder inputs", rtk_ranges_parallel(n, a.thread_count, 8192), 0);
         rtk_bvh_prepare_inputs(s, a.thread_count, bounds, centroids, vertices);
+    }
     a.prim_bounds = bounds;
     double t1 = rtk_now();
     a.centroids = centroids;
@@ -1038,6 +1048,8 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
         if (at < input_bytes)
             a.scratch = inputs + at, a.scratch_bytes = input_bytes - at;
     }
+    a.phase_log = log;
+    rtk_build_log_mark(log, "builder: create", 0, 0);
     st = fns->create(params, &state);
     if (st != RTK_OK) {
         char msg[2048];
@@ -1045,7 +1057,12 @@ rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_param
         st = rtk_error(st, "accelerator '%s' failed to start: %s", plugin->name, msg);
         goto fail;
     }
+    /* Until the builder's first mark (all of a builder that marks none):
+     * on how many threads is its own affair. */
+    rtk_build_log_mark(log, "builder: unmarked", a.thread_count > 1 ? -1 : 0, 0);
     st = fns->build(state, &a);
+    rtk_build_log_mark(log, own_traversal(fns) && a.node_count == 0 ? "kernel: free inputs" : "kernel: trim nodes",
+                       0, 0);
     const rtk_accelerator_fns *own = own_traversal(fns);
     if (st != RTK_OK || !own)
         fns->destroy(state);
@@ -1109,5 +1126,13 @@ fail:
     free(inputs);
     free(a.nodes);
     free(a.prim_order);
+    return st;
+}
+
+rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads)
+{
+    rtk_build_log_begin(s->build_log);
+    rtk_status st = build_tree(s, plugin, params, threads);
+    rtk_build_log_end(s->build_log);
     return st;
 }

@@ -941,6 +941,11 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
     atomic_init(&job.next, 0u);
     double times[4];
     times[0] = rtk_now();
+    /* Phases as they run here: the plan's walks split below PLAN_FRONTIER
+     * on large trees; the items' passes on workers threads. */
+    rtk_build_log *log = s->build_log;
+    rtk_build_log_mark(log, validate ? "wide: plan and validation" : "wide: plan",
+                       threads > 1 && s->node_count >= PLAN_PARALLEL_NODES, 0);
     const rtk_status planned =
         c.tri_total && c.plan ? plan_validated(&c, threads, validate, &s->bvh_depth) : RTK_ERR_NOMEM;
     if (planned == RTK_ERR_PLUGIN) {
@@ -956,6 +961,7 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
          * the items below it, on threads; then every range and index, in
          * the serial order. */
         times[1] = rtk_now();
+        rtk_build_log_mark(log, "wide: top nodes", 0, 0);
         pl.grain = s->triangle_count / RTK_WIDE_GRAIN;
         plan_node(&c, &pl, 0, 0);
         c.failed |= pl.failed;
@@ -971,7 +977,9 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
         if (!c.failed) {
             order_items(&c, pl.items, pl.item_count, order);
             job.proto = &c, job.items = pl.items, job.order = order, job.item_count = pl.item_count;
+            rtk_build_log_mark(log, "wide: counting", workers > 1, 0);
             rtk_parallel_ranges(workers, workers, 1, count_worker, &job);
+            rtk_build_log_mark(log, "wide: arrays", 0, 0);
             c.failed = !number_nodes(&c, &pl);
         }
         /* Before anything is written: references address at most
@@ -999,7 +1007,9 @@ rtk_status rtk_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t sp
             c.failed = 1;
         } else {
             atomic_store(&job.next, 0u);
+            rtk_build_log_mark(log, "wide: collapse and leaves", workers > 1, 0);
             rtk_parallel_ranges(workers, workers, 1, wide_worker, &job);
+            rtk_build_log_mark(log, "wide: links", 0, 0);
             times[3] = rtk_now();
             rtk_log(RTK_LOG_DEBUG,
                     "wide BVH: plan%s %.2f ms, counting %.2f ms, collapse %.2f ms (%u items, %u threads)",

@@ -286,22 +286,33 @@ rtk_status rtk_instances_build(rtk_scene *s, const rtk_plugin *plugin, const rtk
                          "%s: the scene has %u instances, and accelerator '%s' traverses with its own code, which "
                          "rtk cannot nest under a top level: pick median, sah or lbvh",
                          s->path, s->instance_count, plugin->name);
+    /* Phases: the scene's own triangles and every mesh append to the
+     * scene's log, so that a phase's time is its sum over the meshes; the
+     * top level is one phase (its builder's marks are not recorded). */
+    rtk_build_log *log = s->build_log;
+    rtk_build_log_begin(log);
     int all_cached = 1;
     rtk_bvh_cache_use use;
     rtk_status st = RTK_OK;
     if (s->triangle_count) {
-        if ((st = rtk_bvh_build_cached_own(s, plugin, params, threads, dir, &use)) != RTK_OK)
-            return st;
-        all_cached &= use.from_cache;
+        st = rtk_bvh_build_cached_own(s, plugin, params, threads, dir, &use);
+        all_cached &= st == RTK_OK && use.from_cache;
     }
-    for (uint32_t i = 0; i < s->mesh_count; i++) {
-        if ((st = rtk_bvh_build_cached_own(s->meshes[i], plugin, params, threads, dir, &use)) != RTK_OK)
-            return st;
-        all_cached &= use.from_cache;
+    for (uint32_t i = 0; i < s->mesh_count && st == RTK_OK; i++) {
+        rtk_scene *mesh = s->meshes[i];
+        mesh->build_log = log;
+        st = rtk_bvh_build_cached_own(mesh, plugin, params, threads, dir, &use);
+        mesh->build_log = NULL;
+        all_cached &= st == RTK_OK && use.from_cache;
     }
-    if (from_cache)
+    if (st == RTK_OK && from_cache)
         *from_cache = all_cached && dir;
-    return build_top(s, plugin, params, threads);
+    if (st == RTK_OK) {
+        rtk_build_log_mark(log, "instances: top level", threads > 1 ? -1 : 0, 0);
+        st = build_top(s, plugin, params, threads);
+    }
+    rtk_build_log_end(log);
+    return st;
 }
 
 int rtk_instance_local_ray(const rtk_instance *in, const rtk_ray *r, rtk_ray *out)

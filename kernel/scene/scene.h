@@ -202,6 +202,9 @@ struct rtk_scene {
     void *own_state;
     /* The binary tree collapsed for SIMD traversal (kernel/accel/bvh_wide_build.c), or NULL. */
     struct rtk_wide_bvh *wide;
+    /* Where builds of this scene record their phases (kernel/accel/accel.h),
+     * or NULL: not recorded. Set by whoever reads them. [not owned] */
+    struct rtk_build_log *build_log;
     /* Emitters and their sampling table (lights.c); NULL unless needed. */
     struct rtk_lights *lights;
     /* Point, spot and directional lights (lights.c). */

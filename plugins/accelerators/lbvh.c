@@ -669,11 +669,22 @@ static void run_moves(build *b)
 static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
 {
     build *b = ctx;
-    morton_codes(b, team, t, size);
-    sort_codes(b, team, t, size);
+    /* Member 0, the thread that called build, marks the phases: each
+     * ends at a sync, or at member 0's own share of a pass. */
+    const int many = size > 1;
     if (t == 0)
+        rtk_build_phase(b->a, "lbvh: morton codes", many);
+    morton_codes(b, team, t, size);
+    if (t == 0)
+        rtk_build_phase(b->a, "lbvh: sort", many);
+    sort_codes(b, team, t, size);
+    if (t == 0) {
+        rtk_build_phase(b->a, "lbvh: top splits", 0);
         plan(b, size > 1 ? LBVH_GRAIN : UINT32_MAX);
+    }
     rtk_team_sync(team);
+    if (t == 0)
+        rtk_build_phase(b->a, "lbvh: subtrees", many);
     for (;;) {
         uint32_t k = atomic_fetch_add(&b->next_task, 1);
         if (k >= b->task_count)
@@ -685,6 +696,7 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
     }
     rtk_team_sync(team);
     if (t == 0) {
+        rtk_build_phase(b->a, "lbvh: gaps", 0);
         /* The slots each subtree's region leaves unused, summed before it. */
         uint32_t shift = 0;
         for (uint32_t k = 0; k < b->task_count; k++) {
@@ -695,6 +707,8 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
         b->gap_total = shift;
     }
     rtk_team_sync(team);
+    if (t == 0)
+        rtk_build_phase(b->a, "lbvh: renumber", many);
     /* Each subtree's inner nodes (the root's children included) point
      * where their children will be. */
     rtk_bvh_node *nodes = b->a->nodes;
@@ -712,9 +726,13 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
                 nodes[i].offset -= x->shift;
     }
     rtk_team_sync(team);
-    if (t == 0)
+    if (t == 0) {
+        rtk_build_phase(b->a, "lbvh: top bounds and moves plan", 0);
         plan_moves(b);
+    }
     rtk_team_sync(team);
+    if (t == 0)
+        rtk_build_phase(b->a, "lbvh: moves", many);
     run_moves(b);
 }
 

@@ -87,6 +87,7 @@ static void set_bounds(rtk_bvh_node *n, const rtk_build_args *a, uint32_t begin,
 static rtk_status median_build(void *state, rtk_build_args *a)
 {
     const median *m = state;
+    rtk_build_phase(a, "median: tree", 0);
     for (uint32_t i = 0; i < a->prim_count; i++)
         a->prim_order[i] = i;
     /* Depth-first with an explicit stack; it never exceeds the tree depth,

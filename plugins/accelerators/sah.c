@@ -896,11 +896,14 @@ static rtk_status run_build(build *b, job *root)
 {
     const uint32_t threads = build_threads(b->a), n = b->a->prim_count;
     if (threads <= 1) {
+        rtk_build_phase(b->a, "sah: tree", 0);
         b->dense_end = build_subtree(b, root);
         return RTK_OK;
     }
-    if (!b->opt->sweep && n > SAH_SMALL && root->depth < SAH_HALVING_DEPTH)
+    if (!b->opt->sweep && n > SAH_SMALL && root->depth < SAH_HALVING_DEPTH) {
+        rtk_build_phase(b->a, "sah: root bins", 1);
         presplit_root(b, root, threads);
+    }
     queue q;
     /* Queued jobs cover disjoint ranges of at least SAH_SPAWN_MIN. */
     q.jobs = malloc(sizeof *q.jobs * (n / SAH_SPAWN_MIN + 2));
@@ -912,6 +915,9 @@ static rtk_status run_build(build *b, job *root)
     atomic_init(&q.pending, 0u);
     b->q = &q;
     queue_push(&q, root);
+    /* The root's partition, and the splits above the first threads' worth
+     * of subtrees, run on fewer threads than the team: counted here. */
+    rtk_build_phase(b->a, "sah: subtrees", 1);
     rtk_team_run(threads, work, b);
     pthread_cond_destroy(&q.wake);
     pthread_mutex_destroy(&q.lock);
@@ -1064,6 +1070,7 @@ static rtk_status build_binned(build *b, job *root)
         fp[t] = (fill_part){.b = b, .begin = (uint32_t)((uint64_t)n * t / parts),
                             .end = (uint32_t)((uint64_t)n * (t + 1) / parts)};
     fill_job fill = {fp, parts};
+    rtk_build_phase(a, "sah: refs", parts > 1);
     rtk_team_run(parts, fill_member, &fill);
     box_empty(&root->geom), box_empty(&root->cent);
     for (uint32_t t = 0; t < parts; t++) {
@@ -1095,6 +1102,7 @@ static rtk_status build_sweep(build *b, job *root)
         st = rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
         goto done;
     }
+    rtk_build_phase(a, "sah: sort centroids", 0);
     for (uint32_t i = 0; own && i < n; i++)
         own[i] = prim_box(a, i);
     for (int k = 0; k < 3; k++) {
@@ -1141,10 +1149,12 @@ static rtk_status sah_build(void *state, rtk_build_args *a)
         add_segment(&b, 0, 1, 0);
     }
     rtk_status st = b.opt->sweep ? build_sweep(&b, &root) : build_binned(&b, &root);
-    if (st == RTK_OK && dense)
+    if (st == RTK_OK && dense) {
         a->node_count = b.dense_end;
-    else if (st == RTK_OK)
+    } else if (st == RTK_OK) {
+        rtk_build_phase(a, "sah: close gaps", 0);
         close_gaps(a, b.segs, atomic_load(&seg_count));
+    }
     free(b.segs);
     return st;
 }
