@@ -148,7 +148,11 @@ static const cli_command commands[] = {
     {"conform", "PLUGIN [options]", "run the conformance checks on a plugin (.so path or name)", no_options, NULL,
      run_conform},
     {"bench", "MESH.obj|CONFIG.cfg [options]", "time accelerators on the standard recipe (docs/bench-vs-embree.md)", bench_options,
-     NULL, run_bench},
+     "With -v (--verbose) the report ends with each build's phases: median ms over the\n"
+     "runs, share of the build, whether each ran on one thread or several, and on more\n"
+     "than one thread the serial fraction (time in one-thread phases over the same\n"
+     "accelerator's one-thread build; give 1 among --threads)",
+     run_bench},
     {"diff", "A B [options]", "compare an image with a reference: RMSE, relMSE, PSNR and more per channel",
      diff_options,
      "Compares image A with the reference B (any format OpenImageIO reads): RMSE, MSE,\n"

@@ -436,6 +436,18 @@ typedef struct bench_row {
     int done;                 /* measured: in the report */
 } bench_row;
 
+/* With --verbose: one row's build phases over its runs, merged by name
+ * (a name marked more than once in a build, as an instanced scene's
+ * meshes do, adds up). */
+typedef struct bench_phases {
+    const char *names[RTK_BUILD_LOG_MAX];
+    int parallel[RTK_BUILD_LOG_MAX]; /* 1 several threads, 0 one, -1 not known or mixed */
+    uint32_t count;
+    double *seconds;                 /* phase k, round i at k * runs + i */
+    double *serial, *unknown;        /* per round: seconds in phases on one thread, and not known */
+    uint32_t dropped;                /* marks past what a build log keeps */
+} bench_phases;
+
 /* AO rays made from one set of primary hits, shared by every tracer whose
  * hits are the same (prim, instance and the bits of t: what the rays are
  * made from), so that rtk's builders, which agree to the bit, hold one
@@ -466,6 +478,7 @@ typedef struct bench {
     double *times, *cpu_times;            /* one thread count's passes: accelerator a, round i at a * runs + i */
     double *build_times, *build_cpu;      /* every row's builds: row r, round i at r * runs + i */
     bench_row *rows;
+    bench_phases *phases;                 /* per row with --verbose, else NULL */
     size_t rows_done;
     uint64_t hash;
 } bench;
@@ -486,6 +499,12 @@ static void bench_free(bench *b)
     free(b->build_times);
     free(b->build_cpu);
     free(b->rows);
+    for (size_t r = 0; b->phases && r < b->accel_count * b->thread_count; r++) {
+        free(b->phases[r].seconds);
+        free(b->phases[r].serial);
+        free(b->phases[r].unknown);
+    }
+    free(b->phases);
     rtk_scene_free(b->scene);
     rtk_config_destroy(b->config);
 }
@@ -756,19 +775,66 @@ static void log_work(const bench *b, const bench_accel *a, uint32_t threads, con
 }
 
 /* One timed build of row's accelerator on row's threads: wall-clock and
- * process CPU seconds into *wall and *cpu. The previous tree is torn down
- * outside the timed span. */
-static rtk_status timed_build(bench *b, const bench_row *row, double *wall, double *cpu)
+ * process CPU seconds into *wall and *cpu, its phases into log (NULL:
+ * not recorded). The previous tree is torn down outside the timed span. */
+static rtk_status timed_build(bench *b, const bench_row *row, double *wall, double *cpu, rtk_build_log *log)
 {
     rtk_scene *s = b->scene;
     const bench_accel *a = row->accel;
     rtk_bvh_release(s);
+    s->build_log = log;
     double c0 = cpu_now(CLOCK_PROCESS_CPUTIME_ID), t0 = rtk_now();
     rtk_status st = s->instance_count ? rtk_instances_build(s, a->plugin, a->params, row->threads, NULL, NULL)
                                       : rtk_bvh_build(s, a->plugin, a->params, row->threads);
     *wall = rtk_now() - t0;
     *cpu = cpu_now(CLOCK_PROCESS_CPUTIME_ID) - c0;
+    s->build_log = NULL;
     return st;
+}
+
+/* Room for each row's phases over runs rounds. 0 when out of memory. */
+static int phases_init(bench *b)
+{
+    const size_t rows = b->accel_count * b->thread_count, runs = b->opt.runs;
+    b->phases = rtk_calloc(rows, sizeof *b->phases);
+    if (!b->phases)
+        return 0;
+    for (size_t r = 0; r < rows; r++) {
+        bench_phases *p = &b->phases[r];
+        p->seconds = rtk_calloc(RTK_BUILD_LOG_MAX * runs, sizeof *p->seconds);
+        p->serial = rtk_calloc(runs, sizeof *p->serial);
+        p->unknown = rtk_calloc(runs, sizeof *p->unknown);
+        if (!p->seconds || !p->serial || !p->unknown)
+            return 0;
+    }
+    return 1;
+}
+
+/* Adds round i's log to p: each phase to the one of its name (a new name
+ * gets the next place while there is one, the rest go to the last), its
+ * time to the round's serial or not-known sum. */
+static void phases_add(bench_phases *p, uint32_t runs, uint32_t i, const rtk_build_log *log)
+{
+    p->dropped += log->dropped;
+    for (uint32_t k = 0; k < log->count; k++) {
+        const rtk_build_phase_time *ph = &log->phases[k];
+        uint32_t j = 0;
+        while (j < p->count && strcmp(p->names[j], ph->name) != 0)
+            j++;
+        if (j == p->count && p->count < RTK_BUILD_LOG_MAX) {
+            p->names[p->count] = ph->name;
+            p->parallel[p->count++] = ph->parallel;
+        } else if (j == p->count) {
+            j = p->count - 1;
+        }
+        if (p->parallel[j] != ph->parallel)
+            p->parallel[j] = -1;
+        p->seconds[j * runs + i] += ph->seconds;
+        if (ph->parallel == 0)
+            p->serial[i] += ph->seconds;
+        else if (ph->parallel < 0)
+            p->unknown[i] += ph->seconds;
+    }
 }
 
 /* The builds of every row, in rounds: for each thread count, each round
@@ -788,11 +854,16 @@ static rtk_status measure_builds(bench *b, size_t *failed)
                 const size_t r = a * b->thread_count + t;
                 bench_row *row = &b->rows[r];
                 progress(b, row->accel, row->threads, "build round", i + 1, runs);
-                rtk_status st = timed_build(b, row, &b->build_times[r * runs + i], &b->build_cpu[r * runs + i]);
+                rtk_build_log log;
+                memset(&log, 0, sizeof log);
+                rtk_status st = timed_build(b, row, &b->build_times[r * runs + i], &b->build_cpu[r * runs + i],
+                                            b->phases ? &log : NULL);
                 if (st != RTK_OK) {
                     *failed = r;
                     return st;
                 }
+                if (b->phases)
+                    phases_add(&b->phases[r], runs, i, &log);
             }
         }
     }
@@ -918,7 +989,7 @@ static rtk_status trace_setup(trace_round *tr, size_t a)
     double wall, cpu;
     rtk_status st = rtk_accel_set_init(&tr->sets[a], b->scene);
     if (st == RTK_OK)
-        st = timed_build(b, row, &wall, &cpu);
+        st = timed_build(b, row, &wall, &cpu, NULL);
     if (st != RTK_OK)
         return st;
     tree_stats(b->scene, row);
@@ -995,6 +1066,62 @@ static double mrays(uint64_t rays, double ms)
 static double mean_ao(const bench_row *r)
 {
     return r->ao_rays ? (double)r->ao_unoccluded / (double)r->ao_rays : 0.0;
+}
+
+/* Median of n values copied out of v (v keeps its order); tmp holds n. */
+static double median_of(const double *v, uint32_t n, double *tmp)
+{
+    memcpy(tmp, v, sizeof *tmp * n);
+    return median(tmp, n);
+}
+
+/* With --verbose: each row's build phases (median ms over the rounds,
+ * share of the row's median build, where each ran) and, on more than
+ * one thread, the serial fraction: the phases' time on one thread over
+ * the same accelerator's one-thread build. */
+static void print_phases(const bench *b, FILE *out, int w)
+{
+    const uint32_t runs = b->opt.runs;
+    double *tmp = rtk_alloc(sizeof *tmp * runs);
+    if (!tmp)
+        return;
+    fprintf(out, "\nbuild phases (median ms of %u builds; share of the row's build_ms; threads: where the phase "
+            "ran, ? = not known)\n", runs);
+    for (size_t r = 0; r < b->accel_count * b->thread_count; r++) {
+        const bench_row *row = &b->rows[r];
+        const bench_phases *p = &b->phases[r];
+        if (!row->done)
+            continue;
+        fprintf(out, "%s, %u thread%s: build %.2f ms\n", row->accel->label, row->threads,
+                row->threads == 1 ? "" : "s", row->build_ms);
+        double sum = 0.0;
+        for (uint32_t k = 0; k < p->count; k++) {
+            const double ms = 1e3 * median_of(&p->seconds[k * runs], runs, tmp);
+            sum += ms;
+            fprintf(out, "  %-*s %9.2f %6.1f%%  %s\n", w + 24, p->names[k], ms,
+                    row->build_ms > 0.0 ? 100.0 * ms / row->build_ms : 0.0,
+                    p->parallel[k] > 0 ? "many" : p->parallel[k] == 0 ? "one" : "?");
+        }
+        fprintf(out, "  %-*s %9.2f %6.1f%%\n", w + 24, "(sum of the medians)", sum,
+                row->build_ms > 0.0 ? 100.0 * sum / row->build_ms : 0.0);
+        if (p->dropped)
+            fprintf(out, "  %u marks past the log's %u phases went to the last\n", p->dropped, RTK_BUILD_LOG_MAX);
+        if (row->threads == 1)
+            continue;
+        const bench_row *one = NULL;
+        for (size_t j = 0; j < b->thread_count && !one; j++)
+            if (b->rows[r - r % b->thread_count + j].threads == 1 && b->rows[r - r % b->thread_count + j].done)
+                one = &b->rows[r - r % b->thread_count + j];
+        const double serial = 1e3 * median_of(p->serial, runs, tmp), unknown = 1e3 * median_of(p->unknown, runs, tmp);
+        if (one && one->build_ms > 0.0)
+            fprintf(out, "  serial fraction %.1f%% (%.2f ms on one thread / %.2f ms, the 1-thread build)\n",
+                    100.0 * serial / one->build_ms, serial, one->build_ms);
+        else
+            fprintf(out, "  serial fraction: needs a 1-thread row (--threads 1,...); %.2f ms on one thread\n", serial);
+        if (unknown >= 0.005)
+            fprintf(out, "  and %.2f ms on threads not known (a builder's unmarked time)\n", unknown);
+    }
+    free(tmp);
 }
 
 static void print_report(const bench *b, const char *path, FILE *out)
@@ -1080,6 +1207,8 @@ static void print_report(const bench *b, const char *path, FILE *out)
                 (r->build_ms + r->primary_ms + r->ao_ms) / (e->build_ms + e->primary_ms + e->ao_ms),
                 e->primary_cpu_ms / r->primary_cpu_ms, e->ao_cpu_ms / r->ao_cpu_ms, e->accel->label);
     }
+    if (b->phases)
+        print_phases(b, out, w);
 }
 
 static void write_csv(const bench *b, const char *path, FILE *f)
@@ -1162,6 +1291,8 @@ rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk_bench_o
         b.build_cpu = rtk_alloc(sizeof *b.build_cpu * b.opt.runs * b.accel_count * b.thread_count);
         if (!b.primary || !b.hits || !b.primary_rows || !b.row_count || !b.times || !b.cpu_times ||
             !b.rows || !b.build_times || !b.build_cpu)
+            st = RTK_ERR_NOMEM;
+        else if (rtk_log_enabled(RTK_LOG_DEBUG) && !phases_init(&b))
             st = RTK_ERR_NOMEM;
     }
     if (st != RTK_OK) {
