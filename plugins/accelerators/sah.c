@@ -698,14 +698,15 @@ static void add_segment(const build *b, uint32_t start, uint32_t len, uint32_t d
     b->segs[atomic_fetch_add(b->seg_count, 1u)] = (segment){start, len, dense, 0};
 }
 
-/* Builds the subtree of root, handing large subtrees to the queue.
+/* Builds the subtree of root, handing large subtrees to the queue, or
+ * with root_only splits root alone and queues both its children.
  * Returns the next slot after a dense root's subtree. A node's left
  * child is built next in place of the node (j), its right child waits
  * on the stack, written where it waits: a job's fields are stored one
  * by one, and copying a job just stored loads each 16 bytes from stores
  * of 4, which must reach the cache first (the same holds for a split,
  * passed by pointer). */
-static uint32_t build_subtree(const build *b, const job *root)
+static uint32_t build_subtree(const build *b, const job *root, int root_only)
 {
     const sah *o = b->opt;
     rtk_build_args *a = b->a;
@@ -781,7 +782,7 @@ static uint32_t build_subtree(const build *b, const job *root)
         r->begin = mid;
         r->region = j.region + 2 * (mid - j.begin);
         write_node(&a->nodes[j.slot], &j.geom, first, 0);
-        if (b->q && r->end - r->begin >= SAH_SPAWN_MIN)
+        if (b->q && (root_only || r->end - r->begin >= SAH_SPAWN_MIN))
             queue_push(b->q, r);
         else
             top++;
@@ -789,6 +790,10 @@ static uint32_t build_subtree(const build *b, const job *root)
         if (!o->sweep)
             j.geom = l.geom, j.cent = l.cent;
         j.slot = first, j.end = mid, j.region += 2, j.depth++, j.dense = dense, j.presplit = 0;
+        if (root_only) {
+            queue_push(b->q, &j);
+            break;
+        }
     }
     return bump;
 }
@@ -842,7 +847,7 @@ static void work(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
         }
         job j = q->jobs[atomic_fetch_sub(&q->count, 1u) - 1];
         pthread_mutex_unlock(&q->lock);
-        build_subtree(b, &j);
+        build_subtree(b, &j, 0);
         pthread_mutex_lock(&q->lock);
         if (atomic_fetch_sub(&q->pending, 1u) == 1)
             pthread_cond_broadcast(&q->wake);
@@ -897,7 +902,7 @@ static rtk_status run_build(build *b, job *root)
     const uint32_t threads = build_threads(b->a), n = b->a->prim_count;
     if (threads <= 1) {
         rtk_build_phase(b->a, "sah: tree", 0);
-        b->dense_end = build_subtree(b, root);
+        b->dense_end = build_subtree(b, root, 0);
         return RTK_OK;
     }
     if (!b->opt->sweep && n > SAH_SMALL && root->depth < SAH_HALVING_DEPTH) {
@@ -914,9 +919,11 @@ static rtk_status run_build(build *b, job *root)
     atomic_init(&q.count, 0u);
     atomic_init(&q.pending, 0u);
     b->q = &q;
-    queue_push(&q, root);
-    /* The root's partition, and the splits above the first threads' worth
-     * of subtrees, run on fewer threads than the team: counted here. */
+    /* The root is split here, on one thread (its children queued as any
+     * job's would be: the tree is the same), so that the phases show it;
+     * the splits just below it still run on fewer threads than the team. */
+    rtk_build_phase(b->a, "sah: root split", 0);
+    build_subtree(b, root, 1);
     rtk_build_phase(b->a, "sah: subtrees", 1);
     rtk_team_run(threads, work, b);
     pthread_cond_destroy(&q.wake);
