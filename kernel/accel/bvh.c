@@ -309,7 +309,8 @@ void rtk_bvh_closest_batch(const rtk_scene *s, const rtk_ray *rays, uint32_t cou
             end++;
         if (end > i) {
             rtk_wide_closest_batch(s, s->wide->path, rays + i, end - i, hits + i);
-            i = end;
+            for (; i < end; i++)
+                hits[i].inst = RTK_INVALID_ID;
         } else {
             if (!rtk_bvh_closest(s, &rays[i], &hits[i]))
                 hits[i].prim = RTK_INVALID_ID;

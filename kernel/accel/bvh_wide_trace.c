@@ -685,6 +685,42 @@ static const uint32_t pack_lanes[256] = {PACK_32(0u), PACK_32(32u), PACK_32(64u)
 #undef PACK_BELOW
 #undef PACK_BIT
 
+#define RTK_ALIGN32 __attribute__((aligned(32)))
+
+/* A packet's constants (packet_make): each lane's single-ray box
+ * constants, and per axis the intervals of origins, reciprocals and
+ * widened reciprocals over the lanes, with the rows of the shared
+ * octant. */
+typedef struct wide_packet {
+    RTK_ALIGN32 float ox[RTK_WIDE];
+    RTK_ALIGN32 float oy[RTK_WIDE];
+    RTK_ALIGN32 float oz[RTK_WIDE];
+    RTK_ALIGN32 float ix[RTK_WIDE];
+    RTK_ALIGN32 float iy[RTK_WIDE];
+    RTK_ALIGN32 float iz[RTK_WIDE];
+    RTK_ALIGN32 float fx[RTK_WIDE];
+    RTK_ALIGN32 float fy[RTK_WIDE];
+    RTK_ALIGN32 float fz[RTK_WIDE];
+    RTK_ALIGN32 float tmin[RTK_WIDE];
+    float olo[3], ohi[3], ilo[3], ihi[3], flo[3], fhi[3];
+    float tmin_all, tmax_all; /* least tmin, greatest widened tmax */
+    size_t nx, ny, nz;        /* entry rows times RTK_WIDE */
+    uint32_t count;
+} wide_packet;
+
+/* A pending subtree of a packet: entry distance of the frustum, and the
+ * lanes that enter it (all live lanes for an inner node). */
+typedef struct packet_entry {
+    uint32_t ref;
+    float t;
+    uint32_t lanes;
+} packet_entry;
+
+__thread uint64_t rtk_wide_packet_rays;
+
+/* Fewest rays traced as a packet: below, one at a time is cheaper. */
+#define PACKET_MIN 3u
+
 /* The node loop of bvh_wide_isa.inc, once per target: RTK_AVX names
  * a function of the pass, RTK_AVX512 selects the two places where the
  * passes differ (the hit mask straight from the compare into a mask
@@ -776,17 +812,36 @@ int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk
     }
 }
 
+/* The batch through this path's packets (bvh_wide_isa.inc's batch), or
+ * one ray at a time where the path has none. Origins of a packet lie
+ * within a hundredth of the scene's diagonal of each other. */
+static void batch_trace(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count, rtk_hit *hits,
+                        uint8_t *occluded, int any)
+{
+#if RTK_HAVE_X86
+    if (path == RTK_SIMD_AVX2 || path == RTK_SIMD_AVX512) {
+        const rtk_bounds b = s->bounds;
+        const float spread = 0.01f * rtk_vec3_length(rtk_vec3_sub(b.upper, b.lower));
+        (path == RTK_SIMD_AVX512 ? avx512_batch : avx2_batch)(s, rays, count, hits, occluded, any, spread);
+        return;
+    }
+#endif
+    for (uint32_t i = 0; i < count; i++) {
+        if (any)
+            occluded[i] = (uint8_t)(rtk_wide_any_path[path](s, &rays[i]) != 0);
+        else if (!rtk_wide_closest_path[path](s, &rays[i], &hits[i]))
+            hits[i].prim = RTK_INVALID_ID;
+    }
+}
+
 void rtk_wide_closest_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count,
                             rtk_hit *hits)
 {
-    for (uint32_t i = 0; i < count; i++)
-        if (!rtk_wide_closest_path[path](s, &rays[i], &hits[i]))
-            hits[i].prim = RTK_INVALID_ID;
+    batch_trace(s, path, rays, count, hits, NULL, 0);
 }
 
 void rtk_wide_any_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count,
                         uint8_t *occluded)
 {
-    for (uint32_t i = 0; i < count; i++)
-        occluded[i] = (uint8_t)(rtk_wide_any_path[path](s, &rays[i]) != 0);
+    batch_trace(s, path, rays, count, NULL, occluded, 1);
 }

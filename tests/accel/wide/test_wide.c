@@ -391,6 +391,114 @@ static void compare_paths(rtk_scene *s, const char *mesh, const char *builder, i
           mesh, builder, bad_work, more_work);
 }
 
+/* Batches (rtk_wide_closest_batch, rtk_wide_any_batch) against single
+ * rays on every path, bit for bit: a pinhole camera's rays from outside
+ * the mesh (coherent: the AVX paths trace most of them as packets), the
+ * same cut short (finite tmax), rays leaving the hits in random directions
+ * (incoherent, one at a time) and shadow rays from the hits towards one
+ * point (close origins, close directions), each set alone and all
+ * interleaved. */
+static void compare_batches(rtk_scene *s, const char *mesh, const char *builder)
+{
+    if (!s->wide)
+        return;
+    enum { W = 48, H = 32, N = 4 * W * H };
+    rtk_ray *rays = malloc(sizeof(rtk_ray) * N), *mixed = malloc(sizeof(rtk_ray) * N);
+    rtk_hit *single = malloc(sizeof(rtk_hit) * N), *batch = malloc(sizeof(rtk_hit) * N);
+    uint8_t *occ_single = malloc(N), *occ_batch = malloc(N);
+    if (!rays || !mixed || !single || !batch || !occ_single || !occ_batch) {
+        check(0, "%s / %s: memory for the batch comparison", mesh, builder);
+        goto done;
+    }
+    const rtk_bounds b = s->bounds;
+    const rtk_vec3 c = rtk_vec3_scale(rtk_vec3_add(b.lower, b.upper), 0.5f);
+    const float r = 0.5f * rtk_vec3_length(rtk_vec3_sub(b.upper, b.lower));
+    const rtk_vec3 eye = rtk_vec3_add(c, rtk_vec3_make(0.9f * r, 0.7f * r, 2.5f * r));
+    const rtk_vec3 fwd = rtk_vec3_normalize(rtk_vec3_sub(c, eye));
+    const rtk_vec3 right = rtk_vec3_normalize(rtk_vec3_cross(fwd, rtk_vec3_make(0, 1, 0)));
+    const rtk_vec3 up = rtk_vec3_cross(right, fwd);
+    const rtk_vec3 light = rtk_vec3_add(c, rtk_vec3_make(-3.0f * r, 4.0f * r, 1.0f * r));
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 9u, 1u);
+    rtk_simd_path saved = s->wide->path;
+    for (int p = RTK_SIMD_SCALAR; p < RTK_SIMD_PATHS; p++) {
+        if (!rtk_simd_supported((rtk_simd_path)p))
+            continue;
+        s->wide->path = (rtk_simd_path)p;
+        /* Camera rays, then the same ending at 60 % of the distance to the
+         * centre, then from their hits: random and shadow rays. */
+        uint32_t n = 0;
+        for (int k = 0; k < 2; k++)
+            for (int y = 0; y < H; y++)
+                for (int x = 0; x < W; x++) {
+                    float sx = (2.0f * ((float)x + 0.5f) / W - 1.0f) * 0.6f, sy = (1.0f - 2.0f * ((float)y + 0.5f) / H) * 0.4f;
+                    rtk_ray *q = &rays[n++];
+                    q->org = eye;
+                    q->dir = rtk_vec3_normalize(rtk_vec3_add(fwd, rtk_vec3_add(rtk_vec3_scale(right, sx), rtk_vec3_scale(up, sy))));
+                    q->tmin = 0.0f;
+                    q->tmax = k ? 0.6f * rtk_vec3_length(rtk_vec3_sub(c, eye)) + 0.4f * r : INFINITY;
+                }
+        for (uint32_t i = 0; i < (uint32_t)(W * H); i++) {
+            rtk_hit h;
+            rtk_vec3 at = rtk_wide_closest(s, (rtk_simd_path)p, &rays[i], &h, NULL)
+                              ? rtk_vec3_add(rays[i].org, rtk_vec3_scale(rays[i].dir, h.t))
+                              : rtk_vec3_add(c, rtk_vec3_make(frand(&rng, -r, r), frand(&rng, -r, r), frand(&rng, -r, r)));
+            rtk_ray *q = &rays[n++];
+            q->org = at;
+            q->dir = rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1));
+            q->tmin = 1e-4f * r;
+            q->tmax = INFINITY;
+            rtk_ray *sh = &rays[n++];
+            sh->org = at;
+            sh->dir = rtk_vec3_sub(light, at);
+            sh->tmin = 1e-4f;
+            sh->tmax = 1.0f;
+        }
+        /* All interleaved: a camera ray, a random one, a shadow ray, ... */
+        for (uint32_t i = 0; i < (uint32_t)N; i++)
+            mixed[i] = rays[(i % 4) * (W * H) + i / 4];
+        for (int set = 0; set < 2; set++) {
+            const rtk_ray *in = set ? mixed : rays;
+            int bad_closest = 0, bad_any = 0;
+            for (uint32_t i = 0; i < (uint32_t)N; i++) {
+                if (!rtk_wide_closest(s, (rtk_simd_path)p, &in[i], &single[i], NULL))
+                    single[i].prim = RTK_INVALID_ID;
+                occ_single[i] = (uint8_t)rtk_wide_any(s, (rtk_simd_path)p, &in[i], NULL);
+            }
+            uint64_t before = rtk_wide_packet_rays;
+            for (uint32_t i = 0; i < (uint32_t)N; i += 256) {
+                rtk_wide_closest_batch(s, (rtk_simd_path)p, in + i, 256, batch + i);
+                rtk_wide_any_batch(s, (rtk_simd_path)p, in + i, 256, occ_batch + i);
+            }
+            uint64_t packed = rtk_wide_packet_rays - before;
+            for (uint32_t i = 0; i < (uint32_t)N; i++) {
+                bad_closest += single[i].prim != batch[i].prim ||
+                               (single[i].prim != RTK_INVALID_ID &&
+                                (memcmp(&single[i].t, &batch[i].t, sizeof(float)) ||
+                                 memcmp(&single[i].u, &batch[i].u, sizeof(float)) ||
+                                 memcmp(&single[i].v, &batch[i].v, sizeof(float))));
+                bad_any += occ_single[i] != occ_batch[i];
+            }
+            check(bad_closest == 0 && bad_any == 0,
+                  "%s / %s: %s batches = single rays, bit for bit, %s (%d rays, %llu of closest and any in packets): "
+                  "%d closest and %d occlusion results differ",
+                  mesh, builder, rtk_simd_name((rtk_simd_path)p), set ? "interleaved" : "camera, short, random, shadow",
+                  N, (unsigned long long)packed, bad_closest, bad_any);
+            if (p >= RTK_SIMD_AVX2 && !set)
+                check(packed >= (uint64_t)W * H, "%s / %s: %s traces the camera rays as packets (%llu rays in packets)",
+                      mesh, builder, rtk_simd_name((rtk_simd_path)p), (unsigned long long)packed);
+        }
+    }
+    s->wide->path = saved;
+done:
+    free(rays);
+    free(mixed);
+    free(single);
+    free(batch);
+    free(occ_single);
+    free(occ_batch);
+}
+
 /* rtk_trace_measure through a render context equals rtk_trace. */
 /* The wide tree collapsed on 1 and on 3 threads equals the one the build
  * made on 2, byte for byte (bunny is large enough to be split). */
@@ -709,6 +817,7 @@ int main(void)
                 if (own && s->triangle_count > 5000)
                     n /= 4;
                 compare_paths(s, mesh, builders[bi]->name, n);
+                compare_batches(s, mesh, builders[bi]->name);
                 check_threads_same(s, mesh, builders[bi]->name);
                 if (m == MESH_BUNNY && !own)
                     check_node_limit(s, mesh, builders[bi]->name, builders[bi], params);
