@@ -78,14 +78,21 @@ static int is_black(rtk_rgb c)
     return c.r <= 0.0f && c.g <= 0.0f && c.b <= 0.0f;
 }
 
-/* Adds beta x c to L, scaled down to the clamp when one is set. */
-static void add(const path *pt, rtk_rgb *L, rtk_rgb beta, rtk_rgb c)
+/* beta x c, scaled down to the clamp when one is set: what a
+ * contribution adds to the radiance. */
+static rtk_rgb weighted(const path *pt, rtk_rgb beta, rtk_rgb c)
 {
     rtk_rgb v = rtk_rgb_mul(beta, c);
     float m = max3(v);
     if (pt->clamp > 0.0f && m > pt->clamp)
         v = rtk_rgb_scale(v, pt->clamp / m);
-    *L = rtk_rgb_add(*L, v);
+    return v;
+}
+
+/* Adds beta x c to L (weighted). */
+static void add(const path *pt, rtk_rgb *L, rtk_rgb beta, rtk_rgb c)
+{
+    *L = rtk_rgb_add(*L, weighted(pt, beta, c));
 }
 
 /* One vertex's shading frame: the shading normal on the side the ray came
@@ -115,23 +122,27 @@ static int same_side(const vertex *v, rtk_vec3 w, float local_z)
     return (g > 0.0f && local_z > 0.0f) || (g < 0.0f && local_z < 0.0f);
 }
 
-/* Light sampled at the vertex, weighted against the BSDF's own sampling. */
-static rtk_rgb next_event(rtk_ctx *ctx, const rtk_surface *s, const vertex *v, const rtk_bsdf *bsdf)
+/* Light sampled at the vertex, weighted against the BSDF's own sampling:
+ * 1 with its contribution c (unoccluded) and the shadow ray that decides
+ * it, 0 when it adds nothing whatever the shadow ray finds. */
+static int next_event(rtk_ctx *ctx, const rtk_surface *s, const vertex *v, const rtk_bsdf *bsdf, rtk_rgb *c,
+                      rtk_ray *shadow)
 {
-    rtk_rgb none = rtk_rgb_make(0, 0, 0);
     float u_pick = rtk_sample_1d(ctx);
     rtk_vec2 u = rtk_sample_2d(ctx);
     rtk_light_incident li;
     if (!rtk_sample_incident_light(rtk_ctx_scene(ctx), s->p, s->ng, u_pick, u, &li) || !(li.pdf > 0.0f))
-        return none;
+        return 0;
     rtk_vec3 wi = rtk_frame_to_local(&v->frame, li.wi);
     if (!same_side(v, li.wi, wi.z))
-        return none;
+        return 0;
     rtk_rgb f = rtk_bsdf_eval(bsdf, v->wo, wi);
-    if (is_black(f) || rtk_occluded(ctx, &li.shadow))
-        return none;
+    if (is_black(f))
+        return 0;
     float w = li.delta ? 1.0f : power_heuristic(li.pdf, rtk_bsdf_pdf(bsdf, v->wo, wi));
-    return rtk_rgb_scale(rtk_rgb_mul(f, li.li), fabsf(wi.z) * w / li.pdf);
+    *c = rtk_rgb_scale(rtk_rgb_mul(f, li.li), fabsf(wi.z) * w / li.pdf);
+    *shadow = li.shadow;
+    return 1;
 }
 
 /* What the path has carried to the current ray: its throughput and how
@@ -154,72 +165,153 @@ static float found_weight(const rtk_scene *scene, const path_state *ps, const rt
     return light_pdf > 0.0f ? power_heuristic(ps->bsdf_pdf, light_pdf) : 1.0f;
 }
 
+/* A path between two traces: its state, radiance so far, and a light
+ * sample's contribution waiting for its shadow ray. */
+typedef struct path_vertex {
+    path_state ps;
+    rtk_rgb L;
+    int shadowed;    /* 1: nee and shadow hold a pending light sample */
+    rtk_rgb nee;     /* added to L when shadow is unoccluded */
+    rtk_ray shadow;
+} path_vertex;
+
+/* Bounce pv->ps.depth of the current sample, whose ray found hit (or
+ * missed: hit NULL): adds what it finds to pv->L, samples a light (left
+ * pending in pv) and the next direction. Returns 1 with the next ray in
+ * *ray, 0 when the path ends. */
+static int bounce(const path *pt, rtk_ctx *ctx, path_vertex *pv, rtk_ray *ray, const rtk_hit *hit,
+                  rtk_li_result *out)
+{
+    const rtk_scene *scene = rtk_ctx_scene(ctx);
+    path_state *ps = &pv->ps;
+    pv->shadowed = 0;
+    if (!hit) {
+        rtk_rgb env = rtk_scene_environment(scene, ray->dir);
+        if (!is_black(env))
+            add(pt, &pv->L, ps->beta, rtk_rgb_scale(env, found_weight(scene, ps, ray, NULL)));
+        return 0;
+    }
+    rtk_surface s;
+    rtk_ray_differential diff;
+    if (ps->depth == 0 && rtk_ctx_camera_differential(ctx, &diff))
+        rtk_surface_at_footprint(scene, ray, &diff, hit, &s);
+    else
+        rtk_surface_at(scene, ray, hit, &s);
+    if (ps->depth == 0) {
+        out->albedo = s.base_color;
+        out->normal = s.ns;
+        out->depth = hit->t * rtk_vec3_length(ray->dir);
+    }
+    if (s.front_face && !is_black(s.emission))
+        add(pt, &pv->L, ps->beta, rtk_rgb_scale(s.emission, found_weight(scene, ps, ray, hit)));
+    if (ps->depth >= pt->max_depth)
+        return 0;
+    rtk_bsdf bsdf;
+    rtk_surface_bsdf(scene, hit, &s, &bsdf);
+    unsigned flags = rtk_bsdf_flags(&bsdf);
+    if (bsdf.count == 0)
+        return 0;
+    vertex v = make_vertex(&s, &bsdf, ray->dir);
+    rtk_rgb c;
+    if ((flags & (RTK_BSDF_DIFFUSE | RTK_BSDF_GLOSSY)) && next_event(ctx, &s, &v, &bsdf, &c, &pv->shadow)) {
+        pv->nee = weighted(pt, ps->beta, c);
+        pv->shadowed = 1;
+    }
+    float u_lobe = rtk_sample_1d(ctx);
+    rtk_vec2 u = rtk_sample_2d(ctx);
+    rtk_bsdf_sample_out bs;
+    if (!rtk_bsdf_sample(&bsdf, v.wo, u_lobe, u, &bs) || !(bs.pdf > 0.0f))
+        return 0;
+    rtk_vec3 wi = rtk_frame_to_world(&v.frame, bs.wi);
+    if (!same_side(&v, wi, bs.wi.z))
+        return 0;
+    ps->beta = rtk_rgb_mul(ps->beta, rtk_rgb_scale(bs.f, fabsf(bs.wi.z) / bs.pdf));
+    ps->delta = (bs.flags & RTK_BSDF_DELTA) != 0;
+    ps->bsdf_pdf = bs.pdf;
+    ps->from = s.p;
+    float m = max3(ps->beta);
+    if (!(m > 0.0f))
+        return 0;
+    if (ps->depth + 1 >= pt->rr_depth && m < 1.0f) {
+        if (rtk_sample_1d(ctx) >= m)
+            return 0;
+        ps->beta = rtk_rgb_scale(ps->beta, 1.0f / m);
+    }
+    rtk_vec3 side = rtk_vec3_dot(wi, s.ng) > 0.0f ? s.ng : rtk_vec3_neg(s.ng);
+    ray->org = rtk_offset_ray_origin(s.p, side);
+    ray->dir = wi;
+    ray->tmin = 0.0f;
+    ray->tmax = INFINITY;
+    return 1;
+}
+
+static void start(path_vertex *pv, const rtk_ray *camera_ray)
+{
+    path_state ps = {rtk_rgb_make(1, 1, 1), 0, 1, 0.0f, camera_ray->org};
+    pv->ps = ps;
+    pv->L = rtk_rgb_make(0, 0, 0);
+    pv->shadowed = 0;
+}
+
 static void path_li(const void *state, rtk_ctx *ctx, const rtk_ray *camera_ray, rtk_li_result *out)
 {
-    const path *pt = state;
-    const rtk_scene *scene = rtk_ctx_scene(ctx);
-    rtk_rgb L = rtk_rgb_make(0, 0, 0);
-    path_state ps = {rtk_rgb_make(1, 1, 1), 0, 1, 0.0f, camera_ray->org};
+    path_vertex pv;
+    start(&pv, camera_ray);
     rtk_ray ray = *camera_ray;
-    for (;; ps.depth++) {
-        rtk_sample_seek(ctx, (uint32_t)ps.depth * DIMS_PER_BOUNCE);
+    for (int more = 1; more; pv.ps.depth++) {
+        rtk_sample_seek(ctx, (uint32_t)pv.ps.depth * DIMS_PER_BOUNCE);
         rtk_hit hit;
-        if (!rtk_trace(ctx, &ray, &hit)) {
-            rtk_rgb env = rtk_scene_environment(scene, ray.dir);
-            if (!is_black(env))
-                add(pt, &L, ps.beta, rtk_rgb_scale(env, found_weight(scene, &ps, &ray, NULL)));
-            break;
-        }
-        rtk_surface s;
-        rtk_ray_differential diff;
-        if (ps.depth == 0 && rtk_ctx_camera_differential(ctx, &diff))
-            rtk_surface_at_footprint(scene, &ray, &diff, &hit, &s);
-        else
-            rtk_surface_at(scene, &ray, &hit, &s);
-        if (ps.depth == 0) {
-            out->albedo = s.base_color;
-            out->normal = s.ns;
-            out->depth = hit.t * rtk_vec3_length(ray.dir);
-        }
-        if (s.front_face && !is_black(s.emission))
-            add(pt, &L, ps.beta, rtk_rgb_scale(s.emission, found_weight(scene, &ps, &ray, &hit)));
-        if (ps.depth >= pt->max_depth)
-            break;
-        rtk_bsdf bsdf;
-        rtk_surface_bsdf(scene, &hit, &s, &bsdf);
-        unsigned flags = rtk_bsdf_flags(&bsdf);
-        if (bsdf.count == 0)
-            break;
-        vertex v = make_vertex(&s, &bsdf, ray.dir);
-        if (flags & (RTK_BSDF_DIFFUSE | RTK_BSDF_GLOSSY))
-            add(pt, &L, ps.beta, next_event(ctx, &s, &v, &bsdf));
-        float u_lobe = rtk_sample_1d(ctx);
-        rtk_vec2 u = rtk_sample_2d(ctx);
-        rtk_bsdf_sample_out bs;
-        if (!rtk_bsdf_sample(&bsdf, v.wo, u_lobe, u, &bs) || !(bs.pdf > 0.0f))
-            break;
-        rtk_vec3 wi = rtk_frame_to_world(&v.frame, bs.wi);
-        if (!same_side(&v, wi, bs.wi.z))
-            break;
-        ps.beta = rtk_rgb_mul(ps.beta, rtk_rgb_scale(bs.f, fabsf(bs.wi.z) / bs.pdf));
-        ps.delta = (bs.flags & RTK_BSDF_DELTA) != 0;
-        ps.bsdf_pdf = bs.pdf;
-        ps.from = s.p;
-        float m = max3(ps.beta);
-        if (!(m > 0.0f))
-            break;
-        if (ps.depth + 1 >= pt->rr_depth && m < 1.0f) {
-            if (rtk_sample_1d(ctx) >= m)
-                break;
-            ps.beta = rtk_rgb_scale(ps.beta, 1.0f / m);
-        }
-        rtk_vec3 side = rtk_vec3_dot(wi, s.ng) > 0.0f ? s.ng : rtk_vec3_neg(s.ng);
-        ray.org = rtk_offset_ray_origin(s.p, side);
-        ray.dir = wi;
-        ray.tmin = 0.0f;
-        ray.tmax = INFINITY;
+        more = bounce(state, ctx, &pv, &ray, rtk_trace(ctx, &ray, &hit) ? &hit : NULL, out);
+        if (pv.shadowed && !rtk_occluded(ctx, &pv.shadow))
+            pv.L = rtk_rgb_add(pv.L, pv.nee);
     }
-    out->radiance = L;
+    out->radiance = pv.L;
+}
+
+/* The batch as a wavefront: each bounce traces the live paths' rays in
+ * one batch, shades them sample by sample, then traces their shadow rays
+ * in one batch; the sums are li's, in li's order. */
+static void path_li_batch(const void *state, rtk_ctx *ctx, const rtk_ray *rays, uint32_t count, rtk_li_result *out)
+{
+    path_vertex pv[RTK_BATCH_MAX];
+    rtk_ray ray[RTK_BATCH_MAX], shadow[RTK_BATCH_MAX];
+    rtk_hit hit[RTK_BATCH_MAX];
+    uint16_t who[RTK_BATCH_MAX], shadow_who[RTK_BATCH_MAX];
+    uint8_t blocked[RTK_BATCH_MAX];
+    uint32_t live = count;
+    for (uint32_t i = 0; i < count; i++) {
+        start(&pv[i], &rays[i]);
+        ray[i] = rays[i];
+        who[i] = (uint16_t)i;
+    }
+    for (uint32_t depth = 0; live; depth++) {
+        /* At depth 0 slot i is sample i: rtk_trace_batch knows the camera rays. */
+        rtk_trace_batch(ctx, ray, live, hit);
+        uint32_t next = 0, shadows = 0;
+        for (uint32_t k = 0; k < live; k++) {
+            uint32_t i = who[k];
+            rtk_ctx_select(ctx, i);
+            rtk_sample_seek(ctx, depth * DIMS_PER_BOUNCE);
+            rtk_ray r = ray[k];
+            int more = bounce(state, ctx, &pv[i], &r, hit[k].prim != RTK_INVALID_ID ? &hit[k] : NULL, &out[i]);
+            pv[i].ps.depth++;
+            if (pv[i].shadowed) {
+                shadow[shadows] = pv[i].shadow;
+                shadow_who[shadows++] = (uint16_t)i;
+            }
+            if (more) {
+                ray[next] = r;
+                who[next++] = (uint16_t)i;
+            }
+        }
+        rtk_occluded_batch(ctx, shadow, shadows, blocked);
+        for (uint32_t k = 0; k < shadows; k++)
+            if (!blocked[k])
+                pv[shadow_who[k]].L = rtk_rgb_add(pv[shadow_who[k]].L, pv[shadow_who[k]].nee);
+        live = next;
+    }
+    for (uint32_t i = 0; i < count; i++)
+        out[i].radiance = pv[i].L;
 }
 
 static void path_destroy(void *state)
@@ -243,6 +335,7 @@ static const rtk_integrator_fns path_fns = {
     .prepare = path_prepare,
     .li = path_li,
     .destroy = path_destroy,
+    .li_batch = path_li_batch,
 };
 
 static const rtk_plugin path_plugin = {

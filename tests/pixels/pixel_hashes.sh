@@ -42,6 +42,7 @@ runs=(
   "whitted-median-mitchell-aovs|$cornell/cornell-whitted.cfg|filter.plugin=mitchell film.aovs=[albedo,normal,depth]"
   "heatmap-sah-box-independent|$cornell/cornell-headlight.cfg|integrator.plugin=heatmap accelerator.plugin=sah"
   "heatmap-lbvh-gaussian-independent|$cornell/cornell-headlight.cfg|integrator.plugin=heatmap accelerator.plugin=lbvh filter.plugin=gaussian"
+  "path-sah-gaussian-sobol|$cornell/cornell.cfg|"
 )
 if [ -d "$shared" ]; then
   runs+=(
