@@ -45,6 +45,7 @@
 #include <rtk/rtk.h>
 
 #include <math.h>
+#include <sched.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -110,6 +111,7 @@ typedef struct build {
     uint32_t task_count;
     uint32_t gap_total;            /* the slots all subtrees leave unused */
     atomic_uint next_task, next_fix, next_bucket;
+    atomic_uint planned, shifted;  /* set by member 0: tasks planned, their shifts summed */
     task *tops;                    /* inner nodes above the subtrees, parents first (slot order) */
     uint32_t top_count;
     move *moves;                   /* closing the gaps, in slot order */
@@ -665,12 +667,24 @@ static void run_moves(build *b)
     }
 }
 
-/* Member t's share of the whole build (rtk_team_fn). */
+/* Waits until member 0 has set flag (a wait only the others make: member
+ * 0, which runs the serial steps, never waits for a member still waking
+ * from the last sync). */
+static void wait_for(atomic_uint *flag)
+{
+    for (uint32_t i = 1; !atomic_load_explicit(flag, memory_order_acquire); i++) {
+        PAUSE();
+        if (i % 256 == 0)
+            sched_yield();
+    }
+}
+
+/* Member t's share of the whole build (rtk_team_fn). Member 0, the
+ * thread that called build, runs the serial steps and marks the phases:
+ * each ends at a sync or a flag, or at member 0's own share of a pass. */
 static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
 {
     build *b = ctx;
-    /* Member 0, the thread that called build, marks the phases: each
-     * ends at a sync, or at member 0's own share of a pass. */
     const int many = size > 1;
     if (t == 0)
         rtk_build_phase(b->a, "lbvh: morton codes", many);
@@ -681,10 +695,11 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
     if (t == 0) {
         rtk_build_phase(b->a, "lbvh: top splits", 0);
         plan(b, size > 1 ? LBVH_GRAIN : UINT32_MAX);
-    }
-    rtk_team_sync(team);
-    if (t == 0)
+        atomic_store_explicit(&b->planned, 1, memory_order_release);
         rtk_build_phase(b->a, "lbvh: subtrees", many);
+    } else {
+        wait_for(&b->planned);
+    }
     for (;;) {
         uint32_t k = atomic_fetch_add(&b->next_task, 1);
         if (k >= b->task_count)
@@ -705,10 +720,16 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
             shift += x->region + 2 * (x->end - x->begin) - 2 - x->filled;
         }
         b->gap_total = shift;
-    }
-    rtk_team_sync(team);
-    if (t == 0)
+        atomic_store_explicit(&b->shifted, 1, memory_order_release);
+        /* Beside the others' renumbering, which touches other nodes (the
+         * subtrees') or other fields of them (their roots' offsets, where
+         * this reads bounds). */
+        rtk_build_phase(b->a, "lbvh: top bounds and moves plan", 0);
+        plan_moves(b);
         rtk_build_phase(b->a, "lbvh: renumber", many);
+    } else {
+        wait_for(&b->shifted);
+    }
     /* Each subtree's inner nodes (the root's children included) point
      * where their children will be. */
     rtk_bvh_node *nodes = b->a->nodes;
@@ -724,11 +745,6 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
         for (uint32_t i = x->region; i < x->filled; i++)
             if (nodes[i].count == 0)
                 nodes[i].offset -= x->shift;
-    }
-    rtk_team_sync(team);
-    if (t == 0) {
-        rtk_build_phase(b->a, "lbvh: top bounds and moves plan", 0);
-        plan_moves(b);
     }
     rtk_team_sync(team);
     if (t == 0)
@@ -771,6 +787,8 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
     atomic_init(&b.next_task, 0);
     atomic_init(&b.next_fix, 0);
     atomic_init(&b.next_bucket, 0);
+    atomic_init(&b.planned, 0);
+    atomic_init(&b.shifted, 0);
     rtk_status st = RTK_OK;
     if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp || !b.tasks || !b.tops || !b.moves ||
         !b.move_done) {
