@@ -59,26 +59,29 @@ RTK_KERNEL_API void rtk_scene_memory(const rtk_scene *s, size_t *geometry, size_
 
 /* ---- build phases (build_phase.c) ---- */
 
-/* Phases a build log keeps; later marks are counted, their time goes to
- * the last phase kept. */
-#define RTK_BUILD_LOG_MAX 32
+/* Phases a build log keeps; marks of further phases are counted, their
+ * time goes to the last phase kept. */
+#define RTK_BUILD_LOG_MAX 64
 /* One phase: name (a static string), wall-clock seconds, and where it ran. */
 typedef struct rtk_build_phase_time {
     const char *name;
     double seconds;
-    int parallel; /* 1: on several threads, 0: on one, -1: not known */
-    int builder;  /* marked by the builder (rtk_build_phase), not the kernel */
+    int parallel;   /* 1: on several threads, 0: on one, -1: not known */
+    int builder;    /* marked by the builder (rtk_build_phase), not the kernel */
+    uint32_t marks; /* times it was marked (the meshes of an instanced scene) */
 } rtk_build_phase_time;
-/* A build's phases in the order they ran (CLOCK_MONOTONIC), as
- * rtk_bvh_build records them into scene->build_log. A build inside
- * another's (an instanced scene's meshes) appends to the open log. A
- * zeroed log is closed. [one build at a time] */
+/* A build's phases in the order they first ran (CLOCK_MONOTONIC), as
+ * rtk_bvh_build records them into scene->build_log; a phase marked again
+ * with the same name and flags adds to its entry. A build inside
+ * another's (an instanced scene's meshes) adds to the open log. A zeroed
+ * log is closed. [one build at a time] */
 typedef struct rtk_build_log {
     rtk_build_phase_time phases[RTK_BUILD_LOG_MAX];
     uint32_t count;
-    uint32_t dropped;  /* marks past RTK_BUILD_LOG_MAX */
+    uint32_t dropped;  /* marks of phases past RTK_BUILD_LOG_MAX */
     double seconds;    /* from the outermost begin to its end */
     double begun, at;  /* when the build and the open phase started */
+    uint32_t open;     /* the entry of the open phase (count: none yet) */
     uint32_t depth;    /* builds open (0: closed, marks are ignored) */
 } rtk_build_log;
 /* Opens log for a build (NULL: nothing): clears it unless a build is

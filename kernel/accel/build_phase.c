@@ -6,6 +6,7 @@
 #include "accel.h"
 
 #include <stddef.h>
+#include <string.h>
 
 void rtk_build_log_begin(rtk_build_log *log)
 {
@@ -14,28 +15,40 @@ void rtk_build_log_begin(rtk_build_log *log)
     if (log->depth++ > 0)
         return;
     log->count = 0;
+    log->open = 0;
     log->dropped = 0;
     log->seconds = 0.0;
     log->begun = log->at = rtk_now();
+}
+
+/* Adds the time since the open phase began to it. */
+static void close_open(rtk_build_log *log, double now)
+{
+    if (log->open < log->count)
+        log->phases[log->open].seconds += now - log->at;
+    log->at = now;
 }
 
 void rtk_build_log_mark(rtk_build_log *log, const char *name, int parallel, int builder)
 {
     if (!log || log->depth == 0)
         return;
-    const double now = rtk_now();
-    if (log->count > 0)
-        log->phases[log->count - 1].seconds += now - log->at;
-    log->at = now;
-    if (log->count == RTK_BUILD_LOG_MAX) {
+    close_open(log, rtk_now());
+    name = name && name[0] ? name : "(unnamed)";
+    parallel = parallel > 0 ? 1 : parallel < 0 ? -1 : 0;
+    uint32_t k = 0;
+    while (k < log->count && (log->phases[k].parallel != parallel || log->phases[k].builder != builder ||
+                              strcmp(log->phases[k].name, name) != 0))
+        k++;
+    if (k == RTK_BUILD_LOG_MAX) {
         log->dropped++;
+        log->open = k - 1;
         return;
     }
-    log->phases[log->count++] = (rtk_build_phase_time){
-        .name = name && name[0] ? name : "(unnamed)",
-        .parallel = parallel > 0 ? 1 : parallel < 0 ? -1 : 0,
-        .builder = builder,
-    };
+    if (k == log->count)
+        log->phases[log->count++] = (rtk_build_phase_time){.name = name, .parallel = parallel, .builder = builder};
+    log->phases[k].marks++;
+    log->open = k;
 }
 
 void rtk_build_log_end(rtk_build_log *log)
@@ -43,9 +56,8 @@ void rtk_build_log_end(rtk_build_log *log)
     if (!log || log->depth == 0 || --log->depth > 0)
         return;
     const double now = rtk_now();
-    if (log->count > 0)
-        log->phases[log->count - 1].seconds += now - log->at;
-    log->at = now;
+    close_open(log, now);
+    log->open = log->count;
     log->seconds = now - log->begun;
 }
 
