@@ -37,6 +37,7 @@
 
 #include <math.h>
 #include <pthread.h>
+#include <sched.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -954,13 +955,65 @@ static const segment *segment_at(const segment *segs, uint32_t n, uint32_t slot)
     return &segs[lo];
 }
 
+/* Moves segment g of the n in segs down by its shift, renumbering its
+ * children (within a dense subtree by its own shift, elsewhere by the
+ * shift of the segment their pair starts). */
+static void move_segment(rtk_build_args *a, const segment *segs, uint32_t n, const segment *g)
+{
+    for (uint32_t slot = g->start; slot < g->start + g->len; slot++) {
+        rtk_bvh_node node = a->nodes[slot];
+        if (node.count == 0)
+            node.offset -= g->dense ? g->shift : segment_at(segs, n, node.offset)->shift;
+        a->nodes[slot - g->shift] = node;
+    }
+}
+
+/* The moves on threads, taken in slot order: segment k is moved once the
+ * segments it overwrites have been read, all of the first after[k]
+ * (sources and destinations both ascend, so those are a prefix; moved
+ * counts the segments done in a row from the first). */
+typedef struct gap_job {
+    rtk_build_args *a;
+    const segment *segs;
+    uint32_t n;
+    const uint32_t *after;
+    atomic_uchar *done;
+    atomic_uint next, moved;
+} gap_job;
+
+static void gap_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
+{
+    (void)team, (void)index, (void)size;
+    gap_job *j = ctx;
+    for (;;) {
+        const uint32_t k = atomic_fetch_add(&j->next, 1u);
+        if (k >= j->n)
+            break;
+        for (uint32_t i = 1; atomic_load_explicit(&j->moved, memory_order_acquire) < j->after[k]; i++) {
+#if defined(__SSE2__)
+            _mm_pause();
+#endif
+            if (i % 256 == 0)
+                sched_yield();
+        }
+        move_segment(j->a, j->segs, j->n, &j->segs[k]);
+        atomic_store_explicit(&j->done[k], 1, memory_order_release);
+        uint32_t p = atomic_load(&j->moved);
+        while (p < j->n && atomic_load_explicit(&j->done[p], memory_order_acquire))
+            if (atomic_compare_exchange_weak(&j->moved, &p, p + 1))
+                p++;
+    }
+}
+
+/* Slots in use from which the gaps are closed on threads. */
+#define SAH_GAPS_PARALLEL 16384
+
 /* Closes the gaps between the n segments the threads filled (the root's
- * slot among them): each moves down by the slots unused before it,
- * keeping the order, so siblings stay adjacent; children are renumbered
- * (within a dense subtree by its own shift, elsewhere by the shift of
- * the segment their pair starts). Only slots in use are read or written.
- * Sets node_count. */
-static void close_gaps(rtk_build_args *a, segment *segs, uint32_t n)
+ * slot among them) on up to threads threads: each moves down by the
+ * slots unused before it, keeping the order, so siblings stay adjacent.
+ * Only slots in use are read or written; the result does not depend on
+ * the threads. Sets node_count. */
+static void close_gaps(rtk_build_args *a, segment *segs, uint32_t n, uint32_t threads)
 {
     qsort(segs, n, sizeof *segs, segment_order);
     uint32_t total = 0;
@@ -968,16 +1021,30 @@ static void close_gaps(rtk_build_args *a, segment *segs, uint32_t n)
         segs[i].shift = segs[i].start - total;
         total += segs[i].len;
     }
-    for (uint32_t i = 0; i < n; i++) {
-        const segment *g = &segs[i];
-        for (uint32_t slot = g->start; slot < g->start + g->len; slot++) {
-            rtk_bvh_node node = a->nodes[slot];
-            if (node.count == 0)
-                node.offset -= g->dense ? g->shift : segment_at(segs, n, node.offset)->shift;
-            a->nodes[slot - g->shift] = node;
-        }
-    }
     a->node_count = total;
+    uint32_t *after = threads > 1 && total >= SAH_GAPS_PARALLEL ? malloc(sizeof *after * n) : NULL;
+    atomic_uchar *done = after ? malloc(sizeof *done * n) : NULL;
+    if (!done) {
+        free(after);
+        rtk_build_phase(a, "sah: close gaps", 0);
+        for (uint32_t i = 0; i < n; i++)
+            move_segment(a, segs, n, &segs[i]);
+        return;
+    }
+    for (uint32_t m = 0, reads = 0; m < n; m++) {
+        const uint32_t end = segs[m].start - segs[m].shift + segs[m].len;
+        while (reads < n && segs[reads].start < end)
+            reads++;
+        after[m] = reads < m ? reads : m;
+        atomic_init(&done[m], 0);
+    }
+    gap_job job = {.a = a, .segs = segs, .n = n, .after = after, .done = done};
+    atomic_init(&job.next, 0u);
+    atomic_init(&job.moved, 0u);
+    rtk_build_phase(a, "sah: close gaps", 1);
+    rtk_team_run(threads, gap_member, &job);
+    free(after);
+    free((void *)done);
 }
 
 /* Order-preserving map of a float's bits to an unsigned key. */
@@ -1159,8 +1226,8 @@ static rtk_status sah_build(void *state, rtk_build_args *a)
     if (st == RTK_OK && dense) {
         a->node_count = b.dense_end;
     } else if (st == RTK_OK) {
-        rtk_build_phase(a, "sah: close gaps", 0);
-        close_gaps(a, b.segs, atomic_load(&seg_count));
+        rtk_build_phase(a, "sah: gap plan", 0);
+        close_gaps(a, b.segs, atomic_load(&seg_count), build_threads(a));
     }
     free(b.segs);
     return st;
