@@ -708,6 +708,28 @@ typedef struct wide_packet {
     uint32_t count;
 } wide_packet;
 
+/* A packet of short rays from nearby origins in any directions
+ * (masked_setup): each lane's single-ray box constants with its octant
+ * as sign masks, and the box around every lane's segment. */
+typedef struct masked_packet {
+    RTK_ALIGN32 float ox[RTK_WIDE];
+    RTK_ALIGN32 float oy[RTK_WIDE];
+    RTK_ALIGN32 float oz[RTK_WIDE];
+    RTK_ALIGN32 float ix[RTK_WIDE];
+    RTK_ALIGN32 float iy[RTK_WIDE];
+    RTK_ALIGN32 float iz[RTK_WIDE];
+    RTK_ALIGN32 float fx[RTK_WIDE];
+    RTK_ALIGN32 float fy[RTK_WIDE];
+    RTK_ALIGN32 float fz[RTK_WIDE];
+    RTK_ALIGN32 float tmin[RTK_WIDE];
+    RTK_ALIGN32 float tmaxw[RTK_WIDE];
+    RTK_ALIGN32 float negx[RTK_WIDE]; /* all bits set where the direction's x is negative */
+    RTK_ALIGN32 float negy[RTK_WIDE];
+    RTK_ALIGN32 float negz[RTK_WIDE];
+    float lo[3], hi[3];
+    uint32_t count;
+} masked_packet;
+
 /* A pending subtree of a packet: entry distance of the frustum, and the
  * lanes that enter it (all live lanes for an inner node). */
 typedef struct packet_entry {
@@ -720,6 +742,9 @@ __thread uint64_t rtk_wide_packet_rays;
 
 /* Fewest rays traced as a packet: below, one at a time is cheaper. */
 #define PACKET_MIN 3u
+/* A masked packet's subtree with this many lanes or fewer is traced lane
+ * by lane, each ray testing eight children at once. */
+#define HANDOFF_LANES 2
 
 /* The node loop of bvh_wide_isa.inc, once per target: RTK_AVX names
  * a function of the pass, RTK_AVX512 selects the two places where the
@@ -814,15 +839,17 @@ int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk
 
 /* The batch through this path's packets (bvh_wide_isa.inc's batch), or
  * one ray at a time where the path has none. Origins of a packet lie
- * within a hundredth of the scene's diagonal of each other. */
+ * within a hundredth of the scene's diagonal of each other; a masked
+ * packet's segments reach at most a quarter of it. */
 static void batch_trace(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count, rtk_hit *hits,
                         uint8_t *occluded, int any)
 {
 #if RTK_HAVE_X86
     if (path == RTK_SIMD_AVX2 || path == RTK_SIMD_AVX512) {
         const rtk_bounds b = s->bounds;
-        const float spread = 0.01f * rtk_vec3_length(rtk_vec3_sub(b.upper, b.lower));
-        (path == RTK_SIMD_AVX512 ? avx512_batch : avx2_batch)(s, rays, count, hits, occluded, any, spread);
+        const float diag = rtk_vec3_length(rtk_vec3_sub(b.upper, b.lower));
+        (path == RTK_SIMD_AVX512 ? avx512_batch : avx2_batch)(s, rays, count, hits, occluded, any, 0.01f * diag,
+                                                              0.25f * diag);
         return;
     }
 #endif
