@@ -320,7 +320,9 @@ typedef struct bench_pass {
     const size_t *row_start; /* row y holds rays [row_start[y], row_start[y + 1]) */
     uint32_t rows;
     int closest;             /* 1: closest hit into hits; 0: occlusion */
+    int batch;               /* 1: each row as one batch (rtk_bvh_closest_batch / rtk_bvh_any_batch) */
     rtk_hit *hits;
+    uint8_t *occluded;       /* batch occlusion: one per ray */
     uint64_t *row_count;     /* per row: hits (closest) or unoccluded rays (any) */
     atomic_uint next_row;
 } bench_pass;
@@ -329,6 +331,7 @@ typedef struct bench_pass {
 typedef struct pass_thread {
     bench_pass *pass;
     double cpu_seconds;
+    uint64_t packet_rays;    /* rays its batches traced in packets */
 } pass_thread;
 
 static double cpu_now(clockid_t clock)
@@ -343,12 +346,22 @@ static void *pass_worker(void *arg)
     pass_thread *t = arg;
     bench_pass *p = t->pass;
     double c0 = cpu_now(CLOCK_THREAD_CPUTIME_ID);
+    const uint64_t packed = rtk_wide_packet_rays;
     for (;;) {
         uint32_t y = atomic_fetch_add(&p->next_row, 1u);
         if (y >= p->rows)
             break;
         uint64_t count = 0;
-        if (p->closest) {
+        const size_t first = p->row_start[y], n = p->row_start[y + 1] - first;
+        if (p->batch && p->closest) {
+            rtk_bvh_closest_batch(p->scene, p->rays + first, (uint32_t)n, p->hits + first);
+            for (size_t i = first; i < first + n; i++)
+                count += p->hits[i].prim != RTK_INVALID_ID;
+        } else if (p->batch) {
+            rtk_bvh_any_batch(p->scene, p->rays + first, (uint32_t)n, p->occluded + first);
+            for (size_t i = first; i < first + n; i++)
+                count += !p->occluded[i];
+        } else if (p->closest) {
             for (size_t i = p->row_start[y]; i < p->row_start[y + 1]; i++)
                 count += (uint64_t)rtk_bvh_closest(p->scene, &p->rays[i], &p->hits[i]);
         } else {
@@ -358,6 +371,7 @@ static void *pass_worker(void *arg)
         p->row_count[y] = count;
     }
     t->cpu_seconds = cpu_now(CLOCK_THREAD_CPUTIME_ID) - c0;
+    t->packet_rays = rtk_wide_packet_rays - packed;
     return NULL;
 }
 
@@ -365,14 +379,14 @@ static void *pass_worker(void *arg)
  * its wall-clock seconds, the CPU seconds its threads used in *cpu (which
  * time-sharing with other processes does not inflate) and the summed
  * count in *count, or -1. */
-static double run_pass(bench_pass *p, uint32_t threads, uint64_t *count, double *cpu)
+static double run_pass(bench_pass *p, uint32_t threads, uint64_t *count, double *cpu, uint64_t *packet_rays)
 {
     pthread_t ids[1024];
     pass_thread work[1024];
     uint32_t started = 0;
     atomic_store(&p->next_row, 0u);
     for (uint32_t i = 0; i < threads; i++)
-        work[i] = (pass_thread){p, 0.0};
+        work[i] = (pass_thread){p, 0.0, 0};
     double t0 = rtk_now();
     for (uint32_t i = 1; i < threads; i++) {
         if (pthread_create(&ids[started], NULL, pass_worker, &work[i]) != 0)
@@ -384,8 +398,13 @@ static double run_pass(bench_pass *p, uint32_t threads, uint64_t *count, double 
         pthread_join(ids[i], NULL);
     double seconds = rtk_now() - t0;
     *cpu = 0.0;
-    for (uint32_t i = 0; i <= started; i++)
+    if (packet_rays)
+        *packet_rays = 0;
+    for (uint32_t i = 0; i <= started; i++) {
         *cpu += work[i].cpu_seconds;
+        if (packet_rays)
+            *packet_rays += work[i].packet_rays;
+    }
     if (started + 1 < threads) {
         rtk_error(RTK_ERR_NOMEM, "bench: could start only %u of %u threads", started + 1, threads);
         return -1.0;
@@ -426,6 +445,9 @@ typedef struct bench_row {
     double build_ms, primary_ms, ao_ms;    /* wall clock */
     double build_cpu_ms;                   /* CPU time of the whole process during the build */
     double primary_cpu_ms, ao_cpu_ms;      /* CPU time of the tracing threads */
+    double primary_batch_ms, ao_batch_ms;  /* the same rays, each image row one batch (wall clock) */
+    double primary_batch_cpu_ms, ao_batch_cpu_ms;
+    uint64_t primary_packet_rays, ao_packet_rays; /* of a batch pass, rays the kernel traced in packets */
     uint64_t primary_hits, ao_rays, ao_unoccluded;
     int has_tree;             /* kernel nodes exist: the statistics below are valid */
     uint32_t nodes, leaves, depth;
@@ -457,6 +479,7 @@ typedef struct ao_rays {
     rtk_ray *rays;
     size_t *rows;             /* image row y holds rays [rows[y], rows[y + 1]) */
     size_t count;
+    uint8_t *occluded;        /* a batch pass's answers, one per ray */
 } ao_rays;
 
 /* Everything one run needs, freed by bench_free. */
@@ -473,6 +496,7 @@ typedef struct bench {
     double diag;
     rtk_ray *primary;
     rtk_hit *hits;
+    rtk_hit *batch_hits;      /* the primary rays' hits through batches, checked against hits */
     size_t *primary_rows;
     uint64_t *row_count;
     double *times, *cpu_times;            /* one thread count's passes: accelerator a, round i at a * runs + i */
@@ -492,6 +516,7 @@ static void bench_free(bench *b)
     free(b->threads);
     free(b->primary);
     free(b->hits);
+    free(b->batch_hits);
     free(b->primary_rows);
     free(b->row_count);
     free(b->times);
@@ -886,6 +911,7 @@ static int same_hits(const rtk_hit *a, const rtk_hit *b, size_t n)
 
 static void ao_rays_free(ao_rays *ao)
 {
+    free(ao->occluded);
     free(ao->hits);
     free(ao->rays);
     free(ao->rows);
@@ -910,7 +936,8 @@ static rtk_status ao_rays_for_hits(bench *b, ao_rays *sets, size_t *count, size_
     ao->hits = rtk_alloc(sizeof *ao->hits * pixels);
     ao->rays = rtk_alloc(sizeof *ao->rays * (n ? n * BENCH_AO_RAYS : 1));
     ao->rows = rtk_alloc(sizeof *ao->rows * ((size_t)b->height + 1));
-    if (!ao->hits || !ao->rays || !ao->rows) {
+    ao->occluded = rtk_alloc(n ? n * BENCH_AO_RAYS : 1);
+    if (!ao->hits || !ao->rays || !ao->rows || !ao->occluded) {
         ao_rays_free(ao);
         memset(ao, 0, sizeof *ao);
         return RTK_ERR_NOMEM;
@@ -950,23 +977,29 @@ static bench_row *round_row(const trace_round *tr, size_t a)
     return &tr->b->rows[a * tr->b->thread_count + tr->t];
 }
 
-/* One pass of accelerator a (closest: primary rays, else its AO rays)
- * into round i's slot; the count must match the warm-up's. */
-static rtk_status timed_pass(trace_round *tr, size_t a, int closest, uint32_t i)
+/* One pass of accelerator a (closest: primary rays, else its AO rays;
+ * batch: each row as one batch) into round i's slot; the count must match
+ * the warm-up's. */
+static rtk_status timed_pass(trace_round *tr, size_t a, int closest, int batch, uint32_t i)
 {
     bench *b = tr->b;
     bench_row *row = round_row(tr, a);
     const ao_rays *ao = &tr->ao[tr->ao_of[a]];
-    bench_pass p = {.scene = b->scene, .rows = b->height, .closest = closest, .row_count = b->row_count};
+    bench_pass p = {.scene = b->scene, .rows = b->height, .closest = closest, .batch = batch,
+                    .row_count = b->row_count};
     if (closest)
-        p.rays = b->primary, p.row_start = b->primary_rows, p.hits = b->hits;
+        p.rays = b->primary, p.row_start = b->primary_rows, p.hits = batch ? b->batch_hits : b->hits;
     else
-        p.rays = ao->rays, p.row_start = ao->rows;
-    progress(b, row->accel, row->threads, closest ? "primary pass" : "AO pass", i + 1, b->opt.runs);
-    const size_t slot = a * b->opt.runs + i;
-    uint64_t count = 0;
+        p.rays = ao->rays, p.row_start = ao->rows, p.occluded = ao->occluded;
+    progress(b, row->accel, row->threads,
+             closest ? (batch ? "primary batches" : "primary pass") : (batch ? "AO batches" : "AO pass"), i + 1,
+             b->opt.runs);
+    const size_t slot = ((size_t)batch * b->accel_count + a) * b->opt.runs + i;
+    uint64_t count = 0, packed = 0;
     rtk_accel_swap(b->scene, &tr->sets[a]);
-    b->times[slot] = run_pass(&p, row->threads, &count, &b->cpu_times[slot]);
+    b->times[slot] = run_pass(&p, row->threads, &count, &b->cpu_times[slot], &packed);
+    if (batch)
+        *(closest ? &row->primary_packet_rays : &row->ao_packet_rays) = packed;
     rtk_accel_swap(b->scene, &tr->sets[a]);
     if (b->times[slot] < 0.0)
         return RTK_ERR_NOMEM;
@@ -996,8 +1029,20 @@ static rtk_status trace_setup(trace_round *tr, size_t a)
     progress(b, row->accel, row->threads, "primary warm-up", 1, 1);
     bench_pass pp = {.scene = b->scene, .rays = b->primary, .row_start = b->primary_rows, .rows = b->height,
                      .closest = 1, .hits = b->hits, .row_count = b->row_count};
-    if (run_pass(&pp, row->threads, &row->primary_hits, &cpu) < 0.0)
+    if (run_pass(&pp, row->threads, &row->primary_hits, &cpu, NULL) < 0.0)
         return RTK_ERR_NOMEM;
+    /* The same rays in batches: the same hits, bit for bit. */
+    uint64_t batch_hits = 0;
+    pp.batch = 1, pp.hits = b->batch_hits;
+    if (run_pass(&pp, row->threads, &batch_hits, &cpu, NULL) < 0.0)
+        return RTK_ERR_NOMEM;
+    for (size_t i = 0; i < (size_t)b->width * b->height; i++) {
+        const rtk_hit *h = &b->hits[i], *g = &b->batch_hits[i];
+        if (h->prim != g->prim || (h->prim != RTK_INVALID_ID && memcmp(h, g, sizeof *h) != 0))
+            return rtk_error(RTK_ERR_PLUGIN, "bench: %s: the primary ray of pixel (%zu, %zu) hits prim %u at t %a "
+                             "one at a time but prim %u at t %a in a batch", row->accel->label, i % b->width,
+                             i / b->width, h->prim, (double)h->t, g->prim, (double)g->t);
+    }
     /* AO rays from this tracer's own hits, made before any timing. */
     if ((st = ao_rays_for_hits(b, tr->ao, &tr->ao_count, &tr->ao_of[a])) != RTK_OK)
         return st;
@@ -1006,7 +1051,7 @@ static rtk_status trace_setup(trace_round *tr, size_t a)
     progress(b, row->accel, row->threads, "AO warm-up", 1, 1);
     bench_pass ap = {.scene = b->scene, .rays = ao->rays, .row_start = ao->rows, .rows = b->height, .closest = 0,
                      .row_count = b->row_count};
-    if (run_pass(&ap, row->threads, &row->ao_unoccluded, &cpu) < 0.0)
+    if (run_pass(&ap, row->threads, &row->ao_unoccluded, &cpu, NULL) < 0.0)
         return RTK_ERR_NOMEM;
     if (rtk_log_enabled(RTK_LOG_DEBUG))
         log_work(b, row->accel, row->threads, ao);
@@ -1032,19 +1077,25 @@ static rtk_status measure_traces(bench *b, size_t t, size_t *failed)
         *failed = a * b->thread_count + t;
         st = trace_setup(&tr, a);
     }
+    /* Each round: every accelerator one at a time, then in batches. */
     for (int closest = 1; closest >= 0 && st == RTK_OK; closest--) {
         for (uint32_t i = 0; i < runs && st == RTK_OK; i++)
-            for (size_t a = 0; a < n && st == RTK_OK; a++) {
-                *failed = a * b->thread_count + t;
-                st = timed_pass(&tr, a, closest, i);
-            }
+            for (int batch = 0; batch <= 1 && st == RTK_OK; batch++)
+                for (size_t a = 0; a < n && st == RTK_OK; a++) {
+                    *failed = a * b->thread_count + t;
+                    st = timed_pass(&tr, a, closest, batch, i);
+                }
         for (size_t a = 0; a < n && st == RTK_OK; a++) {
             bench_row *row = round_row(&tr, a);
             double ms = 1e3 * median(&b->times[a * runs], runs), cpu_ms = 1e3 * median(&b->cpu_times[a * runs], runs);
+            double bms = 1e3 * median(&b->times[(n + a) * runs], runs),
+                   bcpu_ms = 1e3 * median(&b->cpu_times[(n + a) * runs], runs);
             if (closest)
-                row->primary_ms = ms, row->primary_cpu_ms = cpu_ms;
+                row->primary_ms = ms, row->primary_cpu_ms = cpu_ms, row->primary_batch_ms = bms,
+                row->primary_batch_cpu_ms = bcpu_ms;
             else
-                row->ao_ms = ms, row->ao_cpu_ms = cpu_ms, row->done = 1;
+                row->ao_ms = ms, row->ao_cpu_ms = cpu_ms, row->ao_batch_ms = bms, row->ao_batch_cpu_ms = bcpu_ms,
+                row->done = 1;
         }
     }
     rtk_bvh_release(b->scene);
@@ -1161,6 +1212,24 @@ static void print_report(const bench *b, const char *path, FILE *out)
                 (unsigned long long)r->primary_hits, (unsigned long long)r->ao_rays,
                 (unsigned long long)r->ao_unoccluded, mean_ao(r), r->build_ms + r->primary_ms + r->ao_ms);
     }
+    /* The same rays with each image row traced as one batch: the kernel's
+     * packets, or an accelerator's own batch functions (embree: its
+     * packets of 8 or 16 consecutive rays). */
+    fprintf(out, "\nbatches: each image row's rays in one call (rtk_bvh_closest_batch / rtk_bvh_any_batch), the same "
+            "hits; Mrays/s wall clock; speed-up against one ray at a time per CPU-second of the tracing threads; "
+            "packets: share of the rays rtk's kernel traced in packets\n");
+    fprintf(out, "%-*s %7s %13s %13s %8s %8s %9s %9s %8s %8s\n", w, "accelerator", "threads", "primary_mrays",
+            "primary_batch", "speed-up", "packets", "ao_mrays", "ao_batch", "speed-up", "packets");
+    for (size_t i = 0; i < b->accel_count * b->thread_count; i++) {
+        const bench_row *r = &b->rows[i];
+        if (!r->done)
+            continue;
+        fprintf(out, "%-*s %7u %13.3f %13.3f %7.3fx %7.1f%% %9.3f %9.3f %7.3fx %7.1f%%\n", w, r->accel->label,
+                r->threads, mrays(pixels, r->primary_ms), mrays(pixels, r->primary_batch_ms),
+                r->primary_cpu_ms / r->primary_batch_cpu_ms, 100.0 * (double)r->primary_packet_rays / (double)pixels,
+                mrays(r->ao_rays, r->ao_ms), mrays(r->ao_rays, r->ao_batch_ms), r->ao_cpu_ms / r->ao_batch_cpu_ms,
+                r->ao_rays ? 100.0 * (double)r->ao_packet_rays / (double)r->ao_rays : 0.0);
+    }
     /* CPU time is what the machine's other load does not inflate: tracing
      * rates per CPU-second of the tracing threads, build in process CPU. */
     fprintf(out, "\n%-*s %7s %9s %9s %5s %8s %9s %7s %9s %12s %14s %11s\n", w, "accelerator", "threads", "nodes",
@@ -1207,6 +1276,29 @@ static void print_report(const bench *b, const char *path, FILE *out)
                 (r->build_ms + r->primary_ms + r->ao_ms) / (e->build_ms + e->primary_ms + e->ao_ms),
                 e->primary_cpu_ms / r->primary_cpu_ms, e->ao_cpu_ms / r->ao_cpu_ms, e->accel->label);
     }
+    /* Batches against embree's: its packets and its single rays. */
+    header = 0;
+    for (size_t i = 0; i < b->accel_count * b->thread_count; i++) {
+        const bench_row *r = &b->rows[i], *e = NULL;
+        if (!r->done || strcmp(r->accel->plugin->name, "embree") == 0)
+            continue;
+        for (size_t j = 0; j < b->accel_count * b->thread_count && !e; j++)
+            if (b->rows[j].done && strcmp(b->rows[j].accel->plugin->name, "embree") == 0 &&
+                b->rows[j].threads == r->threads)
+                e = &b->rows[j];
+        if (!e)
+            continue;
+        if (!header) {
+            fprintf(out, "\nbatches against embree at the same threads, per CPU-second (>1 is faster than embree; "
+                         "its batches are its packets)\n");
+            fprintf(out, "%-*s %7s %15s %16s %11s %12s   %s\n", w, "accelerator", "threads", "primary_batches",
+                    "primary_vs_single", "ao_batches", "ao_vs_single", "versus");
+            header = 1;
+        }
+        fprintf(out, "%-*s %7u %14.3fx %15.3fx %10.3fx %11.3fx   %s\n", w, r->accel->label, r->threads,
+                e->primary_batch_cpu_ms / r->primary_batch_cpu_ms, e->primary_cpu_ms / r->primary_batch_cpu_ms,
+                e->ao_batch_cpu_ms / r->ao_batch_cpu_ms, e->ao_cpu_ms / r->ao_batch_cpu_ms, e->accel->label);
+    }
     if (b->phases)
         print_phases(b, out, w);
 }
@@ -1216,7 +1308,9 @@ static void write_csv(const bench *b, const char *path, FILE *f)
     fprintf(f, "mesh,accelerator,threads,width,height,triangles,build_ms,primary_ms,ao_ms,primary_mrays,ao_mrays,"
                "primary_hits,ao_rays,ao_unoccluded,mean_ao,primary_ray_hash,nodes,leaves,depth,sah_cost,"
                "memory_bytes,wide_memory_bytes,traversal,total_ms,build_cpu_ms,primary_cpu_ms,ao_cpu_ms,"
-               "primary_cpu_mrays,ao_cpu_mrays\n");
+               "primary_cpu_mrays,ao_cpu_mrays,primary_batch_ms,ao_batch_ms,primary_batch_cpu_ms,ao_batch_cpu_ms,"
+               "primary_batch_mrays,ao_batch_mrays,"
+               "primary_packet_rays,ao_packet_rays\n");
     const char *base = strrchr(path, '/');
     base = base ? base + 1 : path;
     uint64_t pixels = (uint64_t)b->width * b->height;
@@ -1235,9 +1329,13 @@ static void write_csv(const bench *b, const char *path, FILE *f)
             fprintf(f, ",,,,,");
         if (r->wide_memory)
             fprintf(f, "%zu", r->wide_memory);
-        fprintf(f, ",%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f\n", r->traversal, r->build_ms + r->primary_ms + r->ao_ms,
+        fprintf(f, ",%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f", r->traversal, r->build_ms + r->primary_ms + r->ao_ms,
                 r->build_cpu_ms, r->primary_cpu_ms, r->ao_cpu_ms, mrays(pixels, r->primary_cpu_ms),
                 mrays(r->ao_rays, r->ao_cpu_ms));
+        fprintf(f, ",%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%llu,%llu\n", r->primary_batch_ms, r->ao_batch_ms,
+                r->primary_batch_cpu_ms, r->ao_batch_cpu_ms, mrays(pixels, r->primary_batch_ms),
+                mrays(r->ao_rays, r->ao_batch_ms),
+                (unsigned long long)r->primary_packet_rays, (unsigned long long)r->ao_packet_rays);
     }
 }
 
@@ -1284,12 +1382,13 @@ rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk_bench_o
         b.hits = rtk_alloc(sizeof *b.hits * pixels);
         b.primary_rows = rtk_alloc(sizeof *b.primary_rows * (b.height + 1));
         b.row_count = rtk_alloc(sizeof *b.row_count * b.height);
-        b.times = rtk_alloc(sizeof *b.times * b.opt.runs * b.accel_count);
-        b.cpu_times = rtk_alloc(sizeof *b.cpu_times * b.opt.runs * b.accel_count);
+        b.batch_hits = rtk_alloc(sizeof *b.batch_hits * pixels);
+        b.times = rtk_alloc(sizeof *b.times * b.opt.runs * 2 * b.accel_count);
+        b.cpu_times = rtk_alloc(sizeof *b.cpu_times * b.opt.runs * 2 * b.accel_count);
         b.rows = rtk_calloc(b.accel_count * b.thread_count, sizeof *b.rows);
         b.build_times = rtk_alloc(sizeof *b.build_times * b.opt.runs * b.accel_count * b.thread_count);
         b.build_cpu = rtk_alloc(sizeof *b.build_cpu * b.opt.runs * b.accel_count * b.thread_count);
-        if (!b.primary || !b.hits || !b.primary_rows || !b.row_count || !b.times || !b.cpu_times ||
+        if (!b.primary || !b.hits || !b.batch_hits || !b.primary_rows || !b.row_count || !b.times || !b.cpu_times ||
             !b.rows || !b.build_times || !b.build_cpu)
             st = RTK_ERR_NOMEM;
         else if (rtk_log_enabled(RTK_LOG_DEBUG) && !phases_init(&b))

@@ -89,6 +89,13 @@ def compare(rows, expect, name, accelerators):
         check(got == want, "%s: primary_hits, ao_rays, ao_unoccluded %s == %s" % (tag, got, want))
         mean = expect["ao_unoccluded"] / expect["ao_rays"] if expect["ao_rays"] else 0.0
         check(abs(float(r["mean_ao"]) - mean) <= 1e-6, "%s: mean_ao %s == %.6f" % (tag, r["mean_ao"], mean))
+        # Batch passes: rtk bench itself fails when a batch's hits or
+        # counts differ from the single rays'; here they were measured.
+        check(float(r["primary_batch_mrays"]) > 0 and float(r["ao_batch_mrays"]) > 0
+              and 0 <= int(r["primary_packet_rays"])
+              and 0 <= int(r["ao_packet_rays"]) <= expect["ao_rays"],
+              "%s: batch rows measured (%s, %s Mrays/s; %s and %s rays in packets)"
+              % (tag, r["primary_batch_mrays"], r["ao_batch_mrays"], r["primary_packet_rays"], r["ao_packet_rays"]))
 
 
 def accelerators(rtk):
@@ -130,8 +137,10 @@ def test_recipe(rtk):
             check("primary_ray_hash 0x%016x" % expect["primary_ray_hash"] in proc.stdout
                   and "primary_hits" in proc.stdout and "mean_ao" in proc.stdout,
                   "wall: the table prints the recipe's keys")
+            check("batches: each image row" in proc.stdout, "wall: the batch table is printed")
             if "embree" in accels and len(accels) > 1:
-                check("against embree" in proc.stdout, "wall: ratios to embree printed")
+                check("against embree" in proc.stdout and "batches against embree" in proc.stdout,
+                      "wall: ratios to embree printed, single rays and batches")
         # -v: the work counters, known here without a tracer: every ray
         # tests the root node's children; the quad's two triangles (one
         # leaf, or two leaves with the quad's box each) are tested by the
