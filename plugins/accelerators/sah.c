@@ -30,8 +30,10 @@
  * children pairs in depth-first order, left first: a build on one thread
  * fills them in that order from the root and has no gaps to close. On
  * threads the root is binned by all of them (its bins do not depend on
- * how its primitives are divided), and a thread without a subtree spins a
- * while for the next before it sleeps.
+ * how its primitives are divided) and split by the calling thread, a
+ * thread without a subtree spins a while for the next before it sleeps,
+ * and the runs are moved on the threads, each once the runs whose slots
+ * it overwrites have been read.
  */
 #include <rtk/rtk.h>
 
