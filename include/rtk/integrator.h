@@ -1,6 +1,7 @@
 /* Integrator plugins: radiance along one camera ray, using kernel services.
  * Call order: create (once) -> needs -> [scene loaded and built] ->
- * prepare (optional) -> li from many threads at once -> destroy. */
+ * prepare (optional) -> li (or li_batch, when set) from many threads at
+ * once -> destroy. */
 #ifndef RTK_INTEGRATOR_H
 #define RTK_INTEGRATOR_H
 
