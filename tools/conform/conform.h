@@ -14,8 +14,9 @@
 
 RTK_EXTERN_C_BEGIN
 
-/* Groups of accelerator checks. The first four and INSTANCES run for every
- * parameter set of the plugin, the others for its defaults. */
+/* Groups of accelerator checks. The first four, INSTANCES and BATCH run for
+ * every parameter set of the plugin (BATCH's large scenes for its defaults
+ * only), the others for its defaults. */
 typedef enum rtk_conform_case {
     RTK_CONFORM_BASIC = 1u << 0,       /* small meshes against brute force */
     RTK_CONFORM_DEGENERATE = 1u << 1,  /* copies, concentric, one point, dense cube: depth, leaves */
@@ -29,7 +30,8 @@ typedef enum rtk_conform_case {
     RTK_CONFORM_TINY = 1u << 9,        /* triangles with edges of 1e-3..1e-8 */
     RTK_CONFORM_FANS = 1u << 10,       /* 1000-needle sliver fans */
     RTK_CONFORM_INSTANCES = 1u << 11,  /* a mesh placed 60 times: both levels against brute force */
-    RTK_CONFORM_ALL = (1u << 12) - 1u
+    RTK_CONFORM_BATCH = 1u << 12,      /* ray batches = single rays, bit for bit */
+    RTK_CONFORM_ALL = (1u << 13) - 1u
 } rtk_conform_case;
 
 /* What to run; a zero field means the default. */

@@ -1893,6 +1893,39 @@ static int brute_instances(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
     return found;
 }
 
+/* The instanced scene, unfinished: a mesh of 200 triangles placed 60
+ * times (rotated, scaled unevenly, mirrored, one 1e3 away) beside 40
+ * world-space triangles; NULL when out of memory. */
+static rtk_scene *instanced_scene(rtk_pcg32 *rng)
+{
+    rtk_scene *s = rtk_scene_new("conform instances", 0);
+    uint32_t mi = 0;
+    if (!s || rtk_scene_add_mesh(s, "conform mesh", &mi) != RTK_OK) {
+        rtk_scene_free(s);
+        return NULL;
+    }
+    for (int i = 0; i < 240; i++) {
+        rtk_vec3 c = rtk_vec3_make(rtk_conform_frand(rng, -1, 1), rtk_conform_frand(rng, -1, 1),
+                                   rtk_conform_frand(rng, -1, 1)),
+                 v[3];
+        for (int k = 0; k < 3; k++)
+            v[k] = rtk_vec3_add(c, rtk_vec3_make(rtk_conform_frand(rng, -.3f, .3f), rtk_conform_frand(rng, -.3f, .3f),
+                                                 rtk_conform_frand(rng, -.3f, .3f)));
+        add_tri(i < 200 ? s->meshes[mi] : s, v[0], v[1], v[2]);
+    }
+    for (int i = 0; i < 60; i++) {
+        double m[12];
+        double sc = drange(rng, 0.3, 2.0);
+        dvec scale = dv(sc * (i % 4 == 3 ? -1.0 : 1.0), sc * drange(rng, 0.5, 1.5), sc);
+        dvec at = dv(drange(rng, -6, 6), drange(rng, -6, 6), drange(rng, -6, 6));
+        if (i == 59)
+            at = dv(1e3, -1e3, 5e2);
+        instance_transform(at, drand_unit(rng), drange(rng, -180, 180), scale, m);
+        rtk_scene_add_instance(s, mi, m, "conform");
+    }
+    return s;
+}
+
 /* Two-level instancing: the plugin builds a mesh's tree and the top level
  * over 60 placements (rotated, scaled unevenly, mirrored, 1e3 away)
  * beside 40 world-space triangles; closest and any hit must be brute
@@ -1905,31 +1938,10 @@ static void conform_instances(rtk_conform_runner *r, const rtk_plugin *p, const 
              label);
     rtk_pcg32 rng;
     rtk_pcg32_seed(&rng, 60, 2);
-    rtk_scene *s = rtk_scene_new("conform instances", 0);
-    uint32_t mi = 0;
-    if (!s || rtk_scene_add_mesh(s, "conform mesh", &mi) != RTK_OK) {
+    rtk_scene *s = instanced_scene(&rng);
+    if (!s) {
         rtk_conform_check(r, 0, name, "out of memory");
-        rtk_scene_free(s);
         return;
-    }
-    for (int i = 0; i < 240; i++) {
-        rtk_vec3 c = rtk_vec3_make(rtk_conform_frand(&rng, -1, 1), rtk_conform_frand(&rng, -1, 1),
-                                   rtk_conform_frand(&rng, -1, 1)),
-                 v[3];
-        for (int k = 0; k < 3; k++)
-            v[k] = rtk_vec3_add(c, rtk_vec3_make(rtk_conform_frand(&rng, -.3f, .3f), rtk_conform_frand(&rng, -.3f, .3f),
-                                                 rtk_conform_frand(&rng, -.3f, .3f)));
-        add_tri(i < 200 ? s->meshes[mi] : s, v[0], v[1], v[2]);
-    }
-    for (int i = 0; i < 60; i++) {
-        double m[12];
-        double sc = drange(&rng, 0.3, 2.0);
-        dvec scale = dv(sc * (i % 4 == 3 ? -1.0 : 1.0), sc * drange(&rng, 0.5, 1.5), sc);
-        dvec at = dv(drange(&rng, -6, 6), drange(&rng, -6, 6), drange(&rng, -6, 6));
-        if (i == 59)
-            at = dv(1e3, -1e3, 5e2);
-        instance_transform(at, drand_unit(&rng), drange(&rng, -180, 180), scale, m);
-        rtk_scene_add_instance(s, mi, m, "conform");
     }
     rtk_status st = rtk_scene_finish(s);
     rtk_bvh_cache_use use;
@@ -1971,6 +1983,405 @@ static void conform_instances(rtk_conform_runner *r, const rtk_plugin *p, const 
     rtk_scene_free(s);
 }
 
+/* ---- batches: every parameter set ---- */
+
+/* Batch sizes, used in turn: one ray, a packet less one, one and one more,
+ * and whole tiles. */
+static const uint32_t batch_sizes[] = {1, 7, 8, 9, 64, 256};
+
+/* The box the rays of a batch check start around: s's triangles, or
+ * [-1, 1]^3 when it has none. */
+static void batch_box(const rtk_scene *s, dvec *lo, dvec *hi)
+{
+    *lo = dv(INFINITY, INFINITY, INFINITY), *hi = dv(-INFINITY, -INFINITY, -INFINITY);
+    for (uint32_t i = 0; i < s->triangle_count; i++)
+        for (int k = 0; k < 3; k++) {
+            dvec v = tri_vertex(s, i, k);
+            *lo = dv(fmin(lo->x, v.x), fmin(lo->y, v.y), fmin(lo->z, v.z));
+            *hi = dv(fmax(hi->x, v.x), fmax(hi->y, v.y), fmax(hi->z, v.z));
+        }
+    if (!(lo->x <= hi->x))
+        *lo = dv(-1, -1, -1), *hi = dv(1, 1, 1);
+}
+
+/* A point of a random triangle of s (on an edge or at a corner for some
+ * i), or of the box when s has no triangles. */
+static dvec batch_target(const rtk_scene *s, dvec lo, dvec hi, rtk_pcg32 *rng, uint32_t i)
+{
+    if (!s->triangle_count)
+        return dv(drange(rng, lo.x, hi.x), drange(rng, lo.y, hi.y), drange(rng, lo.z, hi.z));
+    uint32_t prim = rtk_pcg32_next(rng) % s->triangle_count;
+    dvec a = tri_vertex(s, prim, 0), b = tri_vertex(s, prim, 1), c = tri_vertex(s, prim, 2);
+    double u = drand(rng), v = i % 4 == 1 ? 0.0 : drand(rng);
+    if (u + v > 1.0)
+        u = 1.0 - u, v = 1.0 - v;
+    return i % 8 == 3 ? a : dadd(a, dadd(dmul(dsub(b, a), u), dmul(dsub(c, a), v)));
+}
+
+/* count rays in blocks, as a renderer makes them: a tile of camera rays
+ * (one origin outside or inside the box, neighbouring directions 1e-4 to
+ * 0.05 rad apart, row by row), one point's 8 AO rays (random directions
+ * about the normal of a triangle, origin just off it, short), or
+ * incoherent rays (random origins and directions, half aimed at
+ * triangles, some with a finite tmax, a positive or a negative tmin). */
+static void batch_rays(const rtk_scene *s, dvec lo, dvec hi, rtk_pcg32 *rng, rtk_ray *rays, uint32_t count)
+{
+    dvec centre = dmul(dadd(lo, hi), 0.5);
+    double radius = fmax(0.5 * dlen(dsub(hi, lo)), 1e-3);
+    for (uint32_t n = 0; n < count;) {
+        uint32_t kind = rtk_pcg32_next(rng) % 3, left = count - n;
+        if (kind == 0) {
+            static const uint32_t widths[] = {4, 8, 16, 37};
+            uint32_t w = widths[rtk_pcg32_next(rng) % RTK_COUNTOF(widths)], h = 1 + rtk_pcg32_next(rng) % 8;
+            dvec eye = rtk_pcg32_next(rng) % 4 ? dadd(centre, dmul(drand_unit(rng), radius * drange(rng, 1.5, 4.0)))
+                                               : dadd(centre, dmul(drand_unit(rng), radius * drange(rng, 0.0, 0.5)));
+            dvec fwd = dunit(dsub(batch_target(s, lo, hi, rng, n), eye)), right, up;
+            dframe(fwd, &right, &up);
+            double step = dlogrange(rng, 1e-4, 0.05);
+            float tmax = rtk_pcg32_next(rng) % 4 ? INFINITY : (float)(radius * drange(rng, 0.5, 4.0));
+            for (uint32_t y = 0; y < h && n < count; y++)
+                for (uint32_t x = 0; x < w && n < count; x++) {
+                    dvec d = dadd(fwd, dadd(dmul(right, step * (x - 0.5 * w)), dmul(up, step * (y - 0.5 * h))));
+                    rays[n++] = make_ray(fdv(eye), fdv(dunit(d)), tmax);
+                }
+        } else if (kind == 1) {
+            dvec p = batch_target(s, lo, hi, rng, n), nrm = drand_unit(rng);
+            if (s->triangle_count) {
+                uint32_t prim = rtk_pcg32_next(rng) % s->triangle_count;
+                dvec a = tri_vertex(s, prim, 0), b = tri_vertex(s, prim, 1), c = tri_vertex(s, prim, 2);
+                dvec ng = dcross(dsub(b, a), dsub(c, a));
+                double u = drand(rng), v = drand(rng);
+                if (u + v > 1.0)
+                    u = 1.0 - u, v = 1.0 - v;
+                p = dadd(a, dadd(dmul(dsub(b, a), u), dmul(dsub(c, a), v)));
+                if (dlen(ng) > 0.0)
+                    nrm = dmul(dunit(ng), rtk_pcg32_next(rng) % 2 ? 1.0 : -1.0);
+            }
+            rtk_vec3 org = fdv(dadd(p, dmul(nrm, 1e-4 * radius)));
+            for (uint32_t k = 0; k < 8 && n < count; k++)
+                rays[n++] = make_ray(org, fdv(drand_cone(rng, nrm, 0.0)), (float)(0.2 * radius));
+        } else {
+            uint32_t m = 1 + rtk_pcg32_next(rng) % 64;
+            for (uint32_t k = 0; k < m && k < left; k++) {
+                dvec o = dadd(centre, dmul(dv(drange(rng, -1.5, 1.5), drange(rng, -1.5, 1.5), drange(rng, -1.5, 1.5)),
+                                           radius));
+                dvec d = rtk_pcg32_next(rng) % 2 ? dsub(batch_target(s, lo, hi, rng, n), o) : drand_unit(rng);
+                rtk_ray ray = make_ray(fdv(o), fdv(d), n % 5 == 0 ? (float)(radius * drange(rng, 0.1, 3.0)) : INFINITY);
+                if (n % 16 == 7)
+                    ray.tmin = (float)(-radius * drand(rng));
+                else if (n % 16 == 11)
+                    ray.tmin = (float)(1e-3 * radius);
+                rays[n++] = ray;
+            }
+        }
+    }
+}
+
+/* Traces rays in batches of batch_sizes in turn (from size index first)
+ * through rtk_bvh_closest_batch and rtk_bvh_any_batch, then one by one,
+ * and tallies every ray whose answers differ: with a hit, every field of
+ * rtk_hit bit for bit; on a miss prim RTK_INVALID_ID; occluded 0 or 1 as
+ * rtk_bvh_any says. hits and occluded have room for count. */
+static void batch_compare(const rtk_scene *s, const rtk_ray *rays, uint32_t count, uint32_t first, rtk_hit *hits,
+                          uint8_t *occluded, tally *tl, uint64_t *got, uint64_t *blocked)
+{
+    memset(hits, 0x5a, sizeof *hits * count);
+    memset(occluded, 0x5a, count);
+    for (uint32_t i = 0, k = first; i < count; k++) {
+        uint32_t n = batch_sizes[k % RTK_COUNTOF(batch_sizes)];
+        n = n < count - i ? n : count - i;
+        rtk_bvh_closest_batch(s, rays + i, n, hits + i);
+        rtk_bvh_any_batch(s, rays + i, n, occluded + i);
+        i += n;
+    }
+    for (uint32_t i = 0; i < count; i++) {
+        rtk_hit h;
+        memset(&h, 0x5a, sizeof h);
+        int hit = rtk_bvh_closest(s, &rays[i], &h), any = rtk_bvh_any(s, &rays[i]) != 0;
+        const rtk_hit *b = &hits[i];
+        tl->rays++;
+        *got += (uint64_t)hit;
+        *blocked += (uint64_t)any;
+        if (hit ? memcmp(&h, b, sizeof h) != 0 : b->prim != RTK_INVALID_ID)
+            tally_bad(tl, &rays[i],
+                      "ray %u: batch prim %u inst %u t %a u %a v %a; single %s prim %u inst %u t %a u %a v %a", i,
+                      b->prim, b->inst, b->t, b->u, b->v, hit ? "hit" : "miss", h.prim, h.inst, h.t, h.u, h.v);
+        else if (occluded[i] != any)
+            tally_bad(tl, &rays[i], "ray %u: batch occluded %u, single any hit %d", i, occluded[i], any);
+    }
+}
+
+/* Batches of count rays over s against single rays, one check line. */
+static void batch_check(rtk_conform_runner *r, const rtk_scene *s, dvec lo, dvec hi, uint32_t count, uint64_t seed,
+                        const char *what, const char *label)
+{
+    rtk_ray *rays = malloc(sizeof *rays * count);
+    rtk_hit *hits = malloc(sizeof *hits * count);
+    uint8_t *occluded = malloc(count);
+    char name[448];
+    snprintf(name, sizeof name, "batches = single rays, closest and any: %s [%s]", what, label);
+    if (!rays || !hits || !occluded) {
+        rtk_conform_check(r, 0, name, "out of memory");
+        free(rays), free(hits), free(occluded);
+        return;
+    }
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 2929u, seed);
+    batch_rays(s, lo, hi, &rng, rays, count);
+    tally tl = {0, 0, ""};
+    uint64_t got = 0, blocked = 0;
+    batch_compare(s, rays, count, (uint32_t)seed, hits, occluded, &tl, &got, &blocked);
+    snprintf(name, sizeof name,
+             "batches of 1, 7, 8, 9, 64, 256 rays = single rays bit for bit, closest and any: %s, %u rays (%llu hits, "
+             "%llu occluded) [%s]",
+             what, count, (unsigned long long)got, (unsigned long long)blocked, label);
+    tally_check(r, &tl, name);
+    free(rays), free(hits), free(occluded);
+}
+
+/* The first of rays whose closest hit changes when it is the sample's
+ * camera ray (it meets the back of a single-sided material first), or
+ * count when none does. */
+static uint32_t camera_ray_pick(const rtk_scene *s, const rtk_ray *rays, uint32_t count)
+{
+    rtk_camera camera;
+    memset(&camera, 0, sizeof camera);
+    rtk_ctx plain, cam;
+    memset(&plain, 0, sizeof plain);
+    plain.scene = s;
+    cam = plain;
+    cam.camera = &camera;
+    for (uint32_t i = 0; i < count && s->single_sided; i++) {
+        rtk_hit a, b;
+        cam.camera_ray = rays[i];
+        int ha = rtk_trace(&plain, &rays[i], &a), hb = rtk_trace(&cam, &rays[i], &b);
+        if (ha != hb || (ha && (a.prim != b.prim || a.t != b.t)))
+            return i;
+    }
+    return count;
+}
+
+/* rtk_trace_batch and rtk_occluded_batch against rtk_trace and
+ * rtk_occluded with every fifth ray made invalid (NaN or infinite origin,
+ * zero or infinite direction, tmin > tmax, NaN tmax) and one ray marked as
+ * the sample's camera ray (one that passes the back of a single-sided
+ * material where the scene has one): equal answers (invalid rays miss and
+ * are not occluded), equal counts returned, and the counters advance
+ * alike. */
+static void batch_sdk(rtk_conform_runner *r, const rtk_scene *s, const char *what, const char *label)
+{
+    enum { COUNT = 1500 };
+    rtk_ray *rays = malloc(sizeof *rays * COUNT);
+    rtk_hit *hits = malloc(sizeof *hits * COUNT);
+    uint8_t *occluded = malloc(COUNT);
+    char name[448];
+    snprintf(name, sizeof name, "rtk_trace_batch and rtk_occluded_batch = rtk_trace and rtk_occluded: %s [%s]", what,
+             label);
+    if (!rays || !hits || !occluded) {
+        rtk_conform_check(r, 0, name, "out of memory");
+        free(rays), free(hits), free(occluded);
+        return;
+    }
+    dvec lo, hi;
+    batch_box(s, &lo, &hi);
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 3131u, 1u);
+    batch_rays(s, lo, hi, &rng, rays, COUNT);
+    uint64_t invalid = 0;
+    for (uint32_t i = 2; i < COUNT; i += 5, invalid++) {
+        switch (invalid % 6) {
+        case 0: rays[i].org.y = NAN; break;
+        case 1: rays[i].org.x = -INFINITY; break;
+        case 2: rays[i].dir = rtk_vec3_make(0.0f, -0.0f, 0.0f); break;
+        case 3: rays[i].dir.z = INFINITY; break;
+        case 4: rays[i].tmin = 2.0f, rays[i].tmax = 1.0f; break;
+        default: rays[i].tmax = NAN; break;
+        }
+    }
+    uint32_t marked = camera_ray_pick(s, rays, COUNT);
+    rtk_camera camera;
+    memset(&camera, 0, sizeof camera);
+    rtk_ctx batch, single;
+    memset(&batch, 0, sizeof batch);
+    batch.scene = s;
+    batch.camera = &camera;
+    batch.camera_ray = rays[marked < COUNT ? marked : COUNT / 3];
+    single = batch;
+    memset(hits, 0x5a, sizeof *hits * COUNT);
+    memset(occluded, 0x5a, COUNT);
+    uint64_t got = 0, blocked = 0, got1 = 0, blocked1 = 0;
+    for (uint32_t i = 0, k = 0; i < COUNT; k++) {
+        uint32_t n = batch_sizes[k % RTK_COUNTOF(batch_sizes)];
+        n = n < COUNT - i ? n : COUNT - i;
+        got += rtk_trace_batch(&batch, rays + i, n, hits + i);
+        blocked += rtk_occluded_batch(&batch, rays + i, n, occluded + i);
+        i += n;
+    }
+    tally tl = {0, 0, ""};
+    for (uint32_t i = 0; i < COUNT; i++) {
+        rtk_hit h;
+        memset(&h, 0x5a, sizeof h);
+        int hit = rtk_trace(&single, &rays[i], &h), any = rtk_occluded(&single, &rays[i]) != 0;
+        int valid = i < 2 || (i - 2) % 5 != 0;
+        got1 += (uint64_t)hit;
+        blocked1 += (uint64_t)any;
+        const rtk_hit *b = &hits[i];
+        tl.rays++;
+        if (hit || !valid ? memcmp(&h, b, sizeof h) != 0 : b->prim != RTK_INVALID_ID)
+            tally_bad(&tl, &rays[i],
+                      "ray %u (%s): batch prim %u inst %u t %a u %a v %a; single %s prim %u inst %u t %a u %a v %a", i,
+                      valid ? "valid" : "invalid", b->prim, b->inst, b->t, b->u, b->v, hit ? "hit" : "miss", h.prim,
+                      h.inst, h.t, h.u, h.v);
+        else if (occluded[i] != any)
+            tally_bad(&tl, &rays[i], "ray %u (%s): batch occluded %u, single %d", i, valid ? "valid" : "invalid",
+                      occluded[i], any);
+        else if (!valid && (hit || any || b->prim != RTK_INVALID_ID))
+            tally_bad(&tl, &rays[i], "ray %u: invalid, yet hit", i);
+    }
+    if (tl.bad == 0 && (got != got1 || blocked != blocked1))
+        tally_bad(&tl, &rays[0], "the batch calls returned %llu hits and %llu occluded, single rays %llu and %llu",
+                  (unsigned long long)got, (unsigned long long)blocked, (unsigned long long)got1,
+                  (unsigned long long)blocked1);
+    if (tl.bad == 0 && (batch.rays != single.rays || batch.invalid_rays != single.invalid_rays ||
+                        batch.invalid_rays != 2 * invalid))
+        tally_bad(&tl, &rays[0], "counters: batches %llu rays, %llu invalid; single %llu, %llu; %llu invalid given",
+                  (unsigned long long)batch.rays, (unsigned long long)batch.invalid_rays,
+                  (unsigned long long)single.rays, (unsigned long long)single.invalid_rays,
+                  (unsigned long long)(2 * invalid));
+    snprintf(name, sizeof name,
+             "rtk_trace_batch and rtk_occluded_batch = rtk_trace and rtk_occluded: %s, %d rays, %llu invalid, one "
+             "camera ray%s (%llu hits, %llu occluded) [%s]",
+             what, COUNT, (unsigned long long)invalid, marked < COUNT ? " through a single-sided back" : "",
+             (unsigned long long)got, (unsigned long long)blocked, label);
+    tally_check(r, &tl, name);
+    free(rays), free(hits), free(occluded);
+}
+
+/* Quads stacked along z, with cut-out materials: a glTF BLEND coverage of
+ * 1/2 (stochastic, decided per ray and triangle), a MASK below its cutoff
+ * (all cut away), a single-sided one (camera rays pass its back) and an
+ * opaque one; finished. NULL when out of memory. */
+static rtk_scene *cutout_scene(void)
+{
+    rtk_scene *s = rtk_scene_new("conform cut-outs", 0);
+    if (!s)
+        return NULL;
+    rtk_material m[4];
+    for (int k = 0; k < 4; k++)
+        m[k] = rtk_conform_diffuse(rtk_rgb_make(0.5f, 0.5f, 0.5f), 0.0f);
+    m[0].alpha_mode = RTK_ALPHA_BLEND, m[0].coverage = 1, m[0].alpha = 0.5f;
+    m[1].alpha_mode = RTK_ALPHA_MASK, m[1].alpha = 0.25f, m[1].alpha_cutoff = 0.5f;
+    m[2].single_sided = 1;
+    uint32_t id[4];
+    for (int k = 0; k < 4; k++)
+        if ((id[k] = rtk_conform_add_material(s, m[k])) == RTK_INVALID_ID) {
+            rtk_scene_free(s);
+            return NULL;
+        }
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 77u, 5u);
+    for (int i = 0; i < 64; i++) {
+        float z = -1.0f + i / 32.0f, x = rtk_conform_frand(&rng, -1, 0), y = rtk_conform_frand(&rng, -1, 0);
+        rtk_conform_add_quad(s, rtk_vec3_make(x, y, z), rtk_vec3_make(1, 0, 0.01f * (i % 3)), rtk_vec3_make(0, 1, 0),
+                             id[i % 4], 1);
+    }
+    if (rtk_scene_finish(s) != RTK_OK) {
+        rtk_scene_free(s);
+        return NULL;
+    }
+    return s;
+}
+
+/* Batches against single rays on the conform meshes, a cut-out scene and
+ * the instanced scene (the last two when the kernel traverses), through
+ * the SDK with invalid rays, and on the closed icosphere at 1e5 (rays at
+ * its vertices and edges, where rounding decides); with full, more rays
+ * there, the icosphere at the origin and the surface scene. */
+static void conform_batch(rtk_conform_runner *r, const rtk_plugin *p, const rtk_params *params, const char *label,
+                          int full)
+{
+    int own = rtk_accelerator_traverses_itself(p);
+    char what[256];
+    for (int which = 0; which < 6; which++) {
+        const char *mesh_name = NULL;
+        mesh m;
+        m.s = make_mesh(which, &mesh_name);
+        m.ok = m.s != NULL;
+        snprintf(what, sizeof what, "batches on %s", mesh_name);
+        if (mesh_build(r, &m, p, params, 2, what)) {
+            dvec lo, hi;
+            batch_box(m.s, &lo, &hi);
+            batch_check(r, m.s, lo, hi, 3000, (uint64_t)which, mesh_name, label);
+            if (which == 2)
+                batch_sdk(r, m.s, mesh_name, label);
+        }
+        rtk_scene_free(m.s);
+    }
+    if (!own) {
+        mesh m;
+        m.s = cutout_scene();
+        m.ok = m.s != NULL;
+        if (mesh_build(r, &m, p, params, 2, "batches on quads with cut-outs")) {
+            dvec lo, hi;
+            batch_box(m.s, &lo, &hi);
+            batch_check(r, m.s, lo, hi, 3000, 6u, "64 quads with cut-outs (coverage, mask, single-sided)", label);
+            batch_sdk(r, m.s, "quads with cut-outs", label);
+        }
+        rtk_scene_free(m.s);
+        rtk_pcg32 rng;
+        rtk_pcg32_seed(&rng, 60, 2);
+        rtk_scene *s = instanced_scene(&rng);
+        rtk_status st = s ? rtk_scene_finish(s) : RTK_ERR_NOMEM;
+        rtk_bvh_cache_use use;
+        if (st == RTK_OK)
+            st = rtk_bvh_build_cached(s, p, params, 2, NULL, &use);
+        if (st != RTK_OK) {
+            rtk_conform_check(r, 0, "build the instanced scene for batches", "%s",
+                              s ? rtk_error_message() : "out of memory");
+        } else {
+            batch_check(r, s, dv(-9, -9, -9), dv(9, 9, 9), 3000, 7u, "a mesh placed 60 times beside 40 triangles",
+                        label);
+            batch_sdk(r, s, "instanced scene", label);
+        }
+        rtk_scene_free(s);
+    } else {
+        fprintf(r->out,
+                "# batches [%s]: own traversal: no cut-out scene (it ignores alpha), no instanced scene (it refuses "
+                "them)\n",
+                label);
+    }
+    dvec *v = NULL, *iv = NULL;
+    uint32_t *t = NULL, *it = NULL, nv = 0, nt = 0, inv = 0, int_ = 0;
+    if (!icosphere(6, &v, &nv, &t, &nt) || !icosphere(3, &iv, &inv, &it, &int_)) {
+        rtk_conform_check(r, 0, "batches on the icosphere", "out of memory");
+        free(v), free(t), free(iv), free(it);
+        return;
+    }
+    for (int place = full ? 0 : 1; place < 2; place++) {
+        dvec centre = place ? dv(1e5, 1e5, 1e5) : dv(0, 0, 0);
+        mesh m = mesh_new("conform icosphere");
+        mesh_icosphere(&m, v, nv, t, nt, centre, 1.0);
+        snprintf(what, sizeof what, "closed icosphere (%u triangles) at %s", nt,
+                 place ? "(1e5, 1e5, 1e5)" : "the origin");
+        if (mesh_build(r, &m, p, params, 2, what))
+            batch_check(r, m.s, dadd(centre, dv(-1, -1, -1)), dadd(centre, dv(1, 1, 1)), full ? 20000 : 5000,
+                        8u + (uint64_t)place, what, label);
+        rtk_scene_free(m.s);
+    }
+    surface_scene sc;
+    if (full && surface_scene_make(&sc, 1.0, dv(0, 0, 0), iv, inv, it, int_) &&
+        mesh_build(r, &sc.m, p, params, 2, "batches on the surface scene")) {
+        dvec lo, hi;
+        batch_box(sc.m.s, &lo, &hi);
+        batch_check(r, sc.m.s, lo, hi, 10000, 10u, "surface scene (closed room, sphere, block)", label);
+    } else if (full && (!sc.m.ok || !sc.normal)) {
+        rtk_conform_check(r, 0, "batches on the surface scene", "out of memory");
+    }
+    if (full)
+        surface_scene_free(&sc);
+    free(v), free(t), free(iv), free(it);
+}
+
 void rtk_conform_accelerator(rtk_conform_runner *r, const rtk_plugin *p, const rtk_conform_options *o)
 {
     uint32_t cases = o && o->cases ? o->cases : RTK_CONFORM_ALL;
@@ -1987,7 +2398,7 @@ void rtk_conform_accelerator(rtk_conform_runner *r, const rtk_plugin *p, const r
         }
         double t0 = rtk_now();
         const uint32_t each = RTK_CONFORM_BASIC | RTK_CONFORM_DEGENERATE | RTK_CONFORM_SIGNED_ZERO | RTK_CONFORM_REPEAT |
-                              RTK_CONFORM_INSTANCES;
+                              RTK_CONFORM_INSTANCES | RTK_CONFORM_BATCH;
         if (cases & RTK_CONFORM_BASIC)
             conform_basic(r, p, params, label);
         if (cases & RTK_CONFORM_DEGENERATE)
@@ -1998,6 +2409,8 @@ void rtk_conform_accelerator(rtk_conform_runner *r, const rtk_plugin *p, const r
             conform_repeat(r, p, params, label, vi == 0);
         if (cases & RTK_CONFORM_INSTANCES)
             conform_instances(r, p, params, label);
+        if (cases & RTK_CONFORM_BATCH)
+            conform_batch(r, p, params, label, vi == 0);
         if (cases & each)
             fprintf(r->out, "# [%s] %.2f s\n", label, rtk_now() - t0);
         if (vi == 0) {
