@@ -4,6 +4,7 @@
  * then the hard cases (see "accelerator hard cases" below) for the
  * defaults. Groups are selected by rtk_conform_options (conform.h). */
 #include "conform.h"
+#include "accel/bvh_wide.h"
 
 #include <float.h>
 #include <limits.h>
@@ -2129,12 +2130,14 @@ static void batch_check(rtk_conform_runner *r, const rtk_scene *s, dvec lo, dvec
     rtk_pcg32_seed(&rng, 2929u, seed);
     batch_rays(s, lo, hi, &rng, rays, count);
     tally tl = {0, 0, ""};
-    uint64_t got = 0, blocked = 0;
+    uint64_t got = 0, blocked = 0, packed = rtk_wide_packet_rays;
     batch_compare(s, rays, count, (uint32_t)seed, hits, occluded, &tl, &got, &blocked);
+    packed = rtk_wide_packet_rays - packed;
     snprintf(name, sizeof name,
              "batches of 1, 7, 8, 9, 64, 256 rays = single rays bit for bit, closest and any: %s, %u rays (%llu hits, "
-             "%llu occluded) [%s]",
-             what, count, (unsigned long long)got, (unsigned long long)blocked, label);
+             "%llu occluded; %llu of 2 x %u traced in the kernel's packets) [%s]",
+             what, count, (unsigned long long)got, (unsigned long long)blocked, (unsigned long long)packed, count,
+             label);
     tally_check(r, &tl, name);
     free(rays), free(hits), free(occluded);
 }
