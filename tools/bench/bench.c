@@ -463,7 +463,7 @@ typedef struct bench_row {
  * meshes do, adds up). */
 typedef struct bench_phases {
     const char *names[RTK_BUILD_LOG_MAX];
-    int parallel[RTK_BUILD_LOG_MAX]; /* 1 several threads, 0 one, -1 not known or mixed */
+    int parallel[RTK_BUILD_LOG_MAX]; /* 1 several threads, 0 one, -1 not known, 2 mixed */
     uint32_t count;
     double *seconds;                 /* phase k, round i at k * runs + i */
     double *serial, *unknown;        /* per round: seconds in phases on one thread, and not known */
@@ -853,7 +853,7 @@ static void phases_add(bench_phases *p, uint32_t runs, uint32_t i, const rtk_bui
             j = p->count - 1;
         }
         if (p->parallel[j] != ph->parallel)
-            p->parallel[j] = -1;
+            p->parallel[j] = 2;
         p->seconds[j * runs + i] += ph->seconds;
         if (ph->parallel == 0)
             p->serial[i] += ph->seconds;
@@ -1137,7 +1137,7 @@ static void print_phases(const bench *b, FILE *out, int w)
     if (!tmp)
         return;
     fprintf(out, "\nbuild phases (median ms of %u builds; share of the row's build_ms; threads: where the phase "
-            "ran, ? = not known)\n", runs);
+            "ran, ? = not known, mixed = one in some marks and several in others)\n", runs);
     for (size_t r = 0; r < b->accel_count * b->thread_count; r++) {
         const bench_row *row = &b->rows[r];
         const bench_phases *p = &b->phases[r];
@@ -1151,7 +1151,10 @@ static void print_phases(const bench *b, FILE *out, int w)
             sum += ms;
             fprintf(out, "  %-*s %9.2f %6.1f%%  %s\n", w + 24, p->names[k], ms,
                     row->build_ms > 0.0 ? 100.0 * ms / row->build_ms : 0.0,
-                    p->parallel[k] > 0 ? "many" : p->parallel[k] == 0 ? "one" : "?");
+                    p->parallel[k] == 2  ? "mixed"
+                    : p->parallel[k] > 0 ? "many"
+                    : p->parallel[k] == 0 ? "one"
+                                          : "?");
         }
         fprintf(out, "  %-*s %9.2f %6.1f%%\n", w + 24, "(sum of the medians)", sum,
                 row->build_ms > 0.0 ? 100.0 * sum / row->build_ms : 0.0);
@@ -1170,7 +1173,7 @@ static void print_phases(const bench *b, FILE *out, int w)
         else
             fprintf(out, "  serial fraction: needs a 1-thread row (--threads 1,...); %.2f ms on one thread\n", serial);
         if (unknown >= 0.005)
-            fprintf(out, "  and %.2f ms on threads not known (a builder's unmarked time)\n", unknown);
+            fprintf(out, "  and %.2f ms on threads not known (a builder's unmarked time, an instanced top level)\n", unknown);
     }
     free(tmp);
 }
