@@ -153,7 +153,7 @@ void rtk_wide_any_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *r
                         uint8_t *occluded);
 /* Rays this thread has traced in packets so far (the batch functions add
  * to it): how much of a batch cohered, for tests and the bench. */
-RTK_KERNEL_API extern __thread uint64_t rtk_wide_packet_rays;
+RTK_KERNEL_API uint64_t rtk_wide_packet_rays(void);
 
 /* The same without counts, by path (NULL for RTK_SIMD_BINARY, and for SSE
  * and the AVX paths off x86): rtk_bvh_closest / rtk_bvh_any reach a ray's traversal

@@ -738,7 +738,13 @@ typedef struct packet_entry {
     uint32_t lanes;
 } packet_entry;
 
-__thread uint64_t rtk_wide_packet_rays;
+/* rtk_wide_packet_rays' count. */
+static __thread uint64_t packet_rays;
+
+uint64_t rtk_wide_packet_rays(void)
+{
+    return packet_rays;
+}
 
 /* Fewest rays traced as a packet: below, one at a time is cheaper. */
 #define PACKET_MIN 3u

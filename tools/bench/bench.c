@@ -346,7 +346,7 @@ static void *pass_worker(void *arg)
     pass_thread *t = arg;
     bench_pass *p = t->pass;
     double c0 = cpu_now(CLOCK_THREAD_CPUTIME_ID);
-    const uint64_t packed = rtk_wide_packet_rays;
+    const uint64_t packed = rtk_wide_packet_rays();
     for (;;) {
         uint32_t y = atomic_fetch_add(&p->next_row, 1u);
         if (y >= p->rows)
@@ -371,7 +371,7 @@ static void *pass_worker(void *arg)
         p->row_count[y] = count;
     }
     t->cpu_seconds = cpu_now(CLOCK_THREAD_CPUTIME_ID) - c0;
-    t->packet_rays = rtk_wide_packet_rays - packed;
+    t->packet_rays = rtk_wide_packet_rays() - packed;
     return NULL;
 }
 

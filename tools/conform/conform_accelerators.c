@@ -2130,9 +2130,9 @@ static void batch_check(rtk_conform_runner *r, const rtk_scene *s, dvec lo, dvec
     rtk_pcg32_seed(&rng, 2929u, seed);
     batch_rays(s, lo, hi, &rng, rays, count);
     tally tl = {0, 0, ""};
-    uint64_t got = 0, blocked = 0, packed = rtk_wide_packet_rays;
+    uint64_t got = 0, blocked = 0, packed = rtk_wide_packet_rays();
     batch_compare(s, rays, count, (uint32_t)seed, hits, occluded, &tl, &got, &blocked);
-    packed = rtk_wide_packet_rays - packed;
+    packed = rtk_wide_packet_rays() - packed;
     snprintf(name, sizeof name,
              "batches of 1, 7, 8, 9, 64, 256 rays = single rays bit for bit, closest and any: %s, %u rays (%llu hits, "
              "%llu occluded; %llu of 2 x %u traced in the kernel's packets) [%s]",

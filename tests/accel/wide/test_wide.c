@@ -467,12 +467,12 @@ static void compare_batches(rtk_scene *s, const char *mesh, const char *builder)
                     single[i].prim = RTK_INVALID_ID;
                 occ_single[i] = (uint8_t)rtk_wide_any(s, (rtk_simd_path)p, &in[i], NULL);
             }
-            uint64_t before = rtk_wide_packet_rays;
+            uint64_t before = rtk_wide_packet_rays();
             for (uint32_t i = 0; i < (uint32_t)N; i += 256) {
                 rtk_wide_closest_batch(s, (rtk_simd_path)p, in + i, 256, batch + i);
                 rtk_wide_any_batch(s, (rtk_simd_path)p, in + i, 256, occ_batch + i);
             }
-            uint64_t packed = rtk_wide_packet_rays - before;
+            uint64_t packed = rtk_wide_packet_rays() - before;
             for (uint32_t i = 0; i < (uint32_t)N; i++) {
                 bad_closest += single[i].prim != batch[i].prim ||
                                (single[i].prim != RTK_INVALID_ID &&
@@ -488,9 +488,9 @@ static void compare_batches(rtk_scene *s, const char *mesh, const char *builder)
                   N, (unsigned long long)packed, bad_closest, bad_any);
             if (p >= RTK_SIMD_AVX2 && !set) {
                 /* The random rays alone: the short groups of eight are masked packets. */
-                uint64_t mark = rtk_wide_packet_rays;
+                uint64_t mark = rtk_wide_packet_rays();
                 rtk_wide_any_batch(s, (rtk_simd_path)p, rays + 2 * W * H, W * H, occ_batch);
-                uint64_t masked = rtk_wide_packet_rays - mark;
+                uint64_t masked = rtk_wide_packet_rays() - mark;
                 check(packed >= (uint64_t)W * H && masked == (uint64_t)W * H / 2,
                       "%s / %s: %s traces the camera rays as packets (%llu rays in packets) and the short "
                       "occlusion rays from one point as masked packets (%llu of %d)",
