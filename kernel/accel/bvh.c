@@ -286,9 +286,19 @@ static int own_batch(const rtk_accelerator_fns *f)
            f->any_batch;
 }
 
-void rtk_bvh_closest_batch(const rtk_scene *s, const rtk_ray *rays, uint32_t count, rtk_hit *hits)
+/* rtk_bvh_closest_batch (occluded NULL) or rtk_bvh_any_batch (hits
+ * NULL): the plugin's batch functions, else runs of rays the wide tree
+ * serves (use_wide, no instances) through its batches, the others one
+ * at a time. */
+static void bvh_batch(const rtk_scene *s, const rtk_ray *rays, uint32_t count, rtk_hit *hits, uint8_t *occluded)
 {
     if (!s->instance_count && s->own_traversal && own_batch(s->own_traversal)) {
+        if (occluded) {
+            s->own_traversal->any_batch(s->own_state, rays, count, occluded);
+            for (uint32_t i = 0; i < count; i++)
+                occluded[i] = occluded[i] != 0;
+            return;
+        }
         for (uint32_t i = 0; i < count; i++) {
             hits[i].prim = RTK_INVALID_ID;
             hits[i].t = rays[i].tmax;
@@ -302,44 +312,35 @@ void rtk_bvh_closest_batch(const rtk_scene *s, const rtk_ray *rays, uint32_t cou
         }
         return;
     }
-    const int packets = !s->instance_count && s->wide && s->wide->path >= RTK_SIMD_AVX2 && !s->own_traversal;
     for (uint32_t i = 0; i < count;) {
         uint32_t end = i;
-        while (packets && end < count && rays[end].tmin >= 0.0f)
+        while (end < count && !s->instance_count && use_wide(s, &rays[end]))
             end++;
-        if (end > i) {
+        if (end == i) {
+            if (occluded)
+                occluded[i] = (uint8_t)(rtk_bvh_any(s, &rays[i]) != 0);
+            else if (!rtk_bvh_closest(s, &rays[i], &hits[i]))
+                hits[i].prim = RTK_INVALID_ID;
+            i++;
+        } else if (occluded) {
+            rtk_wide_any_batch(s, s->wide->path, rays + i, end - i, occluded + i);
+            i = end;
+        } else {
             rtk_wide_closest_batch(s, s->wide->path, rays + i, end - i, hits + i);
             for (; i < end; i++)
                 hits[i].inst = RTK_INVALID_ID;
-        } else {
-            if (!rtk_bvh_closest(s, &rays[i], &hits[i]))
-                hits[i].prim = RTK_INVALID_ID;
-            i++;
         }
     }
 }
 
+void rtk_bvh_closest_batch(const rtk_scene *s, const rtk_ray *rays, uint32_t count, rtk_hit *hits)
+{
+    bvh_batch(s, rays, count, hits, NULL);
+}
+
 void rtk_bvh_any_batch(const rtk_scene *s, const rtk_ray *rays, uint32_t count, uint8_t *occluded)
 {
-    if (!s->instance_count && s->own_traversal && own_batch(s->own_traversal)) {
-        s->own_traversal->any_batch(s->own_state, rays, count, occluded);
-        for (uint32_t i = 0; i < count; i++)
-            occluded[i] = occluded[i] != 0;
-        return;
-    }
-    const int packets = !s->instance_count && s->wide && s->wide->path >= RTK_SIMD_AVX2 && !s->own_traversal;
-    for (uint32_t i = 0; i < count;) {
-        uint32_t end = i;
-        while (packets && end < count && rays[end].tmin >= 0.0f)
-            end++;
-        if (end > i) {
-            rtk_wide_any_batch(s, s->wide->path, rays + i, end - i, occluded + i);
-            i = end;
-        } else {
-            occluded[i] = (uint8_t)(rtk_bvh_any(s, &rays[i]) != 0);
-            i++;
-        }
-    }
+    bvh_batch(s, rays, count, NULL, occluded);
 }
 
 int rtk_bvh_closest_measure(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)

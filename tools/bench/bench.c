@@ -1178,6 +1178,19 @@ static void print_phases(const bench *b, FILE *out, int w)
     free(tmp);
 }
 
+/* The first measured embree row with r's threads, or NULL (and for an
+ * embree row or one not measured). */
+static const bench_row *embree_row(const bench *b, const bench_row *r)
+{
+    if (!r->done || strcmp(r->accel->plugin->name, "embree") == 0)
+        return NULL;
+    for (size_t j = 0; j < b->accel_count * b->thread_count; j++)
+        if (b->rows[j].done && strcmp(b->rows[j].accel->plugin->name, "embree") == 0 &&
+            b->rows[j].threads == r->threads)
+            return &b->rows[j];
+    return NULL;
+}
+
 static void print_report(const bench *b, const char *path, FILE *out)
 {
     const rtk_scene *s = b->scene;
@@ -1258,13 +1271,7 @@ static void print_report(const bench *b, const char *path, FILE *out)
     /* Each accelerator against the first embree row with the same threads. */
     int header = 0;
     for (size_t i = 0; i < b->accel_count * b->thread_count; i++) {
-        const bench_row *r = &b->rows[i], *e = NULL;
-        if (!r->done || strcmp(r->accel->plugin->name, "embree") == 0)
-            continue;
-        for (size_t j = 0; j < b->accel_count * b->thread_count && !e; j++)
-            if (b->rows[j].done && strcmp(b->rows[j].accel->plugin->name, "embree") == 0 &&
-                b->rows[j].threads == r->threads)
-                e = &b->rows[j];
+        const bench_row *r = &b->rows[i], *e = embree_row(b, r);
         if (!e)
             continue;
         if (!header) {
@@ -1282,13 +1289,7 @@ static void print_report(const bench *b, const char *path, FILE *out)
     /* Batches against embree's: its packets and its single rays. */
     header = 0;
     for (size_t i = 0; i < b->accel_count * b->thread_count; i++) {
-        const bench_row *r = &b->rows[i], *e = NULL;
-        if (!r->done || strcmp(r->accel->plugin->name, "embree") == 0)
-            continue;
-        for (size_t j = 0; j < b->accel_count * b->thread_count && !e; j++)
-            if (b->rows[j].done && strcmp(b->rows[j].accel->plugin->name, "embree") == 0 &&
-                b->rows[j].threads == r->threads)
-                e = &b->rows[j];
+        const bench_row *r = &b->rows[i], *e = embree_row(b, r);
         if (!e)
             continue;
         if (!header) {
