@@ -687,7 +687,7 @@ static const uint32_t pack_lanes[256] = {PACK_32(0u), PACK_32(32u), PACK_32(64u)
 
 #define RTK_ALIGN32 __attribute__((aligned(32)))
 
-/* A packet's constants (packet_make): each lane's single-ray box
+/* A frustum packet's constants (packet_setup): each lane's single-ray box
  * constants, and per axis the intervals of origins, reciprocals and
  * widened reciprocals over the lanes, with the rows of the shared
  * octant. */
