@@ -146,13 +146,16 @@ int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk
  * wide path, as rtk_wide_closest / rtk_wide_any give them one by one
  * (hits[i].prim RTK_INVALID_ID on a miss, occluded[i] 0 or 1): rays
  * whose directions and origins agree are traced as packets sharing each
- * node's visit, the others one at a time. [any thread] */
+ * node's visit, other occlusion rays as streams (each node visited once
+ * for all the rays that reach it), other closest-hit rays one at a time.
+ * [any thread] */
 void rtk_wide_closest_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count,
                             rtk_hit *hits);
 void rtk_wide_any_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count,
                         uint8_t *occluded);
-/* Rays this thread has traced in packets so far (the batch functions add
- * to it): how much of a batch cohered, for tests and the bench. */
+/* Rays this thread has traced in packets or streams so far (the batch
+ * functions add to it): how much of a batch went other than one ray at a
+ * time, for tests and the bench. */
 RTK_KERNEL_API uint64_t rtk_wide_packet_rays(void);
 
 /* The same without counts, by path (NULL for RTK_SIMD_BINARY, and for SSE

@@ -16,6 +16,7 @@
 #include "slab.h"
 
 #include <float.h>
+#include <pthread.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -708,28 +709,6 @@ typedef struct wide_packet {
     uint32_t count;
 } wide_packet;
 
-/* A packet of short rays from nearby origins in any directions
- * (masked_setup): each lane's single-ray box constants with its octant
- * as sign masks, and the box around every lane's segment. */
-typedef struct masked_packet {
-    RTK_ALIGN32 float ox[RTK_WIDE];
-    RTK_ALIGN32 float oy[RTK_WIDE];
-    RTK_ALIGN32 float oz[RTK_WIDE];
-    RTK_ALIGN32 float ix[RTK_WIDE];
-    RTK_ALIGN32 float iy[RTK_WIDE];
-    RTK_ALIGN32 float iz[RTK_WIDE];
-    RTK_ALIGN32 float fx[RTK_WIDE];
-    RTK_ALIGN32 float fy[RTK_WIDE];
-    RTK_ALIGN32 float fz[RTK_WIDE];
-    RTK_ALIGN32 float tmin[RTK_WIDE];
-    RTK_ALIGN32 float tmaxw[RTK_WIDE];
-    RTK_ALIGN32 float negx[RTK_WIDE]; /* all bits set where the direction's x is negative */
-    RTK_ALIGN32 float negy[RTK_WIDE];
-    RTK_ALIGN32 float negz[RTK_WIDE];
-    float lo[3], hi[3];
-    uint32_t count;
-} masked_packet;
-
 /* A pending subtree of a packet: entry distance of the frustum, and the
  * lanes that enter it (all live lanes for an inner node). */
 typedef struct packet_entry {
@@ -737,6 +716,64 @@ typedef struct packet_entry {
     float t;
     uint32_t lanes;
 } packet_entry;
+
+/* A ray of an occlusion stream: its single-ray box constants (the
+ * node loop's, for rays where box_int_ok holds). */
+typedef struct stream_ray {
+    float org[3], ninv[3], ninv_far[3];
+    float tmin, tmaxw;         /* tmin + 0 and the widened tmax */
+    uint32_t nx, ny, nz, pad;  /* entry rows times RTK_WIDE */
+} stream_ray;
+
+/* Rays per stream, and room for the lists of rays of the pending
+ * subtrees: a node's children's lists are at most eight times its own. */
+#define STREAM_MAX 1024u
+#define STREAM_ARENA (16u * STREAM_MAX)
+
+/* A pending subtree of a stream and its rays: ids[start .. start + count). */
+typedef struct stream_entry {
+    uint32_t ref, start, count;
+} stream_entry;
+
+/* A thread's stream state, made on its first stream. */
+typedef struct stream_buf {
+    stream_ray ray[STREAM_MAX];
+    tri_ray tri[STREAM_MAX];                  /* made at a ray's first leaf */
+    uint32_t which[STREAM_MAX];               /* the stream's rays in the batch */
+    uint32_t ids[STREAM_ARENA + 8];           /* the pending subtrees' rays */
+    uint32_t child[RTK_WIDE][STREAM_MAX + 8]; /* a node's children's rays */
+    stream_entry stack[RTK_WIDE_STACK];
+    uint8_t mask[STREAM_MAX + 8];             /* the children each of a node's rays enters */
+    uint8_t dead[STREAM_MAX];                 /* occluded */
+    uint8_t tri_ready[STREAM_MAX];
+} stream_buf;
+
+static pthread_key_t stream_key;
+static int stream_key_ok;
+static pthread_once_t stream_once = PTHREAD_ONCE_INIT;
+
+static void stream_key_make(void)
+{
+    stream_key_ok = pthread_key_create(&stream_key, free) == 0;
+}
+
+/* This thread's stream state, or NULL where none can be had (the caller
+ * then traces one ray at a time). */
+static stream_buf *stream_state(void)
+{
+    pthread_once(&stream_once, stream_key_make);
+    if (!stream_key_ok)
+        return NULL;
+    stream_buf *b = pthread_getspecific(stream_key);
+    if (!b) {
+        b = aligned_alloc(64, (sizeof *b + 63) / 64 * 64);
+        if (b && pthread_setspecific(stream_key, b) != 0) {
+            free(b);
+            b = NULL;
+        }
+    }
+    return b;
+}
 
 /* rtk_wide_packet_rays' count. */
 static __thread uint64_t packet_rays;
@@ -748,9 +785,11 @@ uint64_t rtk_wide_packet_rays(void)
 
 /* Fewest rays traced as a packet: below, one at a time is cheaper. */
 #define PACKET_MIN 3u
-/* A masked packet's subtree with this many lanes or fewer is traced lane
- * by lane, each ray testing eight children at once. */
-#define HANDOFF_LANES 2
+/* Fewest occlusion rays of a batch worth a stream. */
+#define STREAM_MIN 16u
+/* A stream's subtree entered by this many rays or fewer is traced by
+ * each ray's own traversal from there. */
+#define HANDOFF_RAYS 2u
 
 /* The node loop of bvh_wide_isa.inc, once per target: RTK_AVX names
  * a function of the pass, RTK_AVX512 selects the two places where the
@@ -843,10 +882,9 @@ int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk
     }
 }
 
-/* The batch through this path's packets (bvh_wide_isa.inc's batch), or
- * one ray at a time where the path has none. Origins of a packet lie
- * within a hundredth of the scene's diagonal of each other; a masked
- * packet's segments reach at most a quarter of it. */
+/* The batch through this path's packets and streams (bvh_wide_isa.inc's
+ * batch), or one ray at a time where the path has none. Origins of a
+ * packet lie within a hundredth of the scene's diagonal of each other. */
 static void batch_trace(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count, rtk_hit *hits,
                         uint8_t *occluded, int any)
 {
@@ -854,8 +892,7 @@ static void batch_trace(const rtk_scene *s, rtk_simd_path path, const rtk_ray *r
     if (path == RTK_SIMD_AVX2 || path == RTK_SIMD_AVX512) {
         const rtk_bounds b = s->bounds;
         const float diag = rtk_vec3_length(rtk_vec3_sub(b.upper, b.lower));
-        (path == RTK_SIMD_AVX512 ? avx512_batch : avx2_batch)(s, rays, count, hits, occluded, any, 0.01f * diag,
-                                                              0.25f * diag);
+        (path == RTK_SIMD_AVX512 ? avx512_batch : avx2_batch)(s, rays, count, hits, occluded, any, 0.01f * diag);
         return;
     }
 #endif
