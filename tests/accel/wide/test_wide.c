@@ -395,9 +395,9 @@ static void compare_paths(rtk_scene *s, const char *mesh, const char *builder, i
  * rays on every path, bit for bit: a pinhole camera's rays from outside
  * the mesh (coherent: the AVX paths trace most of them as frustum
  * packets), the same cut short (finite tmax), eight rays from each of
- * some hits in random directions, short and long (streams for
- * occlusion, one at a time for closest hit) and shadow rays from the
- * hits towards one point, each set alone and all interleaved. */
+ * some hits in random directions, short and long (streams) and shadow
+ * rays from the hits towards one point, each set alone and all
+ * interleaved. */
 static void compare_batches(rtk_scene *s, const char *mesh, const char *builder)
 {
     if (!s->wide)
@@ -487,13 +487,14 @@ static void compare_batches(rtk_scene *s, const char *mesh, const char *builder)
                   mesh, builder, rtk_simd_name((rtk_simd_path)p), set ? "interleaved" : "camera, short, random, shadow",
                   N, (unsigned long long)packed, bad_closest, bad_any);
             if (p >= RTK_SIMD_AVX2 && !set) {
-                /* The random rays alone: occlusion traces them all in streams. */
+                /* The random rays alone: closest hit and occlusion trace them all in streams. */
                 uint64_t mark = rtk_wide_packet_rays();
+                rtk_wide_closest_batch(s, (rtk_simd_path)p, rays + 2 * W * H, W * H, batch);
                 rtk_wide_any_batch(s, (rtk_simd_path)p, rays + 2 * W * H, W * H, occ_batch);
                 uint64_t streamed = rtk_wide_packet_rays() - mark;
-                check(packed >= (uint64_t)W * H && streamed == (uint64_t)W * H,
+                check(packed >= (uint64_t)W * H && streamed == 2u * W * H,
                       "%s / %s: %s traces the camera rays as packets (%llu rays in packets) and the random "
-                      "occlusion rays in streams (%llu of %d)",
+                      "rays in streams (%llu of 2 x %d, closest and any)",
                       mesh, builder, rtk_simd_name((rtk_simd_path)p), (unsigned long long)packed,
                       (unsigned long long)streamed, W * H);
             }
