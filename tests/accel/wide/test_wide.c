@@ -747,6 +747,64 @@ static void check_lbvh_order(const rtk_plugin *p)
     }
 }
 
+/* A stream whose lists outgrow their arena: 4,096 triangles with
+ * corners anywhere in [-1, 1]^3, so that every box holds most of the
+ * scene and each of 1,024 rays from inside enters nearly every child of
+ * every node (the lists grow eightfold a level, past the arena three
+ * levels down, where the stream hands the rays to their own traversals).
+ * Batches equal single rays on the AVX paths, closest and any. */
+static void check_stream_overflow(const rtk_plugin *builder)
+{
+    enum { TRIS = 4096, N = 1024 };
+    rtk_pcg32 rng;
+    rtk_pcg32_seed(&rng, 4096u, 3u);
+    rtk_scene *s = rtk_scene_new("overlapping triangles", 0);
+    for (int i = 0; i < TRIS; i++)
+        add_tri(s, rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1)),
+                rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1)),
+                rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1)));
+    set_bounds(s);
+    rtk_params *params = rtk_params_defaults(builder);
+    rtk_ray *rays = malloc(sizeof(rtk_ray) * N);
+    rtk_hit *single = malloc(sizeof(rtk_hit) * N), *batch = malloc(sizeof(rtk_hit) * N);
+    uint8_t *occ_single = malloc(N), *occ_batch = malloc(N);
+    int ok = rays && single && batch && occ_single && occ_batch &&
+             rtk_bvh_build(s, builder, params, 2) == RTK_OK && s->wide;
+    check(ok, "overlapping triangles / %s: build", builder->name);
+    for (int p = RTK_SIMD_AVX2; ok && p < RTK_SIMD_PATHS; p++) {
+        if (!rtk_simd_supported((rtk_simd_path)p))
+            continue;
+        for (uint32_t i = 0; i < N; i++) {
+            rays[i].org = rtk_vec3_make(frand(&rng, -.5f, .5f), frand(&rng, -.5f, .5f), frand(&rng, -.5f, .5f));
+            rays[i].dir = rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1));
+            rays[i].tmin = 0.0f;
+            rays[i].tmax = INFINITY;
+            if (!rtk_wide_closest(s, (rtk_simd_path)p, &rays[i], &single[i], NULL))
+                single[i].prim = RTK_INVALID_ID;
+            occ_single[i] = (uint8_t)rtk_wide_any(s, (rtk_simd_path)p, &rays[i], NULL);
+        }
+        rtk_wide_closest_batch(s, (rtk_simd_path)p, rays, N, batch);
+        rtk_wide_any_batch(s, (rtk_simd_path)p, rays, N, occ_batch);
+        int bad = 0;
+        for (uint32_t i = 0; i < N; i++)
+            bad += single[i].prim != batch[i].prim || occ_single[i] != occ_batch[i] ||
+                   (single[i].prim != RTK_INVALID_ID && (memcmp(&single[i].t, &batch[i].t, sizeof(float)) ||
+                                                         memcmp(&single[i].u, &batch[i].u, sizeof(float)) ||
+                                                         memcmp(&single[i].v, &batch[i].v, sizeof(float))));
+        check(bad == 0,
+              "overlapping triangles / %s: %s streams past their arena = single rays, bit for bit (%d rays, "
+              "depth %u): %d differ",
+              builder->name, rtk_simd_name((rtk_simd_path)p), N, s->wide->depth, bad);
+    }
+    free(rays);
+    free(single);
+    free(batch);
+    free(occ_single);
+    free(occ_batch);
+    rtk_params_destroy(params);
+    rtk_scene_free(s);
+}
+
 static void check_measure_service(rtk_scene *s)
 {
     rtk_ctx ctx;
@@ -839,6 +897,7 @@ int main(void)
             rtk_scene_free(s);
         }
     }
+    check_stream_overflow(builders[0]);
     for (int bi = 0; bi < nb; bi++) {
         if (builders[bi] == &one_leaf || builders[bi] == &chain)
             continue;
