@@ -1,6 +1,7 @@
-/* The kernel's BVH: ray/triangle and ray/box tests, robust ray offsets,
- * closest-hit and any-hit traversal, and the checked hand-off to builder
- * plugins. Builders only emit nodes; everything here is shared by all. */
+/* The kernel's BVH: ray/box tests (the ray/triangle test is isect.h's),
+ * robust ray offsets, closest-hit and any-hit traversal, and the checked
+ * hand-off to builder plugins. Builders only emit nodes; everything here
+ * is shared by all. */
 #include "accel.h"
 #include "slab.h"
 
@@ -15,112 +16,10 @@
 #include <string.h>
 
 
-static float axis(rtk_vec3 v, int k)
-{
-    return k == 0 ? v.x : k == 1 ? v.y : v.z;
-}
-
-/* Bound on the rounding error of the float t below (Pharr, Jakob,
- * Humphreys, pbrt-v4 section 6.8.7): t carries error proportional to the
- * vertices' distance from the origin, not to t itself. */
-static float t_error_bound(float U, float V, float W, float ax, float ay, float bx, float by, float cx, float cy,
-                           float az, float bz, float cz, float rcp)
-{
-    const float g2 = 2.0f * 0.5f * FLT_EPSILON / (1.0f - 2.0f * 0.5f * FLT_EPSILON);
-    const float g3 = 3.0f * 0.5f * FLT_EPSILON / (1.0f - 3.0f * 0.5f * FLT_EPSILON);
-    const float g5 = 5.0f * 0.5f * FLT_EPSILON / (1.0f - 5.0f * 0.5f * FLT_EPSILON);
-    float max_z = fmaxf(fabsf(az), fmaxf(fabsf(bz), fabsf(cz)));
-    float max_x = fmaxf(fabsf(ax), fmaxf(fabsf(bx), fabsf(cx)));
-    float max_y = fmaxf(fabsf(ay), fmaxf(fabsf(by), fabsf(cy)));
-    float dz = g3 * max_z, dx = g5 * (max_x + max_z), dy = g5 * (max_y + max_z);
-    float de = 2.0f * (g2 * max_x * max_y + dy * max_x + dx * max_y);
-    float max_e = fmaxf(fabsf(U), fmaxf(fabsf(V), fabsf(W)));
-    return 3.0f * (g3 * max_e * max_z + de * max_z + dz * max_e) * fabsf(rcp);
-}
-
-static double axis_d(rtk_vec3 v, int k)
-{
-    return k == 0 ? v.x : k == 1 ? v.y : v.z;
-}
-
-/* The same ray-space computation of t, in double. */
-static double exact_distance(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, int kx, int ky, int kz)
-{
-    double dz = axis_d(ray->dir, kz);
-    double sx = axis_d(ray->dir, kx) / dz, sy = axis_d(ray->dir, ky) / dz, sz = 1.0 / dz;
-    double A[3], B[3], C[3];
-    for (int k = 0; k < 3; k++) {
-        A[k] = axis_d(a, k) - axis_d(ray->org, k);
-        B[k] = axis_d(b, k) - axis_d(ray->org, k);
-        C[k] = axis_d(c, k) - axis_d(ray->org, k);
-    }
-    double ax = A[kx] - sx * A[kz], ay = A[ky] - sy * A[kz];
-    double bx = B[kx] - sx * B[kz], by = B[ky] - sy * B[kz];
-    double cx = C[kx] - sx * C[kz], cy = C[ky] - sy * C[kz];
-    double U = cx * by - cy * bx, V = ax * cy - ay * cx, W = bx * ay - by * ax;
-    double det = U + V + W;
-    if (det == 0.0)
-        return -1.0;
-    return (U * sz * A[kz] + V * sz * B[kz] + W * sz * C[kz]) / det;
-}
-
 RTK_API int rtk_intersect_triangle(const rtk_ray *ray, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, float *t_out,
                                    float *u_out, float *v_out)
 {
-    /* Woop, Benthin, Wald 2013: shear into ray space with z the dominant axis. */
-    const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
-    int kx, ky, kz;
-    rtk_shear_axes(d, &kx, &ky, &kz);
-    float dz = d[kz];
-    float sx = d[kx] / dz, sy = d[ky] / dz, sz = 1.0f / dz;
-    rtk_vec3 A = rtk_vec3_sub(a, ray->org), B = rtk_vec3_sub(b, ray->org), C = rtk_vec3_sub(c, ray->org);
-    float ax = axis(A, kx) - sx * axis(A, kz), ay = axis(A, ky) - sy * axis(A, kz);
-    float bx = axis(B, kx) - sx * axis(B, kz), by = axis(B, ky) - sy * axis(B, kz);
-    float cx = axis(C, kx) - sx * axis(C, kz), cy = axis(C, ky) - sy * axis(C, kz);
-    float U = cx * by - cy * bx, V = ax * cy - ay * cx, W = bx * ay - by * ax;
-    if (U == 0.0f || V == 0.0f || W == 0.0f) {
-        /* On an edge in float: decide in double so neighbours agree. The
-         * signs come from the doubles: their float roundings may underflow
-         * to 0 (origins a denormal away from a vertex's coordinate). */
-        double Ud = (double)cx * by - (double)cy * bx;
-        double Vd = (double)ax * cy - (double)ay * cx;
-        double Wd = (double)bx * ay - (double)by * ax;
-        if ((Ud < 0.0 || Vd < 0.0 || Wd < 0.0) && (Ud > 0.0 || Vd > 0.0 || Wd > 0.0))
-            return 0;
-        U = (float)Ud, V = (float)Vd, W = (float)Wd;
-    }
-    if ((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f))
-        return 0;
-    float det = U + V + W;
-    if (det == 0.0f)
-        return 0;
-    float az = sz * axis(A, kz), bz = sz * axis(B, kz), cz = sz * axis(C, kz);
-    float T = U * az + V * bz + W * cz;
-    float rcp = 1.0f / det;
-    float t = T * rcp;
-    float err = t_error_bound(U, V, W, ax, ay, bx, by, cx, cy, az, bz, cz, rcp);
-    if (!(err < RTK_T_TOLERANCE * fabsf(t))) {
-        /* Outside the range even with the error (a ray leaving a surface
-         * meets it behind its origin): no need for double. */
-        if (t + err < ray->tmin || t - err > ray->tmax)
-            return 0;
-        /* The float t may be off by more than traversal allows (grazing or
-         * thin triangles), or too close to the origin for float to tell
-         * its sign (a ray leaving a large triangle would otherwise meet it
-         * or its coplanar neighbours again; t = 0, or a bound that
-         * underflowed): decide in double, range check included, so that
-         * the answer does not depend on a tmax another triangle set. */
-        double td = exact_distance(ray, a, b, c, kx, ky, kz);
-        t = (float)td;
-        if (!(t >= ray->tmin && t <= ray->tmax) || (ray->tmin >= 0.0f && !(td > 0.0)))
-            return 0;
-    } else if (!(t >= ray->tmin && t <= ray->tmax)) {
-        return 0;
-    }
-    *t_out = t;
-    *u_out = V * rcp;
-    *v_out = W * rcp;
-    return 1;
+    return rtk_isect_triangle(ray, a, b, c, t_out, u_out, v_out);
 }
 
 RTK_API rtk_vec3 rtk_offset_ray_origin(rtk_vec3 p, rtk_vec3 n)

@@ -13,6 +13,7 @@
 #define RTK_KERNEL_BVH_WIDE_H
 
 #include "../scene/scene.h"
+#include "isect.h"
 
 #include <assert.h>
 #include <float.h>
@@ -36,22 +37,6 @@ RTK_EXTERN_C_BEGIN
 #define RTK_HAVE_X86 0
 #endif
 
-/* A reported hit distance t is within RTK_T_TOLERANCE * |t| of the exact
- * one: rtk_intersect_triangle recomputes t in double when its float error
- * bound (pbrt-v4's, loose by orders of magnitude) is larger. Smaller
- * values send more hits to double precision: at 16 ulps most hits on the
- * showroom did, at 2^-10 one in ten rays; traversal culls 4 tolerances
- * beyond the closest hit, so only that much extra work follows. */
-#define RTK_T_TOLERANCE (1.0f / 1024.0f)
-
-/* Boxes entered after a hit at tmax (or up to the ray's tmax) are those
- * entered at or before this distance: tmax widened by four tolerances, so
- * that a triangle whose float t ties with or undercuts tmax is never culled
- * by rounding, and equal distances still resolve to the lowest id. */
-static inline float rtk_cull_distance(float tmax)
-{
-    return tmax + fabsf(tmax) * (4.0f * RTK_T_TOLERANCE);
-}
 
 /* Traversal implementations; RTK_SIMD=binary|scalar|sse|avx2|avx512 forces
  * one. */

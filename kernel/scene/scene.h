@@ -227,26 +227,6 @@ struct rtk_scene {
     struct rtk_scene_files *files;
 };
 
-/* The axes of the watertight triangle test (Woop, Benthin, Wald 2013) for
- * direction d: kz that of the largest |component|, kx and ky the next two
- * cyclically, swapped when d[kz] < 0 to keep the winding. The scalar test
- * and the wide traversal's four-lane one take them from here. */
-static inline void rtk_shear_axes(const float d[3], int *kx, int *ky, int *kz)
-{
-    /* In integer arithmetic on comparisons, so that compilers emit no
-     * branch: directions of AO and diffuse rays are random, and branches
-     * here would be mispredicted every other ray. Same result as
-     * z = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2), x and y the
-     * next two cyclically, swapped when d[z] < 0. */
-    float ax = fabsf(d[0]), ay = fabsf(d[1]), az = fabsf(d[2]);
-    int xy = ax > ay;
-    int top = (xy ? ax : ay) > az;
-    int z = 2 - top * (1 + xy);
-    int x = 9 >> (2 * z) & 3;  /* 1, 2, 0 for z = 0, 1, 2 */
-    int y = 18 >> (2 * z) & 3; /* 2, 0, 1 */
-    int swap = (x ^ y) & -(d[z] < 0.0f);
-    *kx = x ^ swap, *ky = y ^ swap, *kz = z;
-}
 
 /* The corners of triangle prim (scene order), 9 floats. */
 static inline void rtk_triangle_corners(const rtk_scene *s, uint32_t prim, float v[9])
