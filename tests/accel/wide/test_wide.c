@@ -474,11 +474,8 @@ static void compare_batches(rtk_scene *s, const char *mesh, const char *builder)
             }
             uint64_t packed = rtk_wide_packet_rays() - before;
             for (uint32_t i = 0; i < (uint32_t)N; i++) {
-                bad_closest += single[i].prim != batch[i].prim ||
-                               (single[i].prim != RTK_INVALID_ID &&
-                                (memcmp(&single[i].t, &batch[i].t, sizeof(float)) ||
-                                 memcmp(&single[i].u, &batch[i].u, sizeof(float)) ||
-                                 memcmp(&single[i].v, &batch[i].v, sizeof(float))));
+                bad_closest += !same_hit(single[i].prim != RTK_INVALID_ID, &single[i],
+                                         batch[i].prim != RTK_INVALID_ID, &batch[i]);
                 bad_any += occ_single[i] != occ_batch[i];
             }
             check(bad_closest == 0 && bad_any == 0,
@@ -787,10 +784,8 @@ static void check_stream_overflow(const rtk_plugin *builder)
         rtk_wide_any_batch(s, (rtk_simd_path)p, rays, N, occ_batch);
         int bad = 0;
         for (uint32_t i = 0; i < N; i++)
-            bad += single[i].prim != batch[i].prim || occ_single[i] != occ_batch[i] ||
-                   (single[i].prim != RTK_INVALID_ID && (memcmp(&single[i].t, &batch[i].t, sizeof(float)) ||
-                                                         memcmp(&single[i].u, &batch[i].u, sizeof(float)) ||
-                                                         memcmp(&single[i].v, &batch[i].v, sizeof(float))));
+            bad += occ_single[i] != occ_batch[i] ||
+                   !same_hit(single[i].prim != RTK_INVALID_ID, &single[i], batch[i].prim != RTK_INVALID_ID, &batch[i]);
         check(bad == 0,
               "overlapping triangles / %s: %s streams past their arena = single rays, bit for bit (%d rays, "
               "depth %u): %d differ",
