@@ -881,7 +881,10 @@ int main(void)
                 if (own && s->triangle_count > 5000)
                     n /= 4;
                 compare_paths(s, mesh, builders[bi]->name, n);
-                compare_batches(s, mesh, builders[bi]->name);
+                /* A degenerate tree over bunny makes every ray test all its
+                 * triangles: its batches are checked on the small meshes. */
+                if (!(own && s->triangle_count > 5000))
+                    compare_batches(s, mesh, builders[bi]->name);
                 check_threads_same(s, mesh, builders[bi]->name);
                 if (m == MESH_BUNNY && !own)
                     check_node_limit(s, mesh, builders[bi]->name, builders[bi], params);
