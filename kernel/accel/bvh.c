@@ -40,89 +40,30 @@ int rtk_ray_valid(const rtk_ray *r)
     return 1;
 }
 
-static int leaf_hit(const rtk_scene *s, uint32_t slot, const rtk_ray *ray, float *t, float *u, float *v)
+/* The binary traversals' leaf test: the triangle in leaf slot slot of
+ * scene ctx, dropped where an alpha cut-out makes the hit transparent. */
+static int leaf_hit(const void *ctx, uint32_t slot, const rtk_ray *ray, float *t, float *u, float *v)
 {
+    const rtk_scene *s = ctx;
     float tv[9];
     rtk_slot_corners(s, slot, tv);
     return rtk_intersect_triangle(ray, rtk_vec3_make(tv[0], tv[1], tv[2]), rtk_vec3_make(tv[3], tv[4], tv[5]),
-                                  rtk_vec3_make(tv[6], tv[7], tv[8]), t, u, v);
+                                  rtk_vec3_make(tv[6], tv[7], tv[8]), t, u, v) &&
+           (!s->has_cutouts || rtk_alpha_opaque(s, ray, s->prim_ids[slot], *u, *v));
 }
 
 /* Closest hit on the binary tree; counts into work when not NULL. */
-static inline __attribute__((always_inline)) int binary_closest(const rtk_scene *s, const rtk_ray *ray_in,
+static inline __attribute__((always_inline)) int binary_closest(const rtk_scene *s, const rtk_ray *ray,
                                                                  rtk_hit *hit, rtk_trace_work *work)
 {
-    if (s->node_count == 0)
-        return 0;
-    rtk_ray ray = *ray_in;
-    rtk_slab_ray p;
-    rtk_slab_prepare(&ray, &p);
-    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
-    int top = 0;
-    uint32_t node = 0;
-    if (rtk_slab_entry(&s->nodes[0], &p, ray.tmin, ray.tmax) == INFINITY)
-        return 0;
-    for (;;) {
-        const rtk_bvh_node *n = &s->nodes[node];
-        if (n->count > 0) {
-            if (work)
-                work->triangles += n->count;
-            for (uint32_t i = 0; i < n->count; i++) {
-                uint32_t slot = n->offset + i;
-                float t, u, v;
-                if (!leaf_hit(s, slot, &ray, &t, &u, &v))
-                    continue;
-                uint32_t prim = s->prim_ids[slot];
-                if (s->has_cutouts && !rtk_alpha_opaque(s, &ray, prim, u, v))
-                    continue;
-                /* Equal distances go to the lowest id, whatever the tree. */
-                if (t < ray.tmax || (t == ray.tmax && prim < hit->prim)) {
-                    ray.tmax = t;
-                    hit->t = t, hit->u = u, hit->v = v, hit->prim = prim;
-                }
-            }
-        } else {
-            if (work)
-                work->nodes++;
-            if (rtk_slab_descend(s->nodes, n, &p, ray.tmin, ray.tmax, stack, &top, &node))
-                continue;
-        }
-        if (top == 0)
-            break;
-        node = stack[--top];
-    }
-    return hit->prim != RTK_INVALID_ID;
+    return s->node_count ? rtk_slab_closest(s->nodes, s->prim_ids, leaf_hit, s, ray, hit, work) : 0;
 }
 
 /* Any hit on the binary tree; counts into work when not NULL. */
 static inline __attribute__((always_inline)) int binary_any(const rtk_scene *s, const rtk_ray *ray,
                                                              rtk_trace_work *work)
 {
-    if (s->node_count == 0)
-        return 0;
-    rtk_slab_ray p;
-    rtk_slab_prepare(ray, &p);
-    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
-    int top = 0;
-    stack[top++] = 0;
-    for (const rtk_bvh_node *n; (n = rtk_slab_pop(s->nodes, &p, ray->tmin, ray->tmax, stack, &top));) {
-        if (n->count > 0) {
-            for (uint32_t i = 0; i < n->count; i++) {
-                float t, u, v;
-                if (work)
-                    work->triangles++;
-                if (leaf_hit(s, n->offset + i, ray, &t, &u, &v) &&
-                    (!s->has_cutouts || rtk_alpha_opaque(s, ray, s->prim_ids[n->offset + i], u, v)))
-                    return 1;
-            }
-        } else {
-            if (work)
-                work->nodes++;
-            stack[top++] = n->offset + 1;
-            stack[top++] = n->offset;
-        }
-    }
-    return 0;
+    return s->node_count ? rtk_slab_any(s->nodes, leaf_hit, s, ray, work) : 0;
 }
 
 /* The wide tree serves rays with tmin >= 0 (its box test widens exit

@@ -1,14 +1,27 @@
 /* The conservative ray/box slab test (Ize 2013) on the kernel's binary
- * nodes and the traversal steps built on it (closest hit's ordered
- * descent, occlusion's pop), shared by the binary traversal (bvh.c) and
- * the top level over instances (instance.c). */
+ * nodes, the traversal steps built on it (closest hit's ordered descent,
+ * occlusion's pop) and the binary tree's closest-hit and any-hit
+ * traversals, shared by bvh.c, the top level over instances (instance.c)
+ * and the CUDA backend: plain C that nvcc compiles too (RTK_HD, see
+ * isect.h), so that tests/cuda checks the GPU's traversal against the
+ * kernel's. */
 #ifndef RTK_KERNEL_SLAB_H
 #define RTK_KERNEL_SLAB_H
 
-#include "bvh_wide.h"
+#include "isect.h"
+
+#include <rtk/accelerator.h>
+#include <rtk/scene.h>
 
 #include <float.h>
 #include <math.h>
+#include <stdint.h>
+
+#if defined(__CUDACC__)
+#define RTK_HD_INLINE __host__ __device__ __forceinline__
+#else
+#define RTK_HD_INLINE inline __attribute__((always_inline))
+#endif
 
 /* Deepest tree traversal accepts; a builder going deeper is refused. */
 #define RTK_BVH_MAX_DEPTH 256
@@ -19,7 +32,7 @@ typedef struct rtk_slab_ray {
     int neg[3];
 } rtk_slab_ray;
 
-static inline void rtk_slab_prepare(const rtk_ray *r, rtk_slab_ray *p)
+RTK_HD static inline void rtk_slab_prepare(const rtk_ray *r, rtk_slab_ray *p)
 {
     const float d[3] = {r->dir.x, r->dir.y, r->dir.z};
     p->org[0] = r->org.x, p->org[1] = r->org.y, p->org[2] = r->org.z;
@@ -39,7 +52,7 @@ static const float rtk_slab_slack = 1.0f + 2.0f * (3.0f * 0.5f * FLT_EPSILON) / 
  * rtk_cull_distance, so that no triangle whose float t ties with that hit
  * is culled. NaN from 0 * inf fails both comparisons and is dropped, which
  * only widens the interval. */
-static inline float rtk_slab_entry(const rtk_bvh_node *n, const rtk_slab_ray *p, float tmin, float tmax)
+RTK_HD static inline float rtk_slab_entry(const rtk_bvh_node *n, const rtk_slab_ray *p, float tmin, float tmax)
 {
     float t0 = tmin, t1 = INFINITY;
     for (int k = 0; k < 3; k++) {
@@ -60,7 +73,7 @@ static inline float rtk_slab_entry(const rtk_bvh_node *n, const rtk_slab_ray *p,
  * children whose boxes the ray enters within [tmin, tmax], the nearer into
  * *node and the farther pushed on stack when both; 0 when it enters
  * neither (the caller pops next). */
-static inline __attribute__((always_inline)) int rtk_slab_descend(const rtk_bvh_node *nodes,
+static RTK_HD_INLINE int rtk_slab_descend(const rtk_bvh_node *nodes,
                                                                    const rtk_bvh_node *n, const rtk_slab_ray *p,
                                                                    float tmin, float tmax, uint32_t *stack,
                                                                    int *top, uint32_t *node)
@@ -92,7 +105,7 @@ static inline __attribute__((always_inline)) int rtk_slab_descend(const rtk_bvh_
 /* Occlusion's unordered walk: pops stack until a node whose box the
  * ray enters within [tmin, tmax] and returns it, or NULL when the stack
  * runs empty. */
-static inline __attribute__((always_inline)) const rtk_bvh_node *rtk_slab_pop(const rtk_bvh_node *nodes,
+static RTK_HD_INLINE const rtk_bvh_node *rtk_slab_pop(const rtk_bvh_node *nodes,
                                                                                const rtk_slab_ray *p, float tmin,
                                                                                float tmax, const uint32_t *stack,
                                                                                int *top)
@@ -103,6 +116,86 @@ static inline __attribute__((always_inline)) const rtk_bvh_node *rtk_slab_pop(co
             return n;
     }
     return NULL;
+}
+
+/* A leaf's triangle test: 1 when the ray hits the triangle in leaf slot
+ * slot within [tmin, tmax] (t, u, v written) and the hit counts (an
+ * alpha cut-out may drop it); ctx is the caller's. */
+typedef int (*rtk_slab_leaf_fn)(const void *ctx, uint32_t slot, const rtk_ray *ray, float *t, float *u, float *v);
+
+/* Closest hit of ray on the binary tree nodes (leaf slots map to
+ * prim_ids): hit as rtk_bvh_closest fills it, except inst; equal
+ * distances go to the lowest id whatever the tree. hit must come in
+ * with prim RTK_INVALID_ID and t the ray's tmax. Counts into work when
+ * not NULL. */
+static RTK_HD_INLINE int rtk_slab_closest(const rtk_bvh_node *nodes, const uint32_t *prim_ids,
+                                          rtk_slab_leaf_fn leaf, const void *ctx, const rtk_ray *ray_in,
+                                          rtk_hit *hit, rtk_trace_work *work)
+{
+    rtk_ray ray = *ray_in;
+    rtk_slab_ray p;
+    rtk_slab_prepare(&ray, &p);
+    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
+    int top = 0;
+    uint32_t node = 0;
+    if (rtk_slab_entry(&nodes[0], &p, ray.tmin, ray.tmax) == INFINITY)
+        return 0;
+    for (;;) {
+        const rtk_bvh_node *n = &nodes[node];
+        if (n->count > 0) {
+            if (work)
+                work->triangles += n->count;
+            for (uint32_t i = 0; i < n->count; i++) {
+                uint32_t slot = n->offset + i;
+                float t, u, v;
+                if (!leaf(ctx, slot, &ray, &t, &u, &v))
+                    continue;
+                uint32_t prim = prim_ids[slot];
+                if (t < ray.tmax || (t == ray.tmax && prim < hit->prim)) {
+                    ray.tmax = t;
+                    hit->t = t, hit->u = u, hit->v = v, hit->prim = prim;
+                }
+            }
+        } else {
+            if (work)
+                work->nodes++;
+            if (rtk_slab_descend(nodes, n, &p, ray.tmin, ray.tmax, stack, &top, &node))
+                continue;
+        }
+        if (top == 0)
+            break;
+        node = stack[--top];
+    }
+    return hit->prim != RTK_INVALID_ID;
+}
+
+/* Any hit of ray on the binary tree nodes: 1 as soon as a leaf's
+ * triangle counts. Counts into work when not NULL. */
+static RTK_HD_INLINE int rtk_slab_any(const rtk_bvh_node *nodes, rtk_slab_leaf_fn leaf, const void *ctx,
+                                      const rtk_ray *ray, rtk_trace_work *work)
+{
+    rtk_slab_ray p;
+    rtk_slab_prepare(ray, &p);
+    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
+    int top = 0;
+    stack[top++] = 0;
+    for (const rtk_bvh_node *n; (n = rtk_slab_pop(nodes, &p, ray->tmin, ray->tmax, stack, &top));) {
+        if (n->count > 0) {
+            for (uint32_t i = 0; i < n->count; i++) {
+                float t, u, v;
+                if (work)
+                    work->triangles++;
+                if (leaf(ctx, n->offset + i, ray, &t, &u, &v))
+                    return 1;
+            }
+        } else {
+            if (work)
+                work->nodes++;
+            stack[top++] = n->offset + 1;
+            stack[top++] = n->offset;
+        }
+    }
+    return 0;
 }
 
 #endif
