@@ -4,6 +4,7 @@
 #define RTK_KERNEL_FILM_H
 
 #include "../scene/scene.h"
+#include "sample.h"
 
 RTK_EXTERN_C_BEGIN
 
@@ -116,5 +117,7 @@ void rtk_filter_sampler_sample(const rtk_filter_sampler *fs, rtk_vec2 u, float *
 void rtk_filter_sampler_free(rtk_filter_sampler *fs);
 /* 1 when the filter is negative somewhere on a fine grid of its support. */
 int rtk_filter_has_negative_lobes(const rtk_filter_fns *filter, const void *state, float radius);
+
+RTK_EXTERN_C_END
 
 #endif

@@ -101,7 +101,7 @@ static rtk_ray start_sample(render_job *job, rtk_ctx *ctx, uint32_t x, uint32_t 
     rtk_ray ray = rtk_camera_ray(&job->camera, *fx, *fy);
     ctx->film_x = *fx, ctx->film_y = *fy; /* for rtk_ctx_camera_differential */
     ctx->camera_ray = ray;                /* for rtk_trace's single-sided test */
-    ctx->dim_base = ctx->dim;             /* rtk_sample_seek counts from here */
+    ctx->pos.dim_base = ctx->pos.dim;     /* rtk_sample_seek counts from here */
     return ray;
 }
 

@@ -117,7 +117,7 @@ static void note_weight_sums(rtk_conform_runner *r, const rtk_filter_fns *f, voi
     if (ready == 2) {
         rtk_ctx ctx;
         memset(&ctx, 0, sizeof ctx);
-        ctx.seed = 3;
+        ctx.gen.seed = 3;
         const float one = 1.0f;
         for (uint32_t y = 0; y < h; y++)
             for (uint32_t x = 0; x < w; x++) {

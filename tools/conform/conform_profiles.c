@@ -177,7 +177,7 @@ static double bench_mean(const bench *b, const rtk_ray *ray, uint64_t seed, int 
     rtk_ctx ctx;
     memset(&ctx, 0, sizeof ctx);
     ctx.scene = b->scene;
-    ctx.seed = seed;
+    ctx.gen.seed = seed;
     double sum = 0.0, sum2 = 0.0;
     for (int i = 0; i < n; i++) {
         rtk_ctx_start_sample(&ctx, (uint64_t)i, 0);

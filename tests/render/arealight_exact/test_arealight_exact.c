@@ -121,7 +121,7 @@ static double li_mean(const rtk_integrator_fns *f, void *state, const rtk_scene 
     rtk_ctx ctx;
     memset(&ctx, 0, sizeof ctx);
     ctx.scene = scene;
-    ctx.seed = seed;
+    ctx.gen.seed = seed;
     double sum = 0.0, sum2 = 0.0;
     for (int i = 0; i < samples; i++) {
         rtk_ctx_start_sample(&ctx, (uint64_t)i, 0);

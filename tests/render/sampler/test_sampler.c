@@ -131,7 +131,7 @@ static void test_independent_unchanged(void)
                 rtk_pcg32_seed(&rng, mix64(seeds[si] ^ mix64(sample)), pixels[pi]);
                 rtk_ctx zeroed, configured;
                 memset(&zeroed, 0, sizeof zeroed);
-                zeroed.seed = seeds[si];
+                zeroed.gen.seed = seeds[si];
                 memset(&configured, 0, sizeof configured);
                 rtk_ctx_set_sampler(&configured, RTK_SAMPLER_INDEPENDENT, seeds[si], 16);
                 rtk_ctx_start_sample(&zeroed, pixels[pi], sample);
@@ -313,7 +313,7 @@ static void seek_run(rtk_sampler_type type, uint64_t seed, uint32_t n, uint64_t 
     for (uint32_t s = 0; s < n; s++) {
         rtk_ctx_start_sample(&ctx, pixel, s);
         (void)rtk_sample_2d(&ctx); /* the camera's draw */
-        ctx.dim_base = ctx.dim;    /* as the renderer records it before li */
+        ctx.pos.dim_base = ctx.pos.dim;    /* as the renderer records it before li */
         if (junk) {
             for (uint32_t j = 0; j < (s * 7u + 3u) % 11u; j++)
                 (void)rtk_sample_1d(&ctx);
@@ -347,7 +347,7 @@ static void test_seek(void)
                         for (uint32_t s = 0; s < n; s++) {
                             rtk_ctx_start_sample(&ctx, pixels[pi], s);
                             (void)rtk_sample_2d(&ctx);
-                            ctx.dim_base = ctx.dim;
+                            ctx.pos.dim_base = ctx.pos.dim;
                             for (uint32_t j = 0; j < s % 5u; j++)
                                 (void)rtk_sample_2d(&ctx);
                             rtk_sample_seek(&ctx, 2 * k);

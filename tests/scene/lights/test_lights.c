@@ -156,7 +156,7 @@ static void ctx_init(rtk_ctx *ctx, const rtk_scene *scene, uint64_t seed)
 {
     memset(ctx, 0, sizeof *ctx);
     ctx->scene = scene;
-    ctx->seed = seed;
+    ctx->gen.seed = seed;
 }
 
 /* The test's environment image: W x H RGB. */
