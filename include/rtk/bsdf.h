@@ -87,7 +87,7 @@ typedef struct rtk_frame {
 
 /* The frame around unit normal n, continuous except across n.z = 0, with
  * no branch (Duff et al. 2017, "Building an Orthonormal Basis, Revisited"). */
-static inline rtk_frame rtk_frame_from_normal(rtk_vec3 n)
+RTK_SDK_INLINE rtk_frame rtk_frame_from_normal(rtk_vec3 n)
 {
     float sign = copysignf(1.0f, n.z);
     float a = -1.0f / (sign + n.z);
@@ -100,13 +100,13 @@ static inline rtk_frame rtk_frame_from_normal(rtk_vec3 n)
 }
 
 /* World direction v in frame f's coordinates (n becomes +z). */
-static inline rtk_vec3 rtk_frame_to_local(const rtk_frame *f, rtk_vec3 v)
+RTK_SDK_INLINE rtk_vec3 rtk_frame_to_local(const rtk_frame *f, rtk_vec3 v)
 {
     return rtk_vec3_make(rtk_vec3_dot(v, f->s), rtk_vec3_dot(v, f->t), rtk_vec3_dot(v, f->n));
 }
 
 /* Local direction v of frame f in world coordinates. */
-static inline rtk_vec3 rtk_frame_to_world(const rtk_frame *f, rtk_vec3 v)
+RTK_SDK_INLINE rtk_vec3 rtk_frame_to_world(const rtk_frame *f, rtk_vec3 v)
 {
     return rtk_vec3_add(rtk_vec3_add(rtk_vec3_scale(f->s, v.x), rtk_vec3_scale(f->t, v.y)),
                         rtk_vec3_scale(f->n, v.z));
@@ -241,21 +241,21 @@ typedef struct rtk_bsdf {
 /* Oren-Nayar sigma for a material roughness in [0, 1]: sigma = roughness,
  * clamped to [0, 1], the range over which Fujii's f stays >= 0 (at
  * sigma > 1, A + B s / t < 0 for back-scattering at grazing angles). */
-static inline float rtk_oren_nayar_sigma(float roughness)
+RTK_SDK_INLINE float rtk_oren_nayar_sigma(float roughness)
 {
     return roughness < 0.0f ? 0.0f : roughness > 1.0f ? 1.0f : roughness;
 }
 
 /* GGX alpha for a perceptual roughness (glTF, Burley 2012): roughness^2,
  * at least RTK_GGX_ALPHA_MIN. */
-static inline float rtk_ggx_alpha(float roughness)
+RTK_SDK_INLINE float rtk_ggx_alpha(float roughness)
 {
     float a = roughness * roughness;
     return a > RTK_GGX_ALPHA_MIN ? a : RTK_GGX_ALPHA_MIN;
 }
 
 /* A Lambert lobe of reflectance albedo. */
-static inline rtk_lobe rtk_lobe_lambert(rtk_rgb albedo)
+RTK_SDK_INLINE rtk_lobe rtk_lobe_lambert(rtk_rgb albedo)
 {
     rtk_lobe l = {RTK_LOBE_LAMBERT, albedo, 0.0f, 0.0f, RTK_FRESNEL_SCHLICK, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0.0f,
                   {1, 1, 1}};
@@ -263,7 +263,7 @@ static inline rtk_lobe rtk_lobe_lambert(rtk_rgb albedo)
 }
 
 /* An Oren-Nayar (Fujii) lobe of reflectance albedo and roughness sigma. */
-static inline rtk_lobe rtk_lobe_oren_nayar(rtk_rgb albedo, float sigma)
+RTK_SDK_INLINE rtk_lobe rtk_lobe_oren_nayar(rtk_rgb albedo, float sigma)
 {
     rtk_lobe l = rtk_lobe_lambert(albedo);
     l.type = RTK_LOBE_OREN_NAYAR;
@@ -272,7 +272,7 @@ static inline rtk_lobe rtk_lobe_oren_nayar(rtk_rgb albedo, float sigma)
 }
 
 /* A GGX conductor of width alpha with Schlick's Fresnel from f0. */
-static inline rtk_lobe rtk_lobe_ggx_schlick(rtk_rgb f0, float alpha)
+RTK_SDK_INLINE rtk_lobe rtk_lobe_ggx_schlick(rtk_rgb f0, float alpha)
 {
     rtk_lobe l = rtk_lobe_lambert(rtk_rgb_make(0, 0, 0));
     l.type = RTK_LOBE_GGX;
@@ -283,7 +283,7 @@ static inline rtk_lobe rtk_lobe_ggx_schlick(rtk_rgb f0, float alpha)
 }
 
 /* A GGX conductor of width alpha with the exact Fresnel of eta + i k. */
-static inline rtk_lobe rtk_lobe_ggx_conductor(rtk_rgb eta, rtk_rgb k, float alpha)
+RTK_SDK_INLINE rtk_lobe rtk_lobe_ggx_conductor(rtk_rgb eta, rtk_rgb k, float alpha)
 {
     rtk_lobe l = rtk_lobe_ggx_schlick(rtk_rgb_make(0, 0, 0), alpha);
     l.fresnel = RTK_FRESNEL_CONDUCTOR;
@@ -294,7 +294,7 @@ static inline rtk_lobe rtk_lobe_ggx_conductor(rtk_rgb eta, rtk_rgb k, float alph
 
 /* A smooth dielectric (delta) of relative index ior (inside / outside,
  * e.g. 1.5 for glass in air), transmission scaled by tint. */
-static inline rtk_lobe rtk_lobe_dielectric(float ior, rtk_rgb tint)
+RTK_SDK_INLINE rtk_lobe rtk_lobe_dielectric(float ior, rtk_rgb tint)
 {
     rtk_lobe l = rtk_lobe_lambert(rtk_rgb_make(0, 0, 0));
     l.type = RTK_LOBE_DIELECTRIC;
@@ -305,7 +305,7 @@ static inline rtk_lobe rtk_lobe_dielectric(float ior, rtk_rgb tint)
 
 /* A rough dielectric of relative index ior and GGX width alpha,
  * transmission scaled by tint. */
-static inline rtk_lobe rtk_lobe_rough_dielectric(float ior, float alpha, rtk_rgb tint)
+RTK_SDK_INLINE rtk_lobe rtk_lobe_rough_dielectric(float ior, float alpha, rtk_rgb tint)
 {
     rtk_lobe l = rtk_lobe_dielectric(ior, tint);
     l.type = RTK_LOBE_ROUGH_DIELECTRIC;
@@ -315,7 +315,7 @@ static inline rtk_lobe rtk_lobe_rough_dielectric(float ior, float alpha, rtk_rgb
 
 /* A plastic: Lambert base of albedo under a GGX coat of width alpha with
  * Schlick's Fresnel from f0. */
-static inline rtk_lobe rtk_lobe_plastic(rtk_rgb albedo, rtk_rgb f0, float alpha)
+RTK_SDK_INLINE rtk_lobe rtk_lobe_plastic(rtk_rgb albedo, rtk_rgb f0, float alpha)
 {
     rtk_lobe l = rtk_lobe_lambert(albedo);
     l.type = RTK_LOBE_PLASTIC;
@@ -325,7 +325,7 @@ static inline rtk_lobe rtk_lobe_plastic(rtk_rgb albedo, rtk_rgb f0, float alpha)
 }
 
 /* The BSDF of lobe l alone, weight 1. */
-static inline rtk_bsdf rtk_bsdf_of(rtk_lobe l)
+RTK_SDK_INLINE rtk_bsdf rtk_bsdf_of(rtk_lobe l)
 {
     rtk_bsdf b;
     for (int i = 0; i < RTK_BSDF_MAX_LOBES; i++) {
@@ -341,7 +341,7 @@ static inline rtk_bsdf rtk_bsdf_of(rtk_lobe l)
 /* Appends lobe l with weight to b; returns 1, or 0 and adds nothing when
  * b holds RTK_BSDF_MAX_LOBES lobes already or weight is black (no
  * component > 0). */
-static inline int rtk_bsdf_add(rtk_bsdf *b, rtk_rgb weight, rtk_lobe l)
+RTK_SDK_INLINE int rtk_bsdf_add(rtk_bsdf *b, rtk_rgb weight, rtk_lobe l)
 {
     if (b->count >= RTK_BSDF_MAX_LOBES || !(weight.r > 0.0f || weight.g > 0.0f || weight.b > 0.0f))
         return 0;

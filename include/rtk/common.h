@@ -24,6 +24,15 @@
 #define RTK_PRINTF(fmt, args)
 #endif
 
+/* Code that CUDA shares: RTK_HD marks a function nvcc compiles for host
+ * and device (empty in C); the SDK's inline helpers are RTK_SDK_INLINE. */
+#if defined(__CUDACC__)
+#define RTK_HD __host__ __device__
+#else
+#define RTK_HD
+#endif
+#define RTK_SDK_INLINE RTK_HD static inline
+
 /* Result of every fallible call; the message is in rtk_error_message(). */
 typedef enum rtk_status {
     RTK_OK = 0,

@@ -1,5 +1,5 @@
 /* The ray/triangle test and its tolerances, in plain C that nvcc
- * compiles too (RTK_HD: __host__ __device__ there): one source for the
+ * compiles too (RTK_HD, include/rtk/common.h): one source for the
  * kernel's traversals and the CUDA backend's, so that the CPU tests the
  * GPU's arithmetic bit for bit (tests/cuda). The kernel and every
  * compilation of this header must not contract a * b + c into a fused
@@ -12,12 +12,6 @@
 
 #include <float.h>
 #include <math.h>
-
-#if defined(__CUDACC__)
-#define RTK_HD __host__ __device__
-#else
-#define RTK_HD
-#endif
 
 /* The axes of the watertight triangle test (Woop, Benthin, Wald 2013) for
  * direction d: kz that of the largest |component|, kx and ky the next two

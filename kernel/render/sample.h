@@ -1,6 +1,6 @@
-/* The sample generators in plain C that nvcc compiles too (RTK_HD, see
- * accel/isect.h): one source for the kernel's rtk_sample_1d/2d and a GPU
- * backend's, checked against each other by tests/cuda. sampler.c says
+/* The sample generators in plain C that nvcc compiles too (RTK_HD,
+ * include/rtk/common.h): one source for the kernel's rtk_sample_1d/2d
+ * and a GPU backend's, checked against each other by tests/cuda. sampler.c says
  * what each generator draws; here are the arithmetic and the state.
  *
  * A generator (rtk_sample_gen) is set once per render; a sample's
@@ -9,8 +9,6 @@
  * pixel, sample index, dimension). */
 #ifndef RTK_KERNEL_SAMPLE_H
 #define RTK_KERNEL_SAMPLE_H
-
-#include "../accel/isect.h"
 
 #include <rtk/math.h>
 
