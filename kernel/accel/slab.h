@@ -2,9 +2,9 @@
  * nodes, the traversal steps built on it (closest hit's ordered descent,
  * occlusion's pop) and the binary tree's closest-hit and any-hit
  * traversals, shared by bvh.c, the top level over instances (instance.c)
- * and the CUDA backend: plain C that nvcc compiles too (RTK_HD, see
- * isect.h), so that tests/cuda checks the GPU's traversal against the
- * kernel's. */
+ * and the CUDA backend: plain C that nvcc compiles too (RTK_HD,
+ * include/rtk/common.h), so that tests/cuda checks the GPU's traversal
+ * against the kernel's. */
 #ifndef RTK_KERNEL_SLAB_H
 #define RTK_KERNEL_SLAB_H
 
