@@ -10,6 +10,8 @@
  * Without a GPU that part is skipped, saying so. */
 #include "scene/bsdf_lobes.h"
 
+#include "cuda_test.h"
+
 #include <cuda_runtime.h>
 
 #include <cmath>
@@ -19,25 +21,6 @@
 #include <vector>
 
 namespace {
-
-int passed = 0, failed = 0;
-
-void check(bool ok, const char *what)
-{
-    std::printf("%s  %s\n", ok ? "ok  " : "FAIL", what);
-    (ok ? passed : failed)++;
-}
-
-/* xorshift64*: the cases need no more than a repeatable spread. */
-struct rng {
-    uint64_t s;
-    float next(float lo, float hi)
-    {
-        s ^= s >> 12, s ^= s << 25, s ^= s >> 27;
-        uint32_t r = (uint32_t)((s * 2685821657736338717ull) >> 40);
-        return lo + (hi - lo) * ((float)r * (1.0f / 16777216.0f));
-    }
-};
 
 struct bsdf_case {
     rtk_bsdf b;
@@ -141,9 +124,8 @@ int main()
     enum { N = 100000 };
     static const char *const names[7] = {"lambert", "oren-nayar", "ggx schlick", "ggx conductor", "dielectric",
                                          "rough dielectric", "plastic"};
-    int devices = 0;
-    cudaError_t e = cudaGetDeviceCount(&devices);
-    const bool gpu = e == cudaSuccess && devices > 0;
+    cudaError_t e;
+    const bool gpu = gpu_present(&e);
     rng g = {0x853c49e6748fea9bull};
     for (int k = 0; k <= 7; k++) {
         std::vector<bsdf_case> cases(N);
@@ -206,9 +188,5 @@ int main()
                       ran ? "" : "CUDA failed; ", bad, worst);
         check(ran && bad == 0, what);
     }
-    if (!gpu)
-        std::printf("skip  the device code on a GPU: none here (cudaGetDeviceCount: %s); compiled for sm_90, not run\n",
-                    e == cudaSuccess ? "0 devices" : cudaGetErrorString(e));
-    std::printf("%d passed, %d failed\n", passed, failed);
-    return failed != 0;
+    return finish(gpu, e);
 }

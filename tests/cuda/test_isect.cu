@@ -7,6 +7,8 @@
  * so. */
 #include "accel/isect.h"
 
+#include "cuda_test.h"
+
 #include <cuda_runtime.h>
 
 #include <cstdint>
@@ -23,25 +25,6 @@ struct tri_case {
 struct tri_out {
     int hit;
     float t, u, v;
-};
-
-int passed = 0, failed = 0;
-
-void check(bool ok, const char *what)
-{
-    std::printf("%s  %s\n", ok ? "ok  " : "FAIL", what);
-    (ok ? passed : failed)++;
-}
-
-/* xorshift64*: the cases need no more than a repeatable spread. */
-struct rng {
-    uint64_t s;
-    float next(float lo, float hi)
-    {
-        s ^= s >> 12, s ^= s << 25, s ^= s >> 27;
-        uint32_t r = (uint32_t)((s * 2685821657736338717ull) >> 40);
-        return lo + (hi - lo) * ((float)r * (1.0f / 16777216.0f));
-    }
 };
 
 rtk_vec3 vec(float x, float y, float z)
@@ -119,9 +102,8 @@ int main()
                                          "rays 1e5 from the origin"};
     static tri_case cases[N];
     static tri_out host[N], kernel[N], device[N];
-    int devices = 0;
-    cudaError_t e = cudaGetDeviceCount(&devices);
-    const bool gpu = e == cudaSuccess && devices > 0;
+    cudaError_t e;
+    const bool gpu = gpu_present(&e);
     rng g = {0x9e3779b97f4a7c15ull};
     for (int kind = 0; kind < 4; kind++) {
         make_cases(cases, N, kind, &g);
@@ -154,13 +136,10 @@ int main()
         bad = 0;
         for (int i = 0; ran && i < N; i++)
             bad += !same(device[i], host[i]);
-        std::snprintf(what, sizeof what, "%s: the GPU's device code = the host code, bit for bit (%d rays): %s%d differ",
+        std::snprintf(what, sizeof what, "%s: the GPU's device code = the host code, bit for bit (%d rays): "
+                      "%s%d differ",
                       kinds[kind], N, ran ? "" : "the kernel did not run; ", bad);
         check(ran && bad == 0, what);
     }
-    if (!gpu)
-        std::printf("skip  the device code on a GPU: none here (cudaGetDeviceCount: %s); compiled for sm_90, not run\n",
-                    e == cudaSuccess ? "0 devices" : cudaGetErrorString(e));
-    std::printf("%d passed, %d failed\n", passed, failed);
-    return failed != 0;
+    return finish(gpu, e);
 }

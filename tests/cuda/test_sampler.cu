@@ -10,6 +10,8 @@
 
 #include <rtk/sampler.h>
 
+#include "cuda_test.h"
+
 #include <cuda_runtime.h>
 
 #include <cstdint>
@@ -18,14 +20,6 @@
 #include <vector>
 
 namespace {
-
-int passed = 0, failed = 0;
-
-void check(bool ok, const char *what)
-{
-    std::printf("%s  %s\n", ok ? "ok  " : "FAIL", what);
-    (ok ? passed : failed)++;
-}
 
 /* One pixel sample's draws: DRAWS values, a fixed pattern of 2D draws,
  * 1D draws and seeks (as a path tracer makes them). */
@@ -122,9 +116,8 @@ int main()
     static const char *const names[3] = {"independent", "stratified", "sobol"};
     static const uint32_t spps[] = {1, 2, 7, 8, 12, 16, 97, 256};
     static const uint64_t seeds[] = {0, 7, 0x9e3779b97f4a7c15ull};
-    int devices = 0;
-    cudaError_t e = cudaGetDeviceCount(&devices);
-    const bool gpu = e == cudaSuccess && devices > 0;
+    cudaError_t e;
+    const bool gpu = gpu_present(&e);
     for (int type = 0; type < 3; type++) {
         std::vector<draw_case> cases;
         for (uint64_t seed : seeds)
@@ -158,9 +151,5 @@ int main()
                       "%s%zu differ", names[type], cases.size(), ran ? "" : "CUDA failed; ", bad);
         check(ran && bad == 0, what);
     }
-    if (!gpu)
-        std::printf("skip  the device code on a GPU: none here (cudaGetDeviceCount: %s); compiled for sm_90, not run\n",
-                    e == cudaSuccess ? "0 devices" : cudaGetErrorString(e));
-    std::printf("%d passed, %d failed\n", passed, failed);
-    return failed != 0;
+    return finish(gpu, e);
 }

@@ -15,6 +15,8 @@
 
 #include <rtk/host.h>
 
+#include "cuda_test.h"
+
 #include <cuda_runtime.h>
 
 #include <cmath>
@@ -26,14 +28,6 @@
 #include <vector>
 
 namespace {
-
-int passed = 0, failed = 0;
-
-void check(bool ok, const char *what)
-{
-    std::printf("%s  %s\n", ok ? "ok  " : "FAIL", what);
-    (ok ? passed : failed)++;
-}
 
 /* The tree as the GPU holds it: nodes, leaf-order ids, and each leaf
  * slot's corners (9 floats). */
@@ -72,17 +66,6 @@ bool same(const trace_out &x, const trace_out &y)
                            std::memcmp(&x.hit.u, &y.hit.u, sizeof x.hit.u) == 0 &&
                            std::memcmp(&x.hit.v, &y.hit.v, sizeof x.hit.v) == 0));
 }
-
-/* xorshift64*: the rays need no more than a repeatable spread. */
-struct rng {
-    uint64_t s;
-    float next(float lo, float hi)
-    {
-        s ^= s >> 12, s ^= s << 25, s ^= s >> 27;
-        uint32_t r = (uint32_t)((s * 2685821657736338717ull) >> 40);
-        return lo + (hi - lo) * ((float)r * (1.0f / 16777216.0f));
-    }
-};
 
 void add_tri(rtk_scene *s, const double *a, const double *b, const double *c)
 {
@@ -273,9 +256,8 @@ int main(int argc, char **argv)
         std::printf("FAIL  %s: %s\n", argv[1], rtk_error_message());
         return 1;
     }
-    int devices = 0;
-    cudaError_t e = cudaGetDeviceCount(&devices);
-    const bool gpu = e == cudaSuccess && devices > 0;
+    cudaError_t e;
+    const bool gpu = gpu_present(&e);
     rng g = {0x2545f4914f6cdd1dull};
     struct {
         const char *name;
@@ -294,9 +276,5 @@ int main(int argc, char **argv)
     } else {
         std::printf("skip  bunny: %s is not there (../shared/data absent)\n", bunny.c_str());
     }
-    if (!gpu)
-        std::printf("skip  the device code on a GPU: none here (cudaGetDeviceCount: %s); compiled for sm_90, not run\n",
-                    e == cudaSuccess ? "0 devices" : cudaGetErrorString(e));
-    std::printf("%d passed, %d failed\n", passed, failed);
-    return failed != 0;
+    return finish(gpu, e);
 }
