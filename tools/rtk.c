@@ -978,7 +978,8 @@ static int run_conform(const cli_command *cmd, rtk_registry *reg, int argc, char
         }
     }
     int passed = 0, failed = 0;
-    return rtk_conform(path, stdout, &passed, &failed) == RTK_OK ? 0 : 1;
+    rtk_status st = rtk_conform(path, stdout, &passed, &failed);
+    return st == RTK_OK ? 0 : st == RTK_ERR_UNSUPPORTED ? 77 : 1; /* 77: skipped (meson's and automake's code) */
 }
 
 /* The usage error for a command that does not exist, with the closest one. */

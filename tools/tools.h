@@ -11,7 +11,9 @@
 RTK_EXTERN_C_BEGIN
 
 /* Runs the conformance checks for a plugin file, one line per check to out,
- * then "N passed, N failed". Returns RTK_OK only when every check passed. */
+ * then "N passed, N failed". Returns RTK_OK when every check passed,
+ * RTK_ERR_UNSUPPORTED when none failed but some could not run here (a
+ * "skip" line says why: a device accelerator without its device). */
 rtk_status rtk_conform(const char *path, FILE *out, int *passed, int *failed);
 
 /* What `rtk bench` measures; zero fields mean the defaults. */

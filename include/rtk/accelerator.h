@@ -98,6 +98,30 @@ enum {
     RTK_BUILD_SPARSE_NODES = 4u
 };
 
+/* ABI 3.5. The kernel's tree as a device accelerator receives it (see
+ * rtk_accelerator_fns.attach); the arrays stay valid until its destroy. */
+typedef struct rtk_device_tree {
+    uint32_t size;             /* sizeof(rtk_device_tree) */
+    const rtk_bvh_node *nodes; /* node_count >= 1, the root at 0 */
+    uint32_t node_count;
+    uint32_t depth;            /* levels, the root's included */
+    const uint32_t *prim_ids;  /* leaf slot -> triangle id */
+    const float *corners;      /* 9 floats a slot: triangle prim_ids[slot]'s corners */
+    uint32_t slot_count;       /* triangles */
+} rtk_device_tree;
+
+/* ABI 3.5. What a device accelerator did so far, summed over its calls. */
+typedef struct rtk_device_report {
+    uint32_t size;             /* sizeof(rtk_device_report) */
+    char device[128];          /* the processor, e.g. "NVIDIA H100 80GB HBM3" */
+    double upload_seconds;     /* the tree, then rays, to the device */
+    double trace_seconds;      /* traversal on the device */
+    double download_seconds;   /* results back */
+    uint64_t rays, batches;    /* traced on the device */
+    uint64_t cpu_rays;         /* traced on the CPU after a device failure */
+    uint64_t device_bytes;     /* device memory held now */
+} rtk_device_report;
+
 /* Function table of an accelerator. */
 typedef struct rtk_accelerator_fns {
     uint32_t size; /* sizeof(rtk_accelerator_fns) */
@@ -125,6 +149,19 @@ typedef struct rtk_accelerator_fns {
      * closest and any once per ray. [any thread, concurrently] */
     void (*closest_batch)(const void *state, const rtk_ray *rays, uint32_t count, rtk_hit *hits);
     void (*any_batch)(const void *state, const rtk_ray *rays, uint32_t count, uint8_t *occluded);
+    /* ABI 3.5. Optional, both or neither: a device accelerator, which
+     * traces on another processor (a GPU) the tree another accelerator
+     * built. It sets these, closest_batch and any_batch, leaves build,
+     * closest and any NULL, and declares a string parameter "builder".
+     * The kernel builds the scene's tree with the accelerator that
+     * "builder" names (its default parameters, through the BVH cache when
+     * one is on), hands it to attach [main thread], sends every batch to
+     * closest_batch / any_batch and traces single rays itself over the
+     * same tree with the same code (kernel/accel/slab.h), so both give
+     * the same hits. Scenes with instances or alpha cut-outs are refused.
+     * report fills out [any thread]. */
+    rtk_status (*attach)(void *state, const rtk_device_tree *tree);
+    void (*report)(const void *state, rtk_device_report *out);
 } rtk_accelerator_fns;
 
 RTK_EXTERN_C_END

@@ -116,6 +116,8 @@ typedef struct rtk_render_report {
     size_t instance_bytes;   /* instance records and the top-level BVH */
     uint32_t textures;       /* images the scene's materials refer to */
     uint32_t textures_decoded; /* of those, decoded (integrator reads textures, or alpha cutouts) */
+    int on_device;           /* 1: a device accelerator traced the batches (device below) */
+    rtk_device_report device; /* its report after the render (the tree's upload is the build's) */
 } rtk_render_report;
 
 /* Loads the scene, builds the BVH, renders and writes the image(s). */

@@ -33,9 +33,11 @@ RTK_EXTERN_C_BEGIN
  * 3.4: ray batches (rtk_trace_batch, rtk_occluded_batch;
  * rtk_integrator_fns.li_batch with rtk_ctx_select;
  * rtk_accelerator_fns.closest_batch and any_batch); build phases
- * (rtk_build_args.phase_log, rtk_build_phase). */
+ * (rtk_build_args.phase_log, rtk_build_phase).
+ * 3.5: device accelerators (rtk_accelerator_fns.attach and report,
+ * rtk_device_tree, rtk_device_report). */
 #define RTK_ABI_MAJOR 3
-#define RTK_ABI_MINOR 4
+#define RTK_ABI_MINOR 5
 
 /* Name of the one symbol a plugin exports. */
 #define RTK_PLUGIN_ENTRY_NAME "rtk_plugin_entry"

@@ -127,14 +127,18 @@ static int own_batch(const rtk_accelerator_fns *f)
 }
 
 /* rtk_bvh_closest_batch (occluded NULL) or rtk_bvh_any_batch (hits
- * NULL): the plugin's batch functions, else runs of rays the wide tree
+ * NULL): a device's or the plugin's batch functions, else runs of rays the wide tree
  * serves (use_wide, no instances) through its batches, the others one
  * at a time. */
 static void bvh_batch(const rtk_scene *s, const rtk_ray *rays, uint32_t count, rtk_hit *hits, uint8_t *occluded)
 {
-    if (!s->instance_count && s->own_traversal && own_batch(s->own_traversal)) {
+    const rtk_accelerator_fns *batcher = s->device ? s->device
+                                         : s->own_traversal && own_batch(s->own_traversal) ? s->own_traversal
+                                                                                          : NULL;
+    void *state = s->device ? s->device_state : s->own_state;
+    if (!s->instance_count && batcher) {
         if (occluded) {
-            s->own_traversal->any_batch(s->own_state, rays, count, occluded);
+            batcher->any_batch(state, rays, count, occluded);
             for (uint32_t i = 0; i < count; i++)
                 occluded[i] = occluded[i] != 0;
             return;
@@ -144,7 +148,7 @@ static void bvh_batch(const rtk_scene *s, const rtk_ray *rays, uint32_t count, r
             hits[i].t = rays[i].tmax;
             hits[i].u = hits[i].v = 0.0f;
         }
-        s->own_traversal->closest_batch(s->own_state, rays, count, hits);
+        batcher->closest_batch(state, rays, count, hits);
         for (uint32_t i = 0; i < count; i++) {
             hits[i].inst = RTK_INVALID_ID;
             if (hits[i].prim >= s->triangle_count)
@@ -594,6 +598,7 @@ rtk_status rtk_bvh_validate_scene(const rtk_scene *s, uint32_t threads, uint32_t
 
 void rtk_bvh_release(rtk_scene *s)
 {
+    rtk_device_release(s);
     rtk_wide_free(s);
     if (s->own_traversal && s->own_state)
         s->own_traversal->destroy(s->own_state);
@@ -604,12 +609,14 @@ void rtk_bvh_release(rtk_scene *s)
 /* Exchanges scene s's tree with slot's. */
 static void swap_tree(rtk_scene *s, rtk_tree_slot *slot)
 {
-    const rtk_tree_slot mine = {s->nodes, s->node_count, s->bvh_depth, s->prim_ids, s->own_traversal, s->own_state,
-                                s->wide};
+    const rtk_tree_slot mine = {s->nodes,         s->node_count, s->bvh_depth,    s->prim_ids,
+                                s->own_traversal, s->own_state,  s->wide,         s->device,
+                                s->device_state,  s->device_corners};
     s->nodes = slot->nodes, s->node_count = slot->node_count, s->bvh_depth = slot->bvh_depth;
     s->prim_ids = slot->prim_ids;
     s->own_traversal = slot->own_traversal, s->own_state = slot->own_state;
     s->wide = slot->wide;
+    s->device = slot->device, s->device_state = slot->device_state, s->device_corners = slot->device_corners;
     *slot = mine;
 }
 
@@ -641,6 +648,9 @@ void rtk_accel_set_free(rtk_accel_set *set)
         rtk_wide_destroy(t->wide);
         if (t->own_traversal && t->own_state)
             t->own_traversal->destroy(t->own_state);
+        if (t->device && t->device_state)
+            t->device->destroy(t->device_state);
+        free(t->device_corners);
         free(t->nodes);
         free(t->prim_ids);
     }
@@ -973,6 +983,8 @@ fail:
 
 rtk_status rtk_bvh_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads)
 {
+    if (rtk_accelerator_is_device(plugin))
+        return rtk_device_build(s, plugin, params, threads, NULL, NULL);
     rtk_build_log_begin(s->build_log);
     rtk_status st = build_tree(s, plugin, params, threads);
     rtk_build_log_end(s->build_log);

@@ -691,6 +691,8 @@ static int own_traversal(const rtk_plugin *plugin)
 rtk_status rtk_bvh_build_cached(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads,
                                 const char *dir, rtk_bvh_cache_use *use)
 {
+    if (rtk_accelerator_is_device(plugin))
+        return rtk_device_build(s, plugin, params, threads, dir, use);
     if (s->instance_count) {
         memset(use, 0, sizeof *use);
         rtk_status st = rtk_instances_build(s, plugin, params, threads, dir, &use->from_cache);

@@ -281,6 +281,9 @@ done:
 rtk_status rtk_instances_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads,
                                const char *dir, int *from_cache)
 {
+    if (rtk_accelerator_is_device(plugin))
+        return rtk_error(RTK_ERR_UNSUPPORTED, "%s: the scene has %u instances, and device accelerator '%s' traces "
+                         "one level of triangles: pick median, sah or lbvh", s->path, s->instance_count, plugin->name);
     if (rtk_accelerator_traverses_itself(plugin))
         return rtk_error(RTK_ERR_UNSUPPORTED,
                          "%s: the scene has %u instances, and accelerator '%s' traverses with its own code, which "

@@ -1789,7 +1789,25 @@ static rtk_status parse_file(loader *ld)
 
 static rtk_status read_accelerator(const loader *ld, const config_setting_t *root, rtk_config *cfg)
 {
-    return load_slot(ld, root, "accelerator", RTK_KIND_ACCELERATOR, "median", &cfg->accelerator);
+    rtk_status st = load_slot(ld, root, "accelerator", RTK_KIND_ACCELERATOR, "median", &cfg->accelerator);
+    if (st != RTK_OK || !rtk_accelerator_is_device(cfg->accelerator.plugin))
+        return st;
+    /* A device accelerator's builder, checked here so that a wrong one is
+     * reported at its line; the kernel finds it again when it builds. */
+    const char *name = rtk_params_string(cfg->accelerator.params, "builder");
+    const config_setting_t *group = member(root, "accelerator");
+    const config_setting_t *at = group && config_setting_is_group(group) ? member(group, "builder") : NULL;
+    const rtk_plugin *builder = NULL;
+    if ((st = rtk_registry_find(ld->registry, RTK_KIND_ACCELERATOR, name, &builder)) != RTK_OK) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", rtk_error_message());
+        return fail(ld, at ? at : group, st, "accelerator: builder: %s", msg);
+    }
+    if (rtk_accelerator_is_device(builder) || rtk_accelerator_traverses_itself(builder))
+        return fail(ld, at ? at : group, RTK_ERR_INVALID, "accelerator: builder = \"%s\" names an accelerator that "
+                    "%s; name one that builds the kernel's tree (median, sah or lbvh)", name,
+                    rtk_accelerator_is_device(builder) ? "builds no tree" : "keeps its tree to itself");
+    return RTK_OK;
 }
 
 static rtk_status read_integrator(const loader *ld, const config_setting_t *root, rtk_config *cfg)

@@ -47,6 +47,34 @@ static size_t min_table_size(rtk_plugin_kind kind)
     return 0;
 }
 
+/* A device accelerator's table (ABI 3.5): attach, report, both batch
+ * functions and no build or traversal of its own; a string parameter
+ * "builder" names the accelerator that builds its trees. */
+static rtk_status check_device(const rtk_plugin *p, const char *path)
+{
+    const rtk_accelerator_fns *f = p->functions;
+    const char *missing = !f->create          ? "create"
+                          : !f->destroy       ? "destroy"
+                          : !f->attach        ? "attach"
+                          : !f->report        ? "report"
+                          : !f->closest_batch ? "closest_batch"
+                          : !f->any_batch     ? "any_batch"
+                                              : NULL;
+    if (missing)
+        return rtk_error(RTK_ERR_PLUGIN, "%s: device accelerator '%s' lacks the required function '%s'", path,
+                         p->name, missing);
+    if (f->build || f->closest || f->any)
+        return rtk_error(RTK_ERR_PLUGIN, "%s: device accelerator '%s' sets '%s': a device accelerator traces the "
+                         "tree another accelerator builds, and the kernel traces its single rays; leave build, "
+                         "closest and any NULL", path, p->name, f->build ? "build" : f->closest ? "closest" : "any");
+    for (uint32_t i = 0; i < p->param_count; i++)
+        if (p->params && p->params[i].name && strcmp(p->params[i].name, "builder") == 0 &&
+            p->params[i].type == RTK_PARAM_STRING)
+            return RTK_OK;
+    return rtk_error(RTK_ERR_PLUGIN, "%s: device accelerator '%s' declares no string parameter 'builder' (the "
+                     "accelerator that builds the trees it traces)", path, p->name);
+}
+
 static rtk_status check_functions(const rtk_plugin *p, const char *path)
 {
     const char *missing = NULL;
@@ -61,6 +89,8 @@ static rtk_status check_functions(const rtk_plugin *p, const char *path)
         missing = !f->create ? "create" : !f->needs ? "needs" : !f->li ? "li" : !f->destroy ? "destroy" : NULL;
     } else if (p->kind == RTK_KIND_ACCELERATOR) {
         const rtk_accelerator_fns *f = p->functions;
+        if (size >= offsetof(rtk_accelerator_fns, report) + sizeof f->report && (f->attach || f->report))
+            return check_device(p, path);
         missing = !f->create ? "create" : !f->build ? "build" : !f->destroy ? "destroy" : NULL;
         if (!missing && size >= offsetof(rtk_accelerator_fns, any) + sizeof f->any && !f->closest != !f->any)
             return rtk_error(RTK_ERR_PLUGIN, "%s: accelerator '%s' sets only one of 'closest' and 'any'; "

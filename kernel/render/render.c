@@ -586,6 +586,10 @@ static rtk_status phase_render(render_state *rs)
     if (st != RTK_OK)
         return with_context(st, cfg->path);
     report->render_seconds = rtk_now() - t;
+    if (REPORT_HAS(report, device)) {
+        report->device.size = sizeof report->device;
+        report->on_device = rtk_device_report_of(rs->scene, &report->device);
+    }
     report->rays = rs->stats.rays;
     report->invalid_rays = rs->stats.invalid_rays;
     report->bad_samples = rs->stats.bad_samples;
@@ -718,6 +722,18 @@ RTK_API void rtk_render_report_print(const rtk_render_report *r, FILE *f)
     fprintf(f, "rays    %llu (%.2f Mrays/s), %llu invalid, %llu NaN/Inf samples dropped\n",
             (unsigned long long)r->rays, (double)r->rays / total * 1e-6, (unsigned long long)r->invalid_rays,
             (unsigned long long)r->bad_samples);
+    if (REPORT_HAS(r, device) && r->on_device) {
+        const rtk_device_report *d = &r->device;
+        fprintf(f, "device  %8.3f s   %.127s: upload %.3f s, trace %.3f s, download %.3f s; %llu rays in %llu "
+                "batches", d->upload_seconds + d->trace_seconds + d->download_seconds, d->device, d->upload_seconds,
+                d->trace_seconds, d->download_seconds, (unsigned long long)d->rays, (unsigned long long)d->batches);
+        if (d->trace_seconds > 0.0)
+            fprintf(f, " (%.1f Mrays/s traced)", (double)d->rays / d->trace_seconds * 1e-6);
+        fprintf(f, "; %.1f MiB device memory", (double)d->device_bytes / (1024.0 * 1024.0));
+        if (d->cpu_rays)
+            fprintf(f, "; %llu rays on the CPU after a device failure", (unsigned long long)d->cpu_rays);
+        fputc('\n', f);
+    }
     fprintf(f, "mean    %.6f %.6f %.6f (linear RGB)\n", r->mean[0], r->mean[1], r->mean[2]);
     const double mib = 1024.0 * 1024.0;
     fprintf(f, "memory  %.1f MiB peak", (double)r->peak_rss_bytes / mib);

@@ -200,6 +200,12 @@ struct rtk_scene {
      * the scene lives; NULL for kernel traversal. */
     const rtk_accelerator_fns *own_traversal;
     void *own_state;
+    /* A device accelerator tracing the tree's batches (ABI 3.5,
+     * kernel/accel/device.c), its state and the leaf-order corners it was
+     * given; NULL when none. */
+    const rtk_accelerator_fns *device;
+    void *device_state;
+    float *device_corners;
     /* The binary tree collapsed for SIMD traversal (kernel/accel/bvh_wide_build.c), or NULL. */
     struct rtk_wide_bvh *wide;
     /* Where builds of this scene record their phases (kernel/accel/accel.h),

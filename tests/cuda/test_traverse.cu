@@ -1,5 +1,5 @@
-/* kernel/accel/slab.h's binary-tree traversals compiled by nvcc
- * (--fmad=false, as the CUDA backend compiles them) over a tree the kernel
+/* kernel/accel/device_tree.h's traversals (slab.h's) compiled by nvcc
+ * (--fmad=false, as the cuda plugin compiles them) over a tree the kernel
  * built with a builder plugin, the triangles in leaf order as a flat
  * array (the GPU's layout): their closest and any hits equal the kernel's
  * binary traversal (rtk_bvh_closest / rtk_bvh_any with RTK_SIMD_BINARY)
@@ -10,7 +10,7 @@
  *   test_traverse_cuda BUILDER.so SOURCE_ROOT */
 #include "accel/accel.h"
 #include "accel/bvh_wide.h"
-#include "accel/slab.h"
+#include "accel/device_tree.h"
 #include "scene/scene.h"
 
 #include <rtk/host.h>
@@ -29,34 +29,17 @@
 
 namespace {
 
-/* The tree as the GPU holds it: nodes, leaf-order ids, and each leaf
- * slot's corners (9 floats). */
-struct flat_tree {
-    const rtk_bvh_node *nodes;
-    const uint32_t *prim_ids;
-    const float *corners;
-};
-
-RTK_HD int flat_leaf(const void *ctx, uint32_t slot, const rtk_ray *ray, float *t, float *u, float *v)
-{
-    const float *c = static_cast<const flat_tree *>(ctx)->corners + 9 * (size_t)slot;
-    rtk_vec3 a = {c[0], c[1], c[2]}, b = {c[3], c[4], c[5]}, d = {c[6], c[7], c[8]};
-    return rtk_isect_triangle(ray, a, b, d, t, u, v);
-}
-
 struct trace_out {
     rtk_hit hit;
     int closest, any;
 };
 
-RTK_HD void trace_flat(const flat_tree *f, const rtk_ray *ray, trace_out *o)
+/* What the cuda plugin runs per ray (device_tree.h). */
+RTK_HD void trace_flat(const rtk_flat_tree *f, const rtk_ray *ray, trace_out *o)
 {
-    o->hit.prim = RTK_INVALID_ID;
-    o->hit.inst = RTK_INVALID_ID;
-    o->hit.t = ray->tmax;
-    o->hit.u = o->hit.v = 0.0f;
-    o->closest = rtk_slab_closest(f->nodes, f->prim_ids, flat_leaf, f, ray, &o->hit, nullptr);
-    o->any = rtk_slab_any(f->nodes, flat_leaf, f, ray, nullptr);
+    rtk_flat_closest(f, ray, &o->hit);
+    o->closest = o->hit.prim != RTK_INVALID_ID;
+    o->any = rtk_flat_any(f, ray);
 }
 
 bool same(const trace_out &x, const trace_out &y)
@@ -150,7 +133,7 @@ std::vector<rtk_ray> make_rays(const rtk_scene *s, int n, rng *g)
     return rays;
 }
 
-__global__ void trace_kernel(flat_tree f, const rtk_ray *rays, trace_out *out, int n)
+__global__ void trace_kernel(rtk_flat_tree f, const rtk_ray *rays, trace_out *out, int n)
 {
     int i = blockIdx.x * blockDim.x + threadIdx.x;
     if (i < n)
@@ -172,10 +155,10 @@ template <typename T> T *upload(const T *p, size_t n)
 
 /* The device code's answers for rays on tree f (host pointers); false
  * when CUDA fails. */
-bool trace_on_gpu(const flat_tree &f, size_t nodes, size_t slots, const std::vector<rtk_ray> &rays,
+bool trace_on_gpu(const rtk_flat_tree &f, size_t nodes, size_t slots, const std::vector<rtk_ray> &rays,
                   std::vector<trace_out> &out)
 {
-    flat_tree d = {upload(f.nodes, nodes), upload(f.prim_ids, slots), upload(f.corners, 9 * slots)};
+    rtk_flat_tree d = {upload(f.nodes, nodes), upload(f.prim_ids, slots), upload(f.corners, 9 * slots)};
     rtk_ray *dr = upload(rays.data(), rays.size());
     trace_out *dout = nullptr;
     bool ok = d.nodes && d.prim_ids && d.corners && dr &&
@@ -211,7 +194,7 @@ void compare(rtk_scene *s, const char *name, const rtk_plugin *builder, bool gpu
     std::vector<float> corners(9 * slots);
     for (size_t k = 0; k < slots; k++)
         rtk_slot_corners(s, (uint32_t)k, &corners[9 * k]);
-    flat_tree f = {s->nodes, s->prim_ids, corners.data()};
+    rtk_flat_tree f = {s->nodes, s->prim_ids, corners.data()};
     const int n = 20000;
     std::vector<rtk_ray> rays = make_rays(s, n, g);
     std::vector<trace_out> kernel(n), host(n), device(n);

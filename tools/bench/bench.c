@@ -454,8 +454,15 @@ typedef struct bench_row {
     double sah_cost;
     size_t memory;            /* bytes of the binary tree's nodes and leaf-order ids */
     size_t wide_memory;       /* bytes of the 8-wide tree the kernel traverses, 0 if none */
-    const char *traversal;    /* "avx2", "sse", "scalar", "binary" or "own" */
+    const char *traversal;    /* "avx2", "sse", "scalar", "binary", "own" or "device" */
     int done;                 /* measured: in the report */
+    /* A device accelerator: its batch passes trace each pass's rays in one
+     * call; the traversal's own time (the device's report) besides. */
+    int on_device;
+    char device[128];
+    double upload_ms;                         /* the tree to the device, in the build */
+    double primary_traced_ms, ao_traced_ms;   /* median of the passes' traversal time on the device */
+    uint64_t device_bytes, cpu_rays;          /* device memory; rays the CPU traced after a device failure */
 } bench_row;
 
 /* With --verbose: one row's build phases over its runs, merged by name
@@ -500,6 +507,8 @@ typedef struct bench {
     size_t *primary_rows;
     uint64_t *row_count;
     double *times, *cpu_times;            /* one thread count's passes: accelerator a, round i at a * runs + i */
+    double *traced;                       /* the same passes' traversal seconds on a device (batch passes) */
+    size_t whole[2];                      /* a device's batch pass: one "row" of every ray */
     double *build_times, *build_cpu;      /* every row's builds: row r, round i at r * runs + i */
     bench_row *rows;
     bench_phases *phases;                 /* per row with --verbose, else NULL */
@@ -521,6 +530,7 @@ static void bench_free(bench *b)
     free(b->row_count);
     free(b->times);
     free(b->cpu_times);
+    free(b->traced);
     free(b->build_times);
     free(b->build_cpu);
     free(b->rows);
@@ -612,10 +622,18 @@ static rtk_status choose_accels(bench *b, rtk_registry *reg)
         const rtk_plugin_info *info = rtk_registry_at(reg, i);
         if (!info->plugin || info->problem || info->plugin->kind != RTK_KIND_ACCELERATOR)
             continue;
-        rtk_status st = parse_accel(reg, info->plugin->name, &b->accels[b->accel_count]);
+        bench_accel *a = &b->accels[b->accel_count];
+        rtk_status st = parse_accel(reg, info->plugin->name, a);
         b->accel_count++;
         if (st != RTK_OK)
             return st;
+        /* Asked for by name it would fail the bench; among all, it is left out. */
+        if (rtk_accelerator_is_device(a->plugin) && rtk_device_probe(a->plugin, a->params) != RTK_OK) {
+            rtk_log(RTK_LOG_WARN, "bench: leaving out accelerator '%s': %s", a->label, rtk_error_message());
+            rtk_params_destroy(a->params);
+            memset(a, 0, sizeof *a);
+            b->accel_count--;
+        }
     }
     if (b->accel_count == 0)
         return rtk_error(RTK_ERR_PLUGIN, "bench: no accelerator plugins found (see `rtk plugins`)");
@@ -744,7 +762,8 @@ static void tree_stats(const rtk_scene *s, bench_row *row)
         instanced_stats(s, row);
         return;
     }
-    row->traversal = s->own_traversal                                 ? "own"
+    row->traversal = s->device                                        ? "device"
+                     : s->own_traversal                              ? "own"
                      : s->wide && s->wide->path != RTK_SIMD_BINARY ? rtk_simd_name(s->wide->path)
                                                                     : "binary";
     if (s->wide)
@@ -977,6 +996,17 @@ static bench_row *round_row(const trace_round *tr, size_t a)
     return &tr->b->rows[a * tr->b->thread_count + tr->t];
 }
 
+/* A device's batch pass: every ray of pass p in one call (a GPU wants
+ * them all at once, not a row at a time), on the one thread that takes
+ * the single row. */
+static void whole_pass(bench *b, bench_pass *p)
+{
+    b->whole[0] = p->row_start[0];
+    b->whole[1] = p->row_start[p->rows];
+    p->row_start = b->whole;
+    p->rows = 1;
+}
+
 /* One pass of accelerator a (closest: primary rays, else its AO rays;
  * batch: each row as one batch) into round i's slot; the count must match
  * the warm-up's. */
@@ -997,7 +1027,16 @@ static rtk_status timed_pass(trace_round *tr, size_t a, int closest, int batch, 
     const size_t slot = ((size_t)batch * b->accel_count + a) * b->opt.runs + i;
     uint64_t count = 0, packed = 0;
     rtk_accel_swap(b->scene, &tr->sets[a]);
+    rtk_device_report before, after;
+    before.size = after.size = sizeof before;
+    const int device = batch && rtk_device_report_of(b->scene, &before);
+    if (device)
+        whole_pass(b, &p);
     b->times[slot] = run_pass(&p, row->threads, &count, &b->cpu_times[slot], &packed);
+    if (device && rtk_device_report_of(b->scene, &after)) {
+        b->traced[slot] = after.trace_seconds - before.trace_seconds;
+        row->cpu_rays = after.cpu_rays;
+    }
     if (batch)
         *(closest ? &row->primary_packet_rays : &row->ao_packet_rays) = packed;
     rtk_accel_swap(b->scene, &tr->sets[a]);
@@ -1026,6 +1065,13 @@ static rtk_status trace_setup(trace_round *tr, size_t a)
     if (st != RTK_OK)
         return st;
     tree_stats(b->scene, row);
+    rtk_device_report dev;
+    dev.size = sizeof dev;
+    if ((row->on_device = rtk_device_report_of(b->scene, &dev))) {
+        snprintf(row->device, sizeof row->device, "%s", dev.device);
+        row->upload_ms = 1e3 * dev.upload_seconds;
+        row->device_bytes = dev.device_bytes;
+    }
     progress(b, row->accel, row->threads, "primary warm-up", 1, 1);
     bench_pass pp = {.scene = b->scene, .rays = b->primary, .row_start = b->primary_rows, .rows = b->height,
                      .closest = 1, .hits = b->hits, .row_count = b->row_count};
@@ -1034,6 +1080,8 @@ static rtk_status trace_setup(trace_round *tr, size_t a)
     /* The same rays in batches: the same hits, bit for bit. */
     uint64_t batch_hits = 0;
     pp.batch = 1, pp.hits = b->batch_hits;
+    if (row->on_device)
+        whole_pass(b, &pp);
     if (run_pass(&pp, row->threads, &batch_hits, &cpu, NULL) < 0.0)
         return RTK_ERR_NOMEM;
     for (size_t i = 0; i < (size_t)b->width * b->height; i++) {
@@ -1090,6 +1138,8 @@ static rtk_status measure_traces(bench *b, size_t t, size_t *failed)
             double ms = 1e3 * median(&b->times[a * runs], runs), cpu_ms = 1e3 * median(&b->cpu_times[a * runs], runs);
             double bms = 1e3 * median(&b->times[(n + a) * runs], runs),
                    bcpu_ms = 1e3 * median(&b->cpu_times[(n + a) * runs], runs);
+            const double traced_ms = 1e3 * median(&b->traced[(n + a) * runs], runs);
+            *(closest ? &row->primary_traced_ms : &row->ao_traced_ms) = traced_ms;
             if (closest)
                 row->primary_ms = ms, row->primary_cpu_ms = cpu_ms, row->primary_batch_ms = bms,
                 row->primary_batch_cpu_ms = bcpu_ms;
@@ -1246,6 +1296,27 @@ static void print_report(const bench *b, const char *path, FILE *out)
                 mrays(r->ao_rays, r->ao_ms), mrays(r->ao_rays, r->ao_batch_ms), r->ao_cpu_ms / r->ao_batch_cpu_ms,
                 r->ao_rays ? 100.0 * (double)r->ao_packet_rays / (double)r->ao_rays : 0.0);
     }
+    /* Device accelerators: end to end (rays there, hits back) and the
+     * traversal alone, as the device timed it. */
+    int header = 0;
+    for (size_t i = 0; i < b->accel_count * b->thread_count; i++) {
+        const bench_row *r = &b->rows[i];
+        if (!r->done || !r->on_device)
+            continue;
+        if (!header) {
+            fprintf(out, "\non a device: each batch pass's rays in one call; Mrays/s end to end (wall clock, the "
+                         "transfers included) and of the traversal alone (the device's own timing); single rays "
+                         "above are the kernel's, on the CPU\n");
+            fprintf(out, "%-*s %7s %13s %14s %9s %10s %9s %9s %9s  %s\n", w, "accelerator", "threads",
+                    "primary_batch", "primary_traced", "ao_batch", "ao_traced", "upload_ms", "device_MB", "cpu_rays",
+                    "device");
+            header = 1;
+        }
+        fprintf(out, "%-*s %7u %13.3f %14.3f %9.3f %10.3f %9.2f %9.1f %9llu  %s\n", w, r->accel->label, r->threads,
+                mrays(pixels, r->primary_batch_ms), mrays(pixels, r->primary_traced_ms),
+                mrays(r->ao_rays, r->ao_batch_ms), mrays(r->ao_rays, r->ao_traced_ms), r->upload_ms,
+                (double)r->device_bytes / (1024.0 * 1024.0), (unsigned long long)r->cpu_rays, r->device);
+    }
     /* CPU time is what the machine's other load does not inflate: tracing
      * rates per CPU-second of the tracing threads, build in process CPU. */
     fprintf(out, "\n%-*s %7s %9s %9s %5s %8s %9s %7s %9s %12s %14s %11s\n", w, "accelerator", "threads", "nodes",
@@ -1269,7 +1340,7 @@ static void print_report(const bench *b, const char *path, FILE *out)
                 mrays(r->ao_rays, r->ao_cpu_ms));
     }
     /* Each accelerator against the first embree row with the same threads. */
-    int header = 0;
+    header = 0;
     for (size_t i = 0; i < b->accel_count * b->thread_count; i++) {
         const bench_row *r = &b->rows[i], *e = embree_row(b, r);
         if (!e)
@@ -1314,7 +1385,8 @@ static void write_csv(const bench *b, const char *path, FILE *f)
                "memory_bytes,wide_memory_bytes,traversal,total_ms,build_cpu_ms,primary_cpu_ms,ao_cpu_ms,"
                "primary_cpu_mrays,ao_cpu_mrays,primary_batch_ms,ao_batch_ms,primary_batch_cpu_ms,ao_batch_cpu_ms,"
                "primary_batch_mrays,ao_batch_mrays,"
-               "primary_packet_rays,ao_packet_rays\n");
+               "primary_packet_rays,ao_packet_rays,device,upload_ms,primary_traced_ms,ao_traced_ms,device_bytes,"
+               "cpu_rays\n");
     const char *base = strrchr(path, '/');
     base = base ? base + 1 : path;
     uint64_t pixels = (uint64_t)b->width * b->height;
@@ -1336,10 +1408,20 @@ static void write_csv(const bench *b, const char *path, FILE *f)
         fprintf(f, ",%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f", r->traversal, r->build_ms + r->primary_ms + r->ao_ms,
                 r->build_cpu_ms, r->primary_cpu_ms, r->ao_cpu_ms, mrays(pixels, r->primary_cpu_ms),
                 mrays(r->ao_rays, r->ao_cpu_ms));
-        fprintf(f, ",%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%llu,%llu\n", r->primary_batch_ms, r->ao_batch_ms,
+        fprintf(f, ",%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%llu,%llu", r->primary_batch_ms, r->ao_batch_ms,
                 r->primary_batch_cpu_ms, r->ao_batch_cpu_ms, mrays(pixels, r->primary_batch_ms),
                 mrays(r->ao_rays, r->ao_batch_ms),
                 (unsigned long long)r->primary_packet_rays, (unsigned long long)r->ao_packet_rays);
+        /* The device's name is a CSV field: quoted, its quotes doubled. */
+        fputs(",\"", f);
+        for (const char *c = r->on_device ? r->device : ""; *c; c++)
+            fputs(*c == '"' ? "\"\"" : (char[2]){*c, 0}, f);
+        fputc('"', f);
+        if (r->on_device)
+            fprintf(f, ",%.4f,%.4f,%.4f,%llu,%llu\n", r->upload_ms, r->primary_traced_ms, r->ao_traced_ms,
+                    (unsigned long long)r->device_bytes, (unsigned long long)r->cpu_rays);
+        else
+            fprintf(f, ",,,,,\n");
     }
 }
 
@@ -1389,10 +1471,12 @@ rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk_bench_o
         b.batch_hits = rtk_alloc(sizeof *b.batch_hits * pixels);
         b.times = rtk_alloc(sizeof *b.times * b.opt.runs * 2 * b.accel_count);
         b.cpu_times = rtk_alloc(sizeof *b.cpu_times * b.opt.runs * 2 * b.accel_count);
+        b.traced = rtk_calloc((size_t)b.opt.runs * 2 * b.accel_count, sizeof *b.traced);
         b.rows = rtk_calloc(b.accel_count * b.thread_count, sizeof *b.rows);
         b.build_times = rtk_alloc(sizeof *b.build_times * b.opt.runs * b.accel_count * b.thread_count);
         b.build_cpu = rtk_alloc(sizeof *b.build_cpu * b.opt.runs * b.accel_count * b.thread_count);
         if (!b.primary || !b.hits || !b.batch_hits || !b.primary_rows || !b.row_count || !b.times || !b.cpu_times ||
+            !b.traced ||
             !b.rows || !b.build_times || !b.build_cpu)
             st = RTK_ERR_NOMEM;
         else if (rtk_log_enabled(RTK_LOG_DEBUG) && !phases_init(&b))

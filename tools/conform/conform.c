@@ -141,7 +141,7 @@ static void check_schema(rtk_conform_runner *r, const rtk_plugin *p)
 rtk_status rtk_conform_run(const char *path, const rtk_conform_options *options, FILE *out, int *passed,
                            int *failed)
 {
-    rtk_conform_runner r = {out, 0, 0};
+    rtk_conform_runner r = {out, 0, 0, 0};
     const rtk_plugin *p = NULL;
     rtk_status st = rtk_plugin_open(path, 0, &p);
     rtk_conform_check(&r, st == RTK_OK, "loads as an rtk plugin", "%s", rtk_error_message());
@@ -161,7 +161,7 @@ rtk_status rtk_conform_run(const char *path, const rtk_conform_options *options,
         *passed = r.passed;
     if (failed)
         *failed = r.failed;
-    return r.failed == 0 ? RTK_OK : RTK_ERR_PLUGIN;
+    return r.failed ? RTK_ERR_PLUGIN : r.skipped ? RTK_ERR_UNSUPPORTED : RTK_OK;
 }
 
 rtk_status rtk_conform(const char *path, FILE *out, int *passed, int *failed)

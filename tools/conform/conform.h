@@ -58,6 +58,7 @@ rtk_status rtk_conform_run(const char *path, const rtk_conform_options *options,
 typedef struct rtk_conform_runner {
     FILE *out;
     int passed, failed;
+    int skipped; /* checks left out because this machine cannot run them (a device accelerator without its device) */
 } rtk_conform_runner;
 
 /* One check line: "ok    name", or "FAIL  name: " and the printf-style

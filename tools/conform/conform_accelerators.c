@@ -534,11 +534,31 @@ typedef struct traced {
     rtk_hit h;
 } traced;
 
+/* rtk_bvh_closest and rtk_bvh_any, except on a device accelerator's
+ * scene, where the kernel traces single rays itself: there, batches of
+ * one ray, so that the checks below check the device's traversal. */
+static int closest_of(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
+{
+    if (!s->device)
+        return rtk_bvh_closest(s, ray, hit);
+    rtk_bvh_closest_batch(s, ray, 1, hit);
+    return hit->prim != RTK_INVALID_ID;
+}
+
+static int any_of(const rtk_scene *s, const rtk_ray *ray)
+{
+    if (!s->device)
+        return rtk_bvh_any(s, ray);
+    uint8_t occluded;
+    rtk_bvh_any_batch(s, ray, 1, &occluded);
+    return occluded;
+}
+
 static traced trace(const rtk_scene *s, const rtk_ray *ray)
 {
     traced tr;
-    tr.hit = rtk_bvh_closest(s, ray, &tr.h);
-    tr.any = rtk_bvh_any(s, ray);
+    tr.hit = closest_of(s, ray, &tr.h);
+    tr.any = any_of(s, ray);
     return tr;
 }
 
@@ -591,7 +611,7 @@ static int oracle_check(const rtk_scene *s, const rtk_ray *ray, const traced *tr
 static int tree_matches_brute(const rtk_scene *s, const rtk_ray *ray, int i, int *brute_hit, char *detail, size_t cap)
 {
     rtk_hit h1, h2;
-    int a = rtk_bvh_closest(s, ray, &h1), b = brute_closest(s, ray, &h2);
+    int a = closest_of(s, ray, &h1), b = brute_closest(s, ray, &h2);
     *brute_hit = b;
     if (a == b && (!a || (h1.prim == h2.prim && h1.t == h2.t) || same_surface(s, ray, &h1, &h2)))
         return 1;
@@ -637,7 +657,7 @@ static void conform_basic(rtk_conform_runner *r, const rtk_plugin *p, const rtk_
                 int b = 0;
                 if (!tree_matches_brute(s, &ray, i, &b, d, sizeof d) && !closest_bad++)
                     snprintf(detail, sizeof detail, "%s", d);
-                if (rtk_bvh_any(s, &ray) != b)
+                if (any_of(s, &ray) != b)
                     any_bad++;
             }
             snprintf(name, sizeof name, "closest hit = brute force [%s] %s", label, mesh);
@@ -1388,7 +1408,7 @@ static int surface_hit(const surface_scene *sc, rtk_pcg32 *rng, rtk_vec3 eye, rt
         u = 1.0 - u, v = 1.0 - v;
     dvec target = dadd(a, dadd(dmul(dsub(b, a), u), dmul(dsub(c, a), v)));
     *ray = make_ray(eye, fdv(dsub(target, dvf(eye))), INFINITY);
-    if (!rtk_bvh_closest(s, ray, hit)) {
+    if (!closest_of(s, ray, hit)) {
         tl->rays++;
         tally_bad(tl, ray, "a camera ray inside the closed room missed everything");
         return 0;
@@ -1541,7 +1561,7 @@ static void conform_surface(rtk_conform_runner *r, const rtk_plugin *p, const rt
                         rtk_ray probe = make_ray(up, fdv(drand_cone(&rng, dvf(ng), 0.05)), INFINITY);
                         rtk_hit hit2;
                         rtk_surface sf2;
-                        if (!rtk_bvh_closest(sc.m.s, &probe, &hit2) || hit2.prim == prim0)
+                        if (!closest_of(sc.m.s, &probe, &hit2) || hit2.prim == prim0)
                             continue;
                         rtk_surface_at(sc.m.s, &probe, &hit2, &sf2);
                         if (rtk_vec3_dot(rtk_vec3_sub(sf2.p, sf.p), ng) <= 0.0f ||
@@ -1948,10 +1968,12 @@ static void conform_instances(rtk_conform_runner *r, const rtk_plugin *p, const 
     rtk_bvh_cache_use use;
     if (st == RTK_OK)
         st = rtk_bvh_build_cached(s, p, params, 2, NULL, &use);
-    if (rtk_accelerator_traverses_itself(p)) {
-        snprintf(name, sizeof name, "an instanced scene is refused, naming the alternatives (own traversal) [%s]", label);
-        rtk_conform_check(r, st != RTK_OK && strstr(rtk_error_message(), "cannot nest"), name, "%s",
-                          st == RTK_OK ? "built" : rtk_error_message());
+    if (rtk_accelerator_traverses_itself(p) || rtk_accelerator_is_device(p)) {
+        snprintf(name, sizeof name, "an instanced scene is refused, naming the alternatives (%s) [%s]",
+                 rtk_accelerator_is_device(p) ? "device" : "own traversal", label);
+        rtk_conform_check(r, st != RTK_OK && strstr(rtk_error_message(), rtk_accelerator_is_device(p) ? "one level"
+                                                                                                      : "cannot nest"),
+                          name, "%s", st == RTK_OK ? "built" : rtk_error_message());
         rtk_scene_free(s);
         return;
     }
@@ -2303,7 +2325,7 @@ static rtk_scene *cutout_scene(void)
 static void conform_batch(rtk_conform_runner *r, const rtk_plugin *p, const rtk_params *params, const char *label,
                           int full)
 {
-    int own = rtk_accelerator_traverses_itself(p);
+    int own = rtk_accelerator_traverses_itself(p), device = rtk_accelerator_is_device(p);
     char what[256];
     for (int which = 0; which < 6; which++) {
         const char *mesh_name = NULL;
@@ -2317,10 +2339,26 @@ static void conform_batch(rtk_conform_runner *r, const rtk_plugin *p, const rtk_
             batch_check(r, m.s, lo, hi, 3000, (uint64_t)which, mesh_name, label);
             if (which == 2)
                 batch_sdk(r, m.s, mesh_name, label);
+            rtk_device_report rep;
+            if (device && m.s->triangle_count) {
+                snprintf(what, sizeof what, "the device traced the batches on %s [%s]", mesh_name, label);
+                int on_device = rtk_device_report_of(m.s, &rep);
+                rtk_conform_check(r, on_device && rep.rays + rep.cpu_rays > 0, what,
+                                  on_device ? "its report counts no rays" : "the scene has no device");
+            }
         }
         rtk_scene_free(m.s);
     }
-    if (!own) {
+    if (device) {
+        mesh m;
+        m.s = cutout_scene();
+        rtk_bvh_cache_use use;
+        rtk_status st = m.s ? rtk_bvh_build_cached(m.s, p, params, 2, NULL, &use) : RTK_ERR_NOMEM;
+        snprintf(what, sizeof what, "a scene with cut-outs is refused, naming the alternatives (device) [%s]", label);
+        rtk_conform_check(r, st != RTK_OK && strstr(rtk_error_message(), "does not test"), what, "%s",
+                          st == RTK_OK ? "built" : rtk_error_message());
+        rtk_scene_free(m.s);
+    } else if (!own) {
         mesh m;
         m.s = cutout_scene();
         m.ok = m.s != NULL;
@@ -2353,6 +2391,8 @@ static void conform_batch(rtk_conform_runner *r, const rtk_plugin *p, const rtk_
                 "them)\n",
                 label);
     }
+    if (device)
+        fprintf(r->out, "# batches [%s]: device: no instanced scene (it refuses them)\n", label);
     dvec *v = NULL, *iv = NULL;
     uint32_t *t = NULL, *it = NULL, nv = 0, nt = 0, inv = 0, int_ = 0;
     if (!icosphere(6, &v, &nv, &t, &nt) || !icosphere(3, &iv, &inv, &it, &int_)) {
@@ -2385,12 +2425,29 @@ static void conform_batch(rtk_conform_runner *r, const rtk_plugin *p, const rtk_
     free(v), free(t), free(iv), free(it);
 }
 
+/* Whether device accelerator p starts here (with its defaults): if not,
+ * a "skip" line says why and every check that traces is left out. */
+static int device_present(rtk_conform_runner *r, const rtk_plugin *p)
+{
+    rtk_params *params = rtk_params_defaults(p);
+    rtk_status st = params ? rtk_device_probe(p, params) : RTK_ERR_NOMEM;
+    rtk_params_destroy(params);
+    if (st == RTK_OK)
+        return 1;
+    fprintf(r->out, "skip  every check that traces: device accelerator '%s' cannot start on this machine: %s\n",
+            p->name, params ? rtk_error_message() : "out of memory");
+    r->skipped++;
+    return 0;
+}
+
 void rtk_conform_accelerator(rtk_conform_runner *r, const rtk_plugin *p, const rtk_conform_options *o)
 {
     uint32_t cases = o && o->cases ? o->cases : RTK_CONFORM_ALL;
     uint32_t ico = o && o->icosphere_rays ? o->icosphere_rays : 100000;
     uint32_t scale = o && o->ray_scale ? o->ray_scale : 1;
     uint32_t variants = o && o->defaults_only ? 1 : rtk_conform_variant_count(p);
+    if (rtk_accelerator_is_device(p) && !device_present(r, p))
+        return;
     for (uint32_t vi = 0; vi < variants; vi++) {
         char label[128], name[256];
         rtk_params *params = rtk_conform_param_variant(p, (int)vi, label, sizeof label);

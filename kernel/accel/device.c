@@ -1,0 +1,148 @@
+/* Device accelerators (ABI 3.5): the tree a builder plugin made, through
+ * the cache like any other, handed with its triangles in leaf order to an
+ * accelerator that traces batches on another processor (the cuda plugin).
+ * Single rays stay with the kernel's traversal of the same tree. */
+#include "accel.h"
+
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+
+int rtk_accelerator_is_device(const rtk_plugin *accelerator)
+{
+    const rtk_accelerator_fns *f = accelerator->functions;
+    return f->size >= offsetof(rtk_accelerator_fns, report) + sizeof f->report && f->attach != NULL;
+}
+
+/* The plugins a device's "builder" may name: rtk's own directories and
+ * RTK_PLUGIN_PATH, scanned once per process. */
+static pthread_mutex_t registry_lock = PTHREAD_MUTEX_INITIALIZER;
+static rtk_registry *builders;
+
+static rtk_status find_builder(const rtk_plugin *device, const rtk_params *params, const rtk_plugin **out)
+{
+    const char *name = rtk_params_string(params, "builder");
+    pthread_mutex_lock(&registry_lock);
+    rtk_status st = builders ? RTK_OK : rtk_registry_create(&builders);
+    if (st == RTK_OK)
+        st = rtk_registry_find(builders, RTK_KIND_ACCELERATOR, name, out);
+    pthread_mutex_unlock(&registry_lock);
+    if (st != RTK_OK) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", rtk_error_message());
+        return rtk_error(st, "accelerator '%s': builder = \"%s\": %s", device->name, name, msg);
+    }
+    if (rtk_accelerator_is_device(*out) || rtk_accelerator_traverses_itself(*out))
+        return rtk_error(RTK_ERR_INVALID, "accelerator '%s': builder = \"%s\" names an accelerator that %s; name "
+                         "one that builds the kernel's tree (median, sah or lbvh)", device->name, name,
+                         rtk_accelerator_is_device(*out) ? "builds no tree" : "keeps its tree to itself");
+    return RTK_OK;
+}
+
+/* Leaf-order corners for the device, split over threads. */
+static void gather_corners(void *ctx, uint32_t begin, uint32_t end)
+{
+    const rtk_scene *s = ctx;
+    for (uint32_t slot = begin; slot < end; slot++)
+        rtk_slot_corners(s, slot, s->device_corners + 9 * (size_t)slot);
+}
+
+void rtk_device_release(rtk_scene *s)
+{
+    if (s->device && s->device_state)
+        s->device->destroy(s->device_state);
+    free(s->device_corners);
+    s->device = NULL;
+    s->device_state = NULL;
+    s->device_corners = NULL;
+}
+
+/* rtk_device_build inside the build log that it opens. */
+static rtk_status device_build(rtk_scene *s, const rtk_plugin *device, const rtk_params *params, uint32_t threads,
+                               const char *dir, rtk_bvh_cache_use *use)
+{
+    if (use)
+        memset(use, 0, sizeof *use);
+    rtk_device_release(s);
+    const char *where = s->path ? s->path : "the scene";
+    if (s->instance_count)
+        return rtk_error(RTK_ERR_UNSUPPORTED, "%s: the scene has %u instances, and device accelerator '%s' traces "
+                         "one level of triangles: pick median, sah or lbvh", where, s->instance_count, device->name);
+    if (s->has_cutouts)
+        return rtk_error(RTK_ERR_UNSUPPORTED, "%s: the scene has alpha cut-outs or single-sided materials, which "
+                         "device accelerator '%s' does not test: pick median, sah or lbvh", where, device->name);
+    const rtk_accelerator_fns *f = device->functions;
+    void *state = NULL;
+    rtk_status st = f->create(params, &state);
+    if (st != RTK_OK) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", rtk_error_message());
+        return rtk_error(st, "accelerator '%s' failed to start: %s", device->name, msg);
+    }
+    const rtk_plugin *builder = NULL;
+    rtk_params *builder_params = NULL;
+    st = find_builder(device, params, &builder);
+    if (st == RTK_OK && !(builder_params = rtk_params_defaults(builder)))
+        st = RTK_ERR_NOMEM;
+    if (st == RTK_OK)
+        st = dir && use ? rtk_bvh_build_cached_own(s, builder, builder_params, threads, dir, use)
+                        : rtk_bvh_build(s, builder, builder_params, threads);
+    rtk_params_destroy(builder_params);
+    if (st != RTK_OK || s->triangle_count == 0) {
+        f->destroy(state); /* an empty scene: every ray misses, no device needed */
+        return st;
+    }
+    rtk_build_log_mark(s->build_log, "device: upload", 0, 0);
+    s->device_corners = rtk_alloc(sizeof(float) * 9 * (size_t)s->triangle_count);
+    if (!s->device_corners) {
+        f->destroy(state);
+        return rtk_error(RTK_ERR_NOMEM, "%s: out of memory for the device's copy of %u triangles", where,
+                         s->triangle_count);
+    }
+    rtk_parallel_ranges(s->triangle_count, threads ? threads : 1, 65536, gather_corners, s);
+    const rtk_device_tree tree = {.size = sizeof tree, .nodes = s->nodes, .node_count = s->node_count,
+                                  .depth = s->bvh_depth, .prim_ids = s->prim_ids, .corners = s->device_corners,
+                                  .slot_count = s->triangle_count};
+    st = f->attach(state, &tree);
+    if (st != RTK_OK) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", rtk_error_message());
+        f->destroy(state);
+        free(s->device_corners);
+        s->device_corners = NULL;
+        return rtk_error(st, "accelerator '%s' could not take the tree of %u triangles: %s", device->name,
+                         s->triangle_count, msg);
+    }
+    s->device = f;
+    s->device_state = state;
+    return RTK_OK;
+}
+
+rtk_status rtk_device_build(rtk_scene *s, const rtk_plugin *device, const rtk_params *params, uint32_t threads,
+                            const char *dir, rtk_bvh_cache_use *use)
+{
+    rtk_build_log_begin(s->build_log);
+    rtk_status st = device_build(s, device, params, threads, dir, use);
+    rtk_build_log_end(s->build_log);
+    return st;
+}
+
+rtk_status rtk_device_probe(const rtk_plugin *device, const rtk_params *params)
+{
+    const rtk_accelerator_fns *f = device->functions;
+    void *state = NULL;
+    rtk_status st = f->create(params, &state);
+    if (st == RTK_OK)
+        f->destroy(state);
+    return st;
+}
+
+int rtk_device_report_of(const rtk_scene *s, rtk_device_report *out)
+{
+    if (!s->device)
+        return 0;
+    memset(out, 0, sizeof *out);
+    out->size = sizeof *out;
+    s->device->report(s->device_state, out);
+    return 1;
+}

@@ -1,0 +1,116 @@
+#!/usr/bin/env bash
+# The kernel's device accelerators end to end, with testdevice (a device
+# that is the CPU): images through it equal the builder's bit for bit (ao,
+# headlight and path, which trace in batches), the report's device line,
+# the BVH cache, `rtk bench`'s device table and counts, and every refusal
+# with its message (a wrong builder at its config line, a device that
+# cannot start or take the tree, instanced scenes).
+# usage: test_device.sh RTK SOURCE_ROOT TESTDEVICE_DIR
+set -u
+rtk=$1
+src=$2
+export RTK_PLUGIN_PATH=$3
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+export XDG_CACHE_HOME="$tmp/cache"
+passed=0
+failed=0
+ok() { passed=$((passed + 1)); echo "ok    $1"; }
+bad() { failed=$((failed + 1)); echo "FAIL  $1"; }
+cornell=$src/scenes/cornell
+small=(--set film.width=96 --set film.height=96 --set film.spp=4)
+
+# Renders cfg with sah and with testdevice (builder sah); the pixels must
+# be equal (rtk diff: overall RMSE exactly 0) and the device must have
+# traced rays.
+same_image() {
+    local name=$1 cfg=$2
+    shift 2
+    if ! "$rtk" render "$cfg" "${small[@]}" "$@" --set accelerator.plugin=sah \
+         --set film.output="$tmp/$name-sah.exr" >"$tmp/$name-sah.log" 2>&1; then
+        bad "$name: render with sah"; sed 's/^/    /' "$tmp/$name-sah.log"; return
+    fi
+    if ! "$rtk" render "$cfg" "${small[@]}" "$@" --set accelerator.plugin=testdevice \
+         --set film.output="$tmp/$name-dev.exr" >"$tmp/$name-dev.log" 2>&1; then
+        bad "$name: render with testdevice"; sed 's/^/    /' "$tmp/$name-dev.log"; return
+    fi
+    local rmse rays
+    rmse=$("$rtk" diff "$tmp/$name-dev.exr" "$tmp/$name-sah.exr" 2>&1 | awk '$1 == "rmse" { print $NF }')
+    rays=$(sed -n 's/^device .*; \([0-9]*\) rays in \([0-9]*\) batches.*/\1/p' "$tmp/$name-dev.log")
+    if [ "$rmse" = 0 ] && [ -n "$rays" ] && [ "$rays" -gt 0 ]; then
+        ok "$name: testdevice's image equals sah's (RMSE $rmse); the device traced $rays rays"
+    else
+        bad "$name: RMSE '$rmse' (want 0), device rays '$rays' (want > 0)"
+        sed 's/^/    /' "$tmp/$name-dev.log"
+    fi
+}
+same_image ao "$cornell/cornell-ao.cfg"
+same_image headlight "$cornell/cornell-headlight.cfg"
+same_image path "$cornell/cornell.cfg" --set integrator.max_depth=4
+
+# expect NAME FRAGMENT CMD...: CMD fails, saying FRAGMENT.
+refused() {
+    local name=$1 fragment=$2
+    shift 2
+    local out status
+    out=$("$@" 2>&1)
+    status=$?
+    if [ $status -ne 0 ] && grep -qF -- "$fragment" <<<"$out"; then
+        ok "$name"
+    else
+        bad "$name (exit $status, want a failure saying '$fragment')"; echo "$out" | sed 's/^/    /'
+    fi
+}
+ao=("$rtk" render "$cornell/cornell-ao.cfg" "${small[@]}" --set film.output="$tmp/refused.png")
+printf 'scene = "%s/cornell.obj";\nfilm = { output = "%s/x.png"; };\naccelerator = { plugin = "testdevice";\n  builder = "nosuch"; };\n' \
+    "$cornell" "$tmp" >"$tmp/nosuch.cfg"
+refused "an unknown builder is named at its config line" "nosuch.cfg:4: accelerator: builder: no accelerator plugin named 'nosuch'" \
+    "$rtk" render "$tmp/nosuch.cfg"
+refused "a builder that builds no tree is refused" "names an accelerator that builds no tree" \
+    "${ao[@]}" --set accelerator.plugin=testdevice --set accelerator.builder=testdevice
+refused "a device that cannot start stops the render" "accelerator 'testdevice' failed to start: testdevice: no device" \
+    env RTK_TESTDEVICE_FAIL=create "${ao[@]}" --set accelerator.plugin=testdevice
+refused "a device that cannot take the tree stops the render" "could not take the tree of 38 triangles" \
+    env RTK_TESTDEVICE_FAIL=attach "${ao[@]}" --set accelerator.plugin=testdevice
+[ ! -e "$tmp/refused.png" ] && ok "no image after a refusal" || bad "an image was written after a refusal"
+printf 'scene = "%s/cornell.obj";\ninstances = ( { file = "%s/cornell.obj"; translate = [1.0, 0.0, 0.0]; } );\nfilm = { width = 32; height = 32; output = "%s/x.png"; };\naccelerator = { plugin = "testdevice"; };\n' \
+    "$cornell" "$cornell" "$tmp" >"$tmp/instanced.cfg"
+refused "an instanced scene is refused, naming the alternatives" "device accelerator 'testdevice' traces one level of triangles: pick median, sah or lbvh" \
+    "$rtk" render "$tmp/instanced.cfg"
+
+# The builder's tree through the cache (on by default, under
+# XDG_CACHE_HOME): saved, then loaded, and traced on the device both times.
+for run in saved loaded; do
+    out=$("${ao[@]}" --set accelerator.plugin=testdevice --set accelerator.builder=lbvh 2>&1)
+    want="saved to cache"
+    [ $run = loaded ] && want="from cache"
+    if grep -qF "$want" <<<"$out" && grep -q "^device .* rays in" <<<"$out"; then
+        ok "cache: the builder's tree $run, traced on the device"
+    else
+        bad "cache: '$want' and a device line expected"; echo "$out" | sed 's/^/    /'
+    fi
+done
+
+# rtk bench: the same counts as sah, one call per batch pass, the device table.
+obj=$cornell/cornell.obj
+if out=$("$rtk" bench "$obj" --accel testdevice,sah --threads 1,2 --runs 1 --width 64 --height 48 \
+         --csv "$tmp/bench.csv" 2>&1); then
+    counts=$(awk -F, 'NR > 1 { print $2, $3, $12, $13, $14 }' "$tmp/bench.csv" | sort -k2,2 -k1,1)
+    dev=$(awk -F, 'NR > 1 && $2 == "testdevice" { print $12, $13, $14 }' "$tmp/bench.csv" | sort -u)
+    sah=$(awk -F, 'NR > 1 && $2 == "sah" { print $12, $13, $14 }' "$tmp/bench.csv" | sort -u)
+    if [ -n "$dev" ] && [ "$dev" = "$sah" ] && [ "$(wc -l <<<"$dev")" = 1 ]; then
+        ok "bench: testdevice's primary hits, AO rays and unoccluded rays equal sah's ($dev)"
+    else
+        bad "bench: counts differ: $counts"
+    fi
+    if grep -q "^on a device" <<<"$out" && grep -q "^testdevice .*CPU (rtk's test device)$" <<<"$out" &&
+       grep -q '"CPU (rtk.s test device)"' "$tmp/bench.csv"; then
+        ok "bench: the device table and the CSV's device column"
+    else
+        bad "bench: no device table or CSV column"; echo "$out" | sed 's/^/    /'
+    fi
+else
+    bad "bench with testdevice"; echo "$out" | sed 's/^/    /'
+fi
+echo "$passed passed, $failed failed"
+[ $failed -eq 0 ]

@@ -1,0 +1,138 @@
+/* testdevice: a device accelerator (ABI 3.5) whose "device" is the CPU,
+ * built only for tests: it traces the tree it is given with the code the
+ * cuda plugin runs on a GPU (kernel/accel/device_tree.h), so that the
+ * kernel's side of device accelerators (the builder, the cache, batches,
+ * reports, refusals) and `rtk conform` are tested on machines without a
+ * GPU.
+ *
+ * Parameters:
+ *   builder  string  sah  the accelerator that builds its trees
+ * With RTK_TESTDEVICE_FAIL=create or attach in the environment it fails
+ * there, with a message (tests of the kernel's errors). */
+#include "accel/device_tree.h"
+
+#include <rtk/rtk.h>
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+typedef struct testdevice {
+    int fail_attach;
+    rtk_flat_tree tree;
+    uint32_t node_count, slot_count;
+    _Atomic uint64_t rays, batches;
+    pthread_mutex_t lock;
+    double trace_seconds; /* the batch loops' wall-clock time, as a device times its kernels */
+} testdevice;
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Counts a batch of count rays that took seconds. */
+static void count_batch(testdevice *d, uint32_t count, double seconds)
+{
+    atomic_fetch_add(&d->rays, count);
+    atomic_fetch_add(&d->batches, 1);
+    pthread_mutex_lock(&d->lock);
+    d->trace_seconds += seconds;
+    pthread_mutex_unlock(&d->lock);
+}
+
+static rtk_status testdevice_create(const rtk_params *params, void **state)
+{
+    (void)params;
+    const char *fail = getenv("RTK_TESTDEVICE_FAIL");
+    fail = fail ? fail : "";
+    if (strcmp(fail, "create") == 0)
+        return rtk_error(RTK_ERR_UNSUPPORTED, "testdevice: no device (RTK_TESTDEVICE_FAIL=create)");
+    testdevice *d = calloc(1, sizeof *d);
+    if (!d)
+        return rtk_error(RTK_ERR_NOMEM, "testdevice: out of memory");
+    d->fail_attach = strcmp(fail, "attach") == 0;
+    pthread_mutex_init(&d->lock, NULL);
+    *state = d;
+    return RTK_OK;
+}
+
+static rtk_status testdevice_attach(void *state, const rtk_device_tree *tree)
+{
+    testdevice *d = state;
+    if (d->fail_attach)
+        return rtk_error(RTK_ERR_NOMEM, "testdevice: out of device memory (RTK_TESTDEVICE_FAIL=attach)");
+    d->tree = (rtk_flat_tree){tree->nodes, tree->prim_ids, tree->corners};
+    d->node_count = tree->node_count;
+    d->slot_count = tree->slot_count;
+    return RTK_OK;
+}
+
+static void testdevice_closest_batch(const void *state, const rtk_ray *rays, uint32_t count, rtk_hit *hits)
+{
+    testdevice *d = (testdevice *)state;
+    const double t0 = now();
+    for (uint32_t i = 0; i < count; i++)
+        rtk_flat_closest(&d->tree, &rays[i], &hits[i]);
+    count_batch(d, count, now() - t0);
+}
+
+static void testdevice_any_batch(const void *state, const rtk_ray *rays, uint32_t count, uint8_t *occluded)
+{
+    testdevice *d = (testdevice *)state;
+    const double t0 = now();
+    for (uint32_t i = 0; i < count; i++)
+        occluded[i] = (uint8_t)rtk_flat_any(&d->tree, &rays[i]);
+    count_batch(d, count, now() - t0);
+}
+
+static void testdevice_report(const void *state, rtk_device_report *out)
+{
+    testdevice *d = (testdevice *)state;
+    strcpy(out->device, "CPU (rtk's test device)");
+    out->rays = atomic_load(&d->rays);
+    out->batches = atomic_load(&d->batches);
+    pthread_mutex_lock(&d->lock);
+    out->trace_seconds = d->trace_seconds;
+    pthread_mutex_unlock(&d->lock);
+    out->device_bytes = (uint64_t)d->node_count * sizeof(rtk_bvh_node) + (uint64_t)d->slot_count * (4 + 36);
+}
+
+static void testdevice_destroy(void *state)
+{
+    testdevice *d = state;
+    pthread_mutex_destroy(&d->lock);
+    free(d);
+}
+
+static const rtk_param_desc testdevice_params[] = {
+    {.name = "builder", .type = RTK_PARAM_STRING, .def_string = "sah",
+     .doc = "the accelerator that builds the trees this device traces"},
+};
+
+static const rtk_accelerator_fns testdevice_fns = {
+    .size = sizeof(rtk_accelerator_fns),
+    .create = testdevice_create,
+    .destroy = testdevice_destroy,
+    .closest_batch = testdevice_closest_batch,
+    .any_batch = testdevice_any_batch,
+    .attach = testdevice_attach,
+    .report = testdevice_report,
+};
+
+static const rtk_plugin testdevice_plugin = {
+    RTK_PLUGIN_HEADER,
+    .kind = RTK_KIND_ACCELERATOR,
+    .name = "testdevice",
+    .version = "1.0",
+    .summary = "a device accelerator on the CPU, for tests of the kernel's device support",
+    .params = testdevice_params,
+    .param_count = RTK_COUNTOF(testdevice_params),
+    .functions = &testdevice_fns,
+};
+
+RTK_PLUGIN_ENTRY(testdevice_plugin)

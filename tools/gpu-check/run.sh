@@ -1,0 +1,79 @@
+#!/usr/bin/env bash
+# Runs on a lent GPU machine (the device tool, carrying .gpu; docs/testing.md,
+# "The GPU check"): unpacks .gpu/bundle.tar.xz (pack.sh) and runs every GPU
+# check and benchmark of the cuda plugin in one go:
+#   1. tests/cuda's programs, whose device code runs where a GPU is;
+#   2. `rtk conform cuda`: every accelerator check through the GPU;
+#   3. `rtk bench` with cuda beside sah (and embree when packed) on the four
+#      meshes and the showroom, at 1 and 16 threads.
+# Logs and CSVs go to $OUT/gpu-check.tar.gz; each step's last lines and the
+# bench tables are printed, the summary last. Nothing here needs a network.
+#
+#   bash tools/gpu-check/run.sh [STEPS]      (STEPS: any of tests conform bench; default all)
+set -u
+steps=${1:-tests conform bench}
+out=${OUT:-/tmp/gpu-check-out}
+logs=/tmp/gpu-check-logs
+rm -rf /tmp/rtk "$logs" && mkdir -p "$logs" "$out" || exit 2
+tar xJf .gpu/bundle.tar.xz -C /tmp || { echo "run.sh: no .gpu/bundle.tar.xz (carry .gpu; pack.sh makes it)"; exit 2; }
+b=/tmp/rtk
+# The driver's libcuda, wherever this machine keeps it, after the carried libraries.
+cuda_dir=$(ldconfig -p 2>/dev/null | awk '/libcuda\.so\.1 .*x86-64/ { print $NF; exit }')
+cuda_dir=${cuda_dir:+$(dirname "$cuda_dir")}
+for d in /usr/local/nvidia/lib64 /usr/lib/x86_64-linux-gnu /usr/lib64; do
+    [ -z "$cuda_dir" ] && [ -e "$d/libcuda.so.1" ] && cuda_dir=$d
+done
+libpath=$b/lib:$b/sys${cuda_dir:+:$cuda_dir}
+run() { "$b/sys/ld-linux-x86-64.so.2" --library-path "$libpath" "$@"; }
+summary=()
+note() { summary+=("$1"); echo "== $1"; }
+
+echo "rtk $(cat "$b/commit"), libcuda from ${cuda_dir:-nowhere (no driver found)}"
+nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm --format=csv,noheader 2>&1 | tee "$logs/gpu.txt"
+nproc | sed 's/^/cpu cores: /' | tee -a "$logs/gpu.txt"
+grep -m1 'model name' /proc/cpuinfo | tee -a "$logs/gpu.txt"
+
+if [[ " $steps " == *" tests "* ]]; then
+    for t in isect sampler bsdf; do
+        timeout 300 bash -c "$(declare -f run); libpath=$libpath b=$b; run $b/tests/test_${t}_cuda" \
+            >"$logs/test_$t.log" 2>&1
+        note "tests/cuda $t: exit $? ($(tail -1 "$logs/test_$t.log"))"
+    done
+    for builder in sah lbvh; do
+        timeout 300 bash -c "$(declare -f run); libpath=$libpath b=$b; run $b/tests/test_traverse_cuda \
+            $b/lib/rtk/plugins/$builder.so $b/src" >"$logs/test_traverse_$builder.log" 2>&1
+        note "tests/cuda traverse $builder: exit $? ($(tail -1 "$logs/test_traverse_$builder.log"))"
+    done
+    grep -h -E '^(FAIL|skip|# )' "$logs"/test_*.log | head -40
+fi
+
+if [[ " $steps " == *" conform "* ]]; then
+    t0=$(date +%s)
+    timeout 400 bash -c "$(declare -f run); libpath=$libpath b=$b; run $b/bin/rtk conform cuda" \
+        >"$logs/conform_cuda.log" 2>&1
+    st=$?
+    grep -E '^(FAIL|skip)' "$logs/conform_cuda.log" | head -20
+    note "rtk conform cuda: exit $st in $(($(date +%s) - t0)) s ($(tail -1 "$logs/conform_cuda.log"))"
+fi
+
+if [[ " $steps " == *" bench "* ]]; then
+    accels=cuda,sah
+    [ -e "$b/lib/rtk/plugins/embree.so" ] && accels=$accels,embree
+    for m in bunny armadillo elephant dragon showroom; do
+        f=$b/shared/data/meshes/$m.obj cam=()
+        [ $m = showroom ] && f=$b/shared/data/showroom/showroom.obj cam=(--camera -2.5,2.2,-2.5,14,0.5,10,60)
+        [ -f "$f" ] || { note "bench $m: not packed"; continue; }
+        t0=$(date +%s)
+        timeout 300 bash -c "$(declare -f run); libpath=$libpath b=$b; run $b/bin/rtk bench $f ${cam[*]} \
+            --accel $accels --threads 1,16 --runs 3 --csv $logs/bench_$m.csv" >"$logs/bench_$m.txt" 2>&1
+        st=$?
+        echo "---- bench $m"
+        sed -n '/^accelerator threads  *build_ms/,/^$/p; /^on a device/,/^$/p' "$logs/bench_$m.txt"
+        [ $st -ne 0 ] && tail -3 "$logs/bench_$m.txt"
+        note "bench $m: exit $st in $(($(date +%s) - t0)) s"
+    done
+fi
+
+tar czf "$out/gpu-check.tar.gz" -C "$logs" . 2>/dev/null
+echo "==== summary"
+printf '%s\n' "${summary[@]}"
