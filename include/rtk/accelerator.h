@@ -98,16 +98,36 @@ enum {
     RTK_BUILD_SPARSE_NODES = 4u
 };
 
+/* ABI 3.5. One placement of a mesh, as two-level traversal reads it. */
+typedef struct rtk_device_instance {
+    double to_object[12]; /* world -> the mesh's space, 3x4 row-major */
+    rtk_bvh_node box;     /* its world box, as a node (offset and count 0) */
+    uint32_t mesh;        /* which of rtk_device_tree.meshes */
+    uint32_t reserved;    /* 0 */
+} rtk_device_instance;
+
 /* ABI 3.5. The kernel's tree as a device accelerator receives it (see
- * rtk_accelerator_fns.attach); the arrays stay valid until its destroy. */
+ * rtk_accelerator_fns.attach); the arrays stay valid until its destroy.
+ * An instanced scene's tree also has a top level over its instances, and
+ * each placed mesh a tree of its own (meshes[i], whose tlas fields are
+ * empty). */
 typedef struct rtk_device_tree {
     uint32_t size;             /* sizeof(rtk_device_tree) */
-    const rtk_bvh_node *nodes; /* node_count >= 1, the root at 0 */
+    const rtk_bvh_node *nodes; /* the root at 0; node_count 0 when the scene
+                                  has no triangles of its own (all placed) */
     uint32_t node_count;
     uint32_t depth;            /* levels, the root's included */
     const uint32_t *prim_ids;  /* leaf slot -> triangle id */
     const float *corners;      /* 9 floats a slot: triangle prim_ids[slot]'s corners */
     uint32_t slot_count;       /* triangles */
+    const rtk_bvh_node *tlas_nodes; /* the top level (tlas_node_count 0: none) */
+    uint32_t tlas_node_count;
+    uint32_t tlas_depth;
+    const uint32_t *tlas_order;     /* top-level leaf slot -> instance */
+    const rtk_device_instance *instances;
+    uint32_t instance_count;
+    uint32_t mesh_count;
+    const struct rtk_device_tree *meshes;
 } rtk_device_tree;
 
 /* ABI 3.5. What a device accelerator did so far, summed over its calls. */
@@ -158,8 +178,8 @@ typedef struct rtk_accelerator_fns {
      * one is on), hands it to attach [main thread], sends every batch to
      * closest_batch / any_batch and traces single rays itself over the
      * same tree with the same code (kernel/accel/slab.h), so both give
-     * the same hits. Scenes with instances or alpha cut-outs are refused.
-     * report fills out [any thread]. */
+     * the same hits, instances included (kernel/accel/two_level.h).
+     * Scenes with alpha cut-outs are refused. report fills out [any thread]. */
     rtk_status (*attach)(void *state, const rtk_device_tree *tree);
     void (*report)(const void *state, rtk_device_report *out);
 } rtk_accelerator_fns;

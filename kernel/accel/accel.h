@@ -64,17 +64,17 @@ struct rtk_bvh_cache_use; /* bvh_cache.h */
 /* 1 when accelerator is a device accelerator (ABI 3.5: it sets attach). */
 RTK_KERNEL_API int rtk_accelerator_is_device(const rtk_plugin *accelerator);
 /* Starts the device accelerator (first, so that a missing device fails
- * before any build), builds s's tree with the accelerator its parameter
- * "builder" names (from the plugin directories rtk searches by default and
- * RTK_PLUGIN_PATH; its default parameters; through the cache in dir when
- * dir and use are not NULL) and hands the tree to the device. Refuses
- * scenes with instances or alpha cut-outs. */
+ * before any build), builds s's trees (instances too) with the accelerator
+ * its parameter "builder" names (from the plugin directories rtk searches
+ * by default and RTK_PLUGIN_PATH; its default parameters; through the
+ * cache in dir when dir and use are not NULL) and hands them to the device.
+ * Refuses scenes with alpha cut-outs. */
 rtk_status rtk_device_build(rtk_scene *s, const rtk_plugin *device, const rtk_params *params, uint32_t threads,
                             const char *dir, struct rtk_bvh_cache_use *use);
 /* Whether device accelerator device starts here with params: RTK_OK, or
  * its error (the message says why). Starts and stops it. */
 RTK_KERNEL_API rtk_status rtk_device_probe(const rtk_plugin *device, const rtk_params *params);
-/* Destroys s's device accelerator, if any, and the corners it was given. */
+/* Destroys s's device accelerator, if any, and what it was given. */
 void rtk_device_release(rtk_scene *s);
 /* The report of the device accelerator tracing s's batches: 1, or 0 when
  * none does (out untouched). [any thread] */
@@ -140,7 +140,7 @@ typedef struct rtk_tree_slot {
     struct rtk_wide_bvh *wide;
     const rtk_accelerator_fns *device;
     void *device_state;
-    float *device_corners;
+    void *device_data;
 } rtk_tree_slot;
 
 /* Everything an accelerator built for a scene (its tree, its instanced

@@ -3,7 +3,7 @@
  * hand-off to builder plugins. Builders only emit nodes; everything here
  * is shared by all. */
 #include "accel.h"
-#include "slab.h"
+#include "two_level.h"
 
 #include <assert.h>
 #include <float.h>
@@ -29,15 +29,7 @@ RTK_API rtk_vec3 rtk_offset_ray_origin(rtk_vec3 p, rtk_vec3 n)
 
 int rtk_ray_valid(const rtk_ray *r)
 {
-    if (!isfinite(r->org.x) || !isfinite(r->org.y) || !isfinite(r->org.z))
-        return 0;
-    if (!isfinite(r->dir.x) || !isfinite(r->dir.y) || !isfinite(r->dir.z))
-        return 0;
-    if (r->dir.x == 0.0f && r->dir.y == 0.0f && r->dir.z == 0.0f)
-        return 0;
-    if (isnan(r->tmin) || isnan(r->tmax) || !(r->tmin <= r->tmax))
-        return 0;
-    return 1;
+    return rtk_ray_usable(r);
 }
 
 /* The binary traversals' leaf test: the triangle in leaf slot slot of
@@ -136,7 +128,7 @@ static void bvh_batch(const rtk_scene *s, const rtk_ray *rays, uint32_t count, r
                                          : s->own_traversal && own_batch(s->own_traversal) ? s->own_traversal
                                                                                           : NULL;
     void *state = s->device ? s->device_state : s->own_state;
-    if (!s->instance_count && batcher) {
+    if (batcher && (!s->instance_count || s->device)) {
         if (occluded) {
             batcher->any_batch(state, rays, count, occluded);
             for (uint32_t i = 0; i < count; i++)
@@ -144,15 +136,23 @@ static void bvh_batch(const rtk_scene *s, const rtk_ray *rays, uint32_t count, r
             return;
         }
         for (uint32_t i = 0; i < count; i++) {
-            hits[i].prim = RTK_INVALID_ID;
+            hits[i].prim = hits[i].inst = RTK_INVALID_ID;
             hits[i].t = rays[i].tmax;
             hits[i].u = hits[i].v = 0.0f;
         }
         batcher->closest_batch(state, rays, count, hits);
+        /* Whatever comes back names a triangle that exists, or none. */
         for (uint32_t i = 0; i < count; i++) {
-            hits[i].inst = RTK_INVALID_ID;
-            if (hits[i].prim >= s->triangle_count)
-                hits[i].prim = RTK_INVALID_ID;
+            rtk_hit *h = &hits[i];
+            if (!s->device || h->inst == RTK_INVALID_ID)
+                h->inst = RTK_INVALID_ID;
+            else if (h->inst >= s->instance_count)
+                h->prim = RTK_INVALID_ID;
+            const uint32_t triangles = h->inst == RTK_INVALID_ID || h->inst >= s->instance_count
+                                           ? s->triangle_count
+                                           : s->meshes[s->instances[h->inst].mesh]->triangle_count;
+            if (h->prim >= triangles)
+                h->prim = h->inst = RTK_INVALID_ID;
         }
         return;
     }
@@ -611,12 +611,12 @@ static void swap_tree(rtk_scene *s, rtk_tree_slot *slot)
 {
     const rtk_tree_slot mine = {s->nodes,         s->node_count, s->bvh_depth,    s->prim_ids,
                                 s->own_traversal, s->own_state,  s->wide,         s->device,
-                                s->device_state,  s->device_corners};
+                                s->device_state,  s->device_data};
     s->nodes = slot->nodes, s->node_count = slot->node_count, s->bvh_depth = slot->bvh_depth;
     s->prim_ids = slot->prim_ids;
     s->own_traversal = slot->own_traversal, s->own_state = slot->own_state;
     s->wide = slot->wide;
-    s->device = slot->device, s->device_state = slot->device_state, s->device_corners = slot->device_corners;
+    s->device = slot->device, s->device_state = slot->device_state, s->device_data = slot->device_data;
     *slot = mine;
 }
 
@@ -650,7 +650,7 @@ void rtk_accel_set_free(rtk_accel_set *set)
             t->own_traversal->destroy(t->own_state);
         if (t->device && t->device_state)
             t->device->destroy(t->device_state);
-        free(t->device_corners);
+        free(t->device_data);
         free(t->nodes);
         free(t->prim_ids);
     }

@@ -39,22 +39,52 @@ static rtk_status find_builder(const rtk_plugin *device, const rtk_params *param
     return RTK_OK;
 }
 
-/* Leaf-order corners for the device, split over threads. */
+/* Leaf-order corners of one tree for the device, split over threads. */
+typedef struct corner_job {
+    const rtk_scene *s;
+    float *out;
+} corner_job;
+
 static void gather_corners(void *ctx, uint32_t begin, uint32_t end)
 {
-    const rtk_scene *s = ctx;
+    const corner_job *j = ctx;
     for (uint32_t slot = begin; slot < end; slot++)
-        rtk_slot_corners(s, slot, s->device_corners + 9 * (size_t)slot);
+        rtk_slot_corners(j->s, slot, j->out + 9 * (size_t)slot);
 }
 
 void rtk_device_release(rtk_scene *s)
 {
     if (s->device && s->device_state)
         s->device->destroy(s->device_state);
-    free(s->device_corners);
+    free(s->device_data);
     s->device = NULL;
     s->device_state = NULL;
-    s->device_corners = NULL;
+    s->device_data = NULL;
+}
+
+/* Some triangle of s, or of a mesh it places, needs the per-hit material test. */
+static int any_cutouts(const rtk_scene *s)
+{
+    int cut = s->has_cutouts;
+    for (uint32_t i = 0; i < s->mesh_count; i++)
+        cut |= s->meshes[i]->has_cutouts;
+    return cut;
+}
+
+/* One tree's view for the device, its corners gathered at *corners. */
+static rtk_device_tree tree_view(const rtk_scene *m, float **corners, uint32_t threads)
+{
+    corner_job job = {m, *corners};
+    rtk_parallel_ranges(m->triangle_count, threads ? threads : 1, 65536, gather_corners, &job);
+    rtk_device_tree t;
+    memset(&t, 0, sizeof t);
+    t.size = sizeof t;
+    if (m->node_count) {
+        t.nodes = m->nodes, t.node_count = m->node_count, t.depth = m->bvh_depth;
+        t.prim_ids = m->prim_ids, t.corners = *corners, t.slot_count = m->triangle_count;
+    }
+    *corners += 9 * (size_t)m->triangle_count;
+    return t;
 }
 
 /* rtk_device_build inside the build log that it opens. */
@@ -65,10 +95,7 @@ static rtk_status device_build(rtk_scene *s, const rtk_plugin *device, const rtk
         memset(use, 0, sizeof *use);
     rtk_device_release(s);
     const char *where = s->path ? s->path : "the scene";
-    if (s->instance_count)
-        return rtk_error(RTK_ERR_UNSUPPORTED, "%s: the scene has %u instances, and device accelerator '%s' traces "
-                         "one level of triangles: pick median, sah or lbvh", where, s->instance_count, device->name);
-    if (s->has_cutouts)
+    if (any_cutouts(s))
         return rtk_error(RTK_ERR_UNSUPPORTED, "%s: the scene has alpha cut-outs or single-sided materials, which "
                          "device accelerator '%s' does not test: pick median, sah or lbvh", where, device->name);
     const rtk_accelerator_fns *f = device->functions;
@@ -84,34 +111,50 @@ static rtk_status device_build(rtk_scene *s, const rtk_plugin *device, const rtk
     st = find_builder(device, params, &builder);
     if (st == RTK_OK && !(builder_params = rtk_params_defaults(builder)))
         st = RTK_ERR_NOMEM;
-    if (st == RTK_OK)
-        st = dir && use ? rtk_bvh_build_cached_own(s, builder, builder_params, threads, dir, use)
-                        : rtk_bvh_build(s, builder, builder_params, threads);
+    if (st == RTK_OK) {
+        if (dir && use)
+            st = rtk_bvh_build_cached(s, builder, builder_params, threads, dir, use);
+        else
+            st = s->instance_count ? rtk_instances_build(s, builder, builder_params, threads, NULL, NULL)
+                                   : rtk_bvh_build(s, builder, builder_params, threads);
+    }
     rtk_params_destroy(builder_params);
-    if (st != RTK_OK || s->triangle_count == 0) {
-        f->destroy(state); /* an empty scene: every ray misses, no device needed */
+    if (st != RTK_OK || (s->triangle_count == 0 && s->instance_count == 0)) {
+        f->destroy(state); /* nothing to hit: every ray misses without a device */
         return st;
     }
     rtk_build_log_mark(s->build_log, "device: upload", 0, 0);
-    s->device_corners = rtk_alloc(sizeof(float) * 9 * (size_t)s->triangle_count);
-    if (!s->device_corners) {
+    /* One block: the meshes' views, then every tree's corners. */
+    uint64_t triangles = s->triangle_count;
+    for (uint32_t i = 0; i < s->mesh_count; i++)
+        triangles += s->meshes[i]->triangle_count;
+    const size_t views = sizeof(rtk_device_tree) * s->mesh_count;
+    s->device_data = rtk_alloc(views + sizeof(float) * 9 * (size_t)triangles);
+    if (!s->device_data) {
         f->destroy(state);
-        return rtk_error(RTK_ERR_NOMEM, "%s: out of memory for the device's copy of %u triangles", where,
-                         s->triangle_count);
+        return rtk_error(RTK_ERR_NOMEM, "%s: out of memory for the device's copy of %llu triangles", where,
+                         (unsigned long long)triangles);
     }
-    rtk_parallel_ranges(s->triangle_count, threads ? threads : 1, 65536, gather_corners, s);
-    const rtk_device_tree tree = {.size = sizeof tree, .nodes = s->nodes, .node_count = s->node_count,
-                                  .depth = s->bvh_depth, .prim_ids = s->prim_ids, .corners = s->device_corners,
-                                  .slot_count = s->triangle_count};
+    rtk_device_tree *meshes = s->device_data;
+    float *corners = (float *)(void *)((char *)s->device_data + views);
+    rtk_device_tree tree = tree_view(s, &corners, threads);
+    for (uint32_t i = 0; i < s->mesh_count; i++)
+        meshes[i] = tree_view(s->meshes[i], &corners, threads);
+    if (s->instance_count) {
+        tree.tlas_nodes = s->tlas_nodes, tree.tlas_node_count = s->tlas_node_count, tree.tlas_depth = s->tlas_depth;
+        tree.tlas_order = s->tlas_order;
+        tree.instances = s->placements, tree.instance_count = s->instance_count;
+        tree.meshes = meshes, tree.mesh_count = s->mesh_count;
+    }
     st = f->attach(state, &tree);
     if (st != RTK_OK) {
         char msg[2048];
         snprintf(msg, sizeof msg, "%s", rtk_error_message());
         f->destroy(state);
-        free(s->device_corners);
-        s->device_corners = NULL;
-        return rtk_error(st, "accelerator '%s' could not take the tree of %u triangles: %s", device->name,
-                         s->triangle_count, msg);
+        free(s->device_data);
+        s->device_data = NULL;
+        return rtk_error(st, "accelerator '%s' could not take the tree of %llu triangles: %s", device->name,
+                         (unsigned long long)triangles, msg);
     }
     s->device = f;
     s->device_state = state;

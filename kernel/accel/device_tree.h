@@ -1,12 +1,13 @@
 /* A device accelerator's tree (rtk_device_tree: binary nodes, leaf order,
- * each slot's corners) and its closest-hit and any-hit traversals, the
- * kernel's slab.h over flat corners: plain C that nvcc compiles too
- * (RTK_HD), so the cuda plugin's GPU code, its CPU fallback and the tests
- * run the kernel's traversal. */
+ * each slot's corners; an instanced scene's top level and meshes) and its
+ * closest-hit and any-hit traversals, the kernel's slab.h and
+ * two_level.h over flat corners: plain C that nvcc compiles too (RTK_HD),
+ * so the cuda plugin's GPU code, its CPU fallback and the tests run the
+ * kernel's traversal. */
 #ifndef RTK_KERNEL_DEVICE_TREE_H
 #define RTK_KERNEL_DEVICE_TREE_H
 
-#include "slab.h"
+#include "two_level.h"
 
 #include <stddef.h>
 #include <stdint.h>
@@ -44,6 +45,44 @@ RTK_HD static inline void rtk_flat_closest(const rtk_flat_tree *f, const rtk_ray
 RTK_HD static inline int rtk_flat_any(const rtk_flat_tree *f, const rtk_ray *ray)
 {
     return rtk_slab_any(f->nodes, rtk_flat_leaf, f, ray, NULL);
+}
+
+/* A whole scene: its own triangles' tree (nodes NULL when it has none),
+ * each placed mesh's and the top level (two_level.h; tlas_node_count 0
+ * when nothing is placed). Pointers are the device's or the host's alike. */
+typedef struct rtk_flat_scene {
+    rtk_flat_tree own;
+    const rtk_flat_tree *meshes;
+    rtk_two_level top;
+} rtk_flat_scene;
+
+RTK_HD static inline int rtk_flat_mesh_closest(const void *ctx, uint32_t mesh, const rtk_ray *ray, rtk_hit *hit,
+                                               rtk_trace_work *work)
+{
+    const rtk_flat_scene *f = (const rtk_flat_scene *)ctx;
+    (void)work;
+    rtk_flat_closest(mesh == RTK_INVALID_ID ? &f->own : &f->meshes[mesh], ray, hit);
+    return hit->prim != RTK_INVALID_ID;
+}
+
+RTK_HD static inline int rtk_flat_mesh_any(const void *ctx, uint32_t mesh, const rtk_ray *ray, rtk_trace_work *work)
+{
+    const rtk_flat_scene *f = (const rtk_flat_scene *)ctx;
+    (void)work;
+    return rtk_flat_any(mesh == RTK_INVALID_ID ? &f->own : &f->meshes[mesh], ray);
+}
+
+/* Closest hit over the whole scene, as rtk_bvh_closest gives it (hit->inst
+ * the instance, RTK_INVALID_ID for the scene's own triangles). */
+RTK_HD static inline void rtk_flat_scene_closest(const rtk_flat_scene *f, const rtk_ray *ray, rtk_hit *hit)
+{
+    rtk_two_level_closest(&f->top, rtk_flat_mesh_closest, f, ray, hit, NULL);
+}
+
+/* 1 when ray hits anything in the scene, as rtk_bvh_any. */
+RTK_HD static inline int rtk_flat_scene_any(const rtk_flat_scene *f, const rtk_ray *ray)
+{
+    return rtk_two_level_any(&f->top, rtk_flat_mesh_any, f, ray, NULL);
 }
 
 #endif

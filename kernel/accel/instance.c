@@ -5,7 +5,7 @@
  * watertight triangle test and the distances it reports are the ones the
  * mesh has on its own; t is the same ray parameter in both spaces. */
 #include "accel.h"
-#include "slab.h"
+#include "two_level.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -117,14 +117,12 @@ rtk_status rtk_scene_instance_file(rtk_scene *scene, const char *path, const dou
 
 static void apply_point(const double m[12], double x, double y, double z, double out[3])
 {
-    for (int r = 0; r < 3; r++)
-        out[r] = m[4 * r] * x + m[4 * r + 1] * y + m[4 * r + 2] * z + m[4 * r + 3];
+    rtk_affine_point(m, x, y, z, out);
 }
 
 static void apply_vector(const double m[12], double x, double y, double z, double out[3])
 {
-    for (int r = 0; r < 3; r++)
-        out[r] = m[4 * r] * x + m[4 * r + 1] * y + m[4 * r + 2] * z;
+    rtk_affine_vector(m, x, y, z, out);
 }
 
 /* World box of an instance: the mesh box's eight corners mapped in double,
@@ -197,6 +195,18 @@ rtk_status rtk_instances_finish(rtk_scene *scene)
         rtk_log(RTK_LOG_WARN, "%s: dropped %u instance%s of meshes without triangles", scene->path,
                 scene->instance_count - kept, scene->instance_count - kept == 1 ? "" : "s");
     scene->instance_count = kept;
+    free(scene->placements);
+    scene->placements = kept ? rtk_alloc(sizeof *scene->placements * kept) : NULL;
+    if (kept && !scene->placements)
+        return rtk_error(RTK_ERR_NOMEM, "%s: out of memory for %u instances", scene->path, kept);
+    for (uint32_t i = 0; i < kept; i++) {
+        const rtk_instance *in = &scene->instances[i];
+        rtk_device_instance *p = &scene->placements[i];
+        memcpy(p->to_object, in->to_object, sizeof p->to_object);
+        p->box = in->box;
+        p->mesh = in->mesh;
+        p->reserved = 0;
+    }
     return RTK_OK;
 }
 
@@ -206,10 +216,12 @@ void rtk_instances_free(rtk_scene *scene)
         rtk_scene_free(scene->meshes[i]);
     free(scene->meshes);
     free(scene->instances);
+    free(scene->placements);
     free(scene->tlas_nodes);
     free(scene->tlas_order);
     scene->meshes = NULL;
     scene->instances = NULL;
+    scene->placements = NULL;
     scene->tlas_nodes = NULL;
     scene->tlas_order = NULL;
     scene->mesh_count = scene->mesh_cap = scene->instance_count = scene->instance_cap = 0;
@@ -281,9 +293,13 @@ done:
 rtk_status rtk_instances_build(rtk_scene *s, const rtk_plugin *plugin, const rtk_params *params, uint32_t threads,
                                const char *dir, int *from_cache)
 {
-    if (rtk_accelerator_is_device(plugin))
-        return rtk_error(RTK_ERR_UNSUPPORTED, "%s: the scene has %u instances, and device accelerator '%s' traces "
-                         "one level of triangles: pick median, sah or lbvh", s->path, s->instance_count, plugin->name);
+    if (rtk_accelerator_is_device(plugin)) {
+        rtk_bvh_cache_use use;
+        rtk_status st = rtk_device_build(s, plugin, params, threads, dir, dir ? &use : NULL);
+        if (st == RTK_OK && from_cache)
+            *from_cache = dir && use.from_cache;
+        return st;
+    }
     if (rtk_accelerator_traverses_itself(plugin))
         return rtk_error(RTK_ERR_UNSUPPORTED,
                          "%s: the scene has %u instances, and accelerator '%s' traverses with its own code, which "
@@ -320,138 +336,41 @@ rtk_status rtk_instances_build(rtk_scene *s, const rtk_plugin *plugin, const rtk
 
 int rtk_instance_local_ray(const rtk_instance *in, const rtk_ray *r, rtk_ray *out)
 {
-    double o[3], d[3];
-    apply_point(in->to_object, r->org.x, r->org.y, r->org.z, o);
-    apply_vector(in->to_object, r->dir.x, r->dir.y, r->dir.z, d);
-    out->org = rtk_vec3_make((float)o[0], (float)o[1], (float)o[2]);
-    out->dir = rtk_vec3_make((float)d[0], (float)d[1], (float)d[2]);
-    out->tmin = r->tmin;
-    out->tmax = r->tmax;
-    return rtk_ray_valid(out);
+    return rtk_local_ray(in->to_object, r, out);
 }
 
-/* Whether instance inst's triangle prim wins a tie at the same t against
- * best: the scene's own triangles first, then the lowest instance, then
- * the lowest triangle. */
-static int wins_tie(uint32_t inst, uint32_t prim, const rtk_hit *best)
+/* two_level.h's view of scene s. */
+static rtk_two_level top_level(const rtk_scene *s)
 {
-    if (best->prim == RTK_INVALID_ID)
-        return 1;
-    if (best->inst == RTK_INVALID_ID)
-        return 0;
-    return inst < best->inst || (inst == best->inst && prim < best->prim);
+    const rtk_two_level tl = {s->triangle_count > 0, s->tlas_nodes, s->tlas_node_count, s->tlas_order,
+                              s->placements};
+    return tl;
 }
 
-static inline __attribute__((always_inline)) int top_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit,
-                                                              rtk_trace_work *work)
+/* The meshes' traversals for two_level.h: the scene's own trees. */
+static int mesh_closest(const void *ctx, uint32_t mesh, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
 {
-    rtk_ray r = *ray;
-    hit->prim = hit->inst = RTK_INVALID_ID;
-    hit->t = r.tmax;
-    hit->u = hit->v = 0.0f;
-    rtk_trace_work w = {0, 0};
-    if (s->triangle_count) {
-        rtk_hit h;
-        if (rtk_bvh_closest_own(s, &r, &h, work ? &w : NULL)) {
-            *hit = h;
-            hit->inst = RTK_INVALID_ID;
-            r.tmax = h.t;
-        }
-        if (work)
-            work->nodes += w.nodes, work->triangles += w.triangles;
-    }
-    if (s->tlas_node_count == 0)
-        return hit->prim != RTK_INVALID_ID;
-    rtk_slab_ray p;
-    rtk_slab_prepare(&r, &p);
-    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
-    int top = 0;
-    uint32_t node = 0;
-    if (rtk_slab_entry(&s->tlas_nodes[0], &p, r.tmin, r.tmax) == INFINITY)
-        return hit->prim != RTK_INVALID_ID;
-    for (;;) {
-        const rtk_bvh_node *n = &s->tlas_nodes[node];
-        if (work)
-            work->nodes++;
-        if (n->count > 0) {
-            for (uint32_t i = 0; i < n->count; i++) {
-                uint32_t id = s->tlas_order[n->offset + i];
-                const rtk_instance *in = &s->instances[id];
-                rtk_ray lr;
-                /* A leaf may hold several instances: each box first. */
-                if ((n->count > 1 && rtk_slab_entry(&in->box, &p, r.tmin, r.tmax) == INFINITY) ||
-                    !rtk_instance_local_ray(in, &r, &lr))
-                    continue;
-                rtk_hit h;
-                int found = rtk_bvh_closest_own(s->meshes[in->mesh], &lr, &h, work ? &w : NULL);
-                if (work)
-                    work->nodes += w.nodes, work->triangles += w.triangles;
-                if (found && (h.t < r.tmax || (h.t == r.tmax && wins_tie(id, h.prim, hit)))) {
-                    *hit = h;
-                    hit->inst = id;
-                    r.tmax = h.t;
-                }
-            }
-        } else if (rtk_slab_descend(s->tlas_nodes, n, &p, r.tmin, r.tmax, stack, &top, &node)) {
-            continue;
-        }
-        if (top == 0)
-            break;
-        node = stack[--top];
-    }
-    return hit->prim != RTK_INVALID_ID;
+    const rtk_scene *s = ctx;
+    return rtk_bvh_closest_own(mesh == RTK_INVALID_ID ? s : s->meshes[mesh], ray, hit, work);
+}
+
+static int mesh_any(const void *ctx, uint32_t mesh, const rtk_ray *ray, rtk_trace_work *work)
+{
+    const rtk_scene *s = ctx;
+    return rtk_bvh_any_own(mesh == RTK_INVALID_ID ? s : s->meshes[mesh], ray, work);
 }
 
 int rtk_instances_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work)
 {
-    if (work) {
-        work->nodes = work->triangles = 0;
-        return top_closest(s, ray, hit, work);
-    }
-    return top_closest(s, ray, hit, NULL);
+    const rtk_two_level tl = top_level(s);
+    return work ? rtk_two_level_closest(&tl, mesh_closest, s, ray, hit, work)
+                : rtk_two_level_closest(&tl, mesh_closest, s, ray, hit, NULL);
 }
 
 int rtk_instances_any(const rtk_scene *s, const rtk_ray *ray, rtk_trace_work *work)
 {
-    rtk_trace_work w = {0, 0};
-    if (work)
-        work->nodes = work->triangles = 0;
-    if (s->triangle_count) {
-        int found = rtk_bvh_any_own(s, ray, work ? &w : NULL);
-        if (work)
-            work->nodes += w.nodes, work->triangles += w.triangles;
-        if (found)
-            return 1;
-    }
-    if (s->tlas_node_count == 0)
-        return 0;
-    rtk_slab_ray p;
-    rtk_slab_prepare(ray, &p);
-    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
-    int top = 0;
-    stack[top++] = 0;
-    for (const rtk_bvh_node *n; (n = rtk_slab_pop(s->tlas_nodes, &p, ray->tmin, ray->tmax, stack, &top));) {
-        if (work)
-            work->nodes++;
-        if (n->count == 0) {
-            stack[top++] = n->offset + 1;
-            stack[top++] = n->offset;
-            continue;
-        }
-        for (uint32_t i = 0; i < n->count; i++) {
-            const rtk_instance *in = &s->instances[s->tlas_order[n->offset + i]];
-            rtk_ray lr;
-            if ((n->count > 1 && rtk_slab_entry(&in->box, &p, ray->tmin, ray->tmax) == INFINITY) ||
-                !rtk_instance_local_ray(in, ray, &lr))
-                continue;
-            int found = rtk_bvh_any_own(s->meshes[in->mesh], &lr, work ? &w : NULL);
-            if (work)
-                work->nodes += w.nodes, work->triangles += w.triangles;
-            if (found)
-                return 1;
-        }
-    }
-    return 0;
+    const rtk_two_level tl = top_level(s);
+    return work ? rtk_two_level_any(&tl, mesh_any, s, ray, work) : rtk_two_level_any(&tl, mesh_any, s, ray, NULL);
 }
 
 static rtk_vec3 to_float3(const double v[3])
@@ -554,6 +473,6 @@ void rtk_scene_memory(const rtk_scene *s, size_t *geometry, size_t *bvh, size_t 
         *geometry += own_geometry_bytes(s->meshes[i]);
         *bvh += own_bvh_bytes(s->meshes[i]);
     }
-    *instances = (size_t)s->instance_count * sizeof(rtk_instance) +
+    *instances = (size_t)s->instance_count * (sizeof(rtk_instance) + sizeof(rtk_device_instance)) +
                  (size_t)s->tlas_node_count * sizeof(rtk_bvh_node) + (size_t)s->instance_count * sizeof(uint32_t);
 }

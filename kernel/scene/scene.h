@@ -201,11 +201,11 @@ struct rtk_scene {
     const rtk_accelerator_fns *own_traversal;
     void *own_state;
     /* A device accelerator tracing the tree's batches (ABI 3.5,
-     * kernel/accel/device.c), its state and the leaf-order corners it was
-     * given; NULL when none. */
+     * kernel/accel/device.c), its state and what it was given (the
+     * meshes' views, every leaf-order corner: one block); NULL when none. */
     const rtk_accelerator_fns *device;
     void *device_state;
-    float *device_corners;
+    void *device_data;
     /* The binary tree collapsed for SIMD traversal (kernel/accel/bvh_wide_build.c), or NULL. */
     struct rtk_wide_bvh *wide;
     /* Where builds of this scene record their phases (kernel/accel/accel.h),
@@ -221,6 +221,7 @@ struct rtk_scene {
     uint32_t mesh_count, mesh_cap;
     rtk_instance *instances;
     uint32_t instance_count, instance_cap;
+    rtk_device_instance *placements; /* per instance what traversal reads (instance.c) */
     const struct rtk_scene *owner; /* a mesh: the scene whose materials and
                                       textures it shares (glTF), else NULL */
     int finished;                /* rtk_scene_finish has run */

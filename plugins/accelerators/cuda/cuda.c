@@ -1,8 +1,9 @@
 /* cuda: a device accelerator (ABI 3.5) that traces ray batches on an
  * NVIDIA GPU. The tree comes from another accelerator (builder, through
- * the BVH cache like any build); the GPU runs the kernel's own traversal
- * (kernel/accel/device_tree.h, gpu.cu) one thread per ray, so its hits
- * equal the CPU's bit for bit. Batches go to the GPU in chunks of up to
+ * the BVH cache like any build; an instanced scene's meshes and top level
+ * too); the GPU runs the kernel's own traversal (kernel/accel/
+ * device_tree.h, gpu.cu) one thread per ray, so its hits equal the CPU's
+ * bit for bit. Batches go to the GPU in chunks of up to
  * `chunk` rays on a lane (stream and buffers) of the calling thread's own;
  * if the GPU fails mid-run, a warning names the CUDA error and the rest is
  * traced on the CPU with the same code.
@@ -34,7 +35,8 @@ typedef struct cuda {
     uint32_t chunk;
     rtk_gpu *gpu;
     char name[128];
-    rtk_flat_tree host;  /* the kernel's arrays: the CPU fallback */
+    rtk_flat_scene host;  /* the kernel's arrays: the CPU fallback */
+    rtk_flat_tree *host_meshes;
     pthread_mutex_t lock; /* pool, report, gpu's byte count, failed */
     lane_pool pool;
     int failed;           /* the GPU failed: every later ray on the CPU */
@@ -67,7 +69,17 @@ static rtk_status cuda_attach(void *state, const rtk_device_tree *tree)
     if (rtk_gpu_upload(c->gpu, tree, &seconds, why, sizeof why) != 0)
         return rtk_error(RTK_ERR_NOMEM, "cuda: uploading the tree (%u nodes, %u triangles) to %s: %s",
                          tree->node_count, tree->slot_count, c->name, why);
-    c->host = (rtk_flat_tree){tree->nodes, tree->prim_ids, tree->corners};
+    c->host_meshes = calloc(tree->mesh_count ? tree->mesh_count : 1, sizeof *c->host_meshes);
+    if (!c->host_meshes)
+        return rtk_error(RTK_ERR_NOMEM, "cuda: out of memory");
+    for (uint32_t i = 0; i < tree->mesh_count; i++) {
+        const rtk_device_tree *m = &tree->meshes[i];
+        c->host_meshes[i] = (rtk_flat_tree){m->nodes, m->prim_ids, m->corners};
+    }
+    c->host.own = (rtk_flat_tree){tree->nodes, tree->prim_ids, tree->corners};
+    c->host.meshes = c->host_meshes;
+    c->host.top = (rtk_two_level){tree->node_count > 0, tree->tlas_nodes, tree->tlas_node_count, tree->tlas_order,
+                                  tree->instances};
     c->sums.upload_seconds = seconds;
     return RTK_OK;
 }
@@ -130,9 +142,9 @@ static void trace(const void *state, const rtk_ray *rays, uint32_t count, rtk_hi
     }
     for (uint32_t i = done; i < count; i++) {
         if (hits)
-            rtk_flat_closest(&c->host, &rays[i], &hits[i]);
+            rtk_flat_scene_closest(&c->host, &rays[i], &hits[i]);
         else
-            occluded[i] = (uint8_t)rtk_flat_any(&c->host, &rays[i]);
+            occluded[i] = (uint8_t)rtk_flat_scene_any(&c->host, &rays[i]);
     }
     pthread_mutex_lock(&c->lock);
     const int first_failure = why[0] && !c->failed;
@@ -179,6 +191,7 @@ static void cuda_destroy(void *state)
     for (uint32_t i = 0; i < c->pool.count; i++)
         rtk_gpu_lane_close(c->gpu, c->pool.free[i]);
     free(c->pool.free);
+    free(c->host_meshes);
     rtk_gpu_close(c->gpu);
     pthread_mutex_destroy(&c->lock);
     free(c);

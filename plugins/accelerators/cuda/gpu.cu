@@ -1,5 +1,6 @@
-/* The cuda plugin's GPU side: the tree in device memory (the kernel's
- * 32-byte binary nodes, leaf order, 36 bytes of corners a slot) and one
+/* The cuda plugin's GPU side: the trees in device memory (the kernel's
+ * 32-byte binary nodes, leaf order, 36 bytes of corners a slot; for an
+ * instanced scene each mesh's, the top level and the placements) and one
  * thread per ray running the kernel's own traversal (device_tree.h, which
  * tests/cuda checks against the kernel bit for bit). Built with
  * --fmad=false: CUDA would otherwise contract a * b + c, which the kernel
@@ -11,12 +12,15 @@
 #include <cuda_runtime.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <new>
 
 struct rtk_gpu {
     int ordinal;
-    rtk_flat_tree tree; /* device pointers */
+    rtk_flat_scene scene;   /* device pointers */
+    void **blocks;          /* every device allocation of the trees */
+    size_t block_count, block_cap;
     uint64_t tree_bytes, lane_bytes;
 };
 
@@ -40,21 +44,21 @@ int failed(cudaError_t err, const char *what, char *why, size_t cap)
     return -1;
 }
 
-__global__ void closest_kernel(rtk_flat_tree tree, const rtk_ray *rays, uint32_t count, rtk_hit *hits)
+__global__ void closest_kernel(rtk_flat_scene scene, const rtk_ray *rays, uint32_t count, rtk_hit *hits)
 {
     const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
     if (i < count) {
         rtk_hit hit;
-        rtk_flat_closest(&tree, &rays[i], &hit);
+        rtk_flat_scene_closest(&scene, &rays[i], &hit);
         hits[i] = hit;
     }
 }
 
-__global__ void any_kernel(rtk_flat_tree tree, const rtk_ray *rays, uint32_t count, uint8_t *occluded)
+__global__ void any_kernel(rtk_flat_scene scene, const rtk_ray *rays, uint32_t count, uint8_t *occluded)
 {
     const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
     if (i < count)
-        occluded[i] = (uint8_t)rtk_flat_any(&tree, &rays[i]);
+        occluded[i] = (uint8_t)rtk_flat_scene_any(&scene, &rays[i]);
 }
 
 const unsigned block_threads = 128;
@@ -95,12 +99,63 @@ int rtk_gpu_open(int ordinal, char *name, size_t name_cap, rtk_gpu **out, char *
     return 0;
 }
 
+/* A copy of bytes bytes at host in device memory (NULL for none), kept
+ * in g's blocks; 0, or -1 with why. */
+static int put(rtk_gpu *g, const void *host, size_t bytes, const void **out, const char *what, char *why, size_t cap)
+{
+    *out = nullptr;
+    if (!host || bytes == 0)
+        return 0;
+    if (g->block_count == g->block_cap) {
+        size_t n = g->block_cap ? 2 * g->block_cap : 64;
+        void **grown = static_cast<void **>(std::realloc(g->blocks, sizeof *grown * n));
+        if (!grown) {
+            std::snprintf(why, cap, "out of memory");
+            return -1;
+        }
+        g->blocks = grown, g->block_cap = n;
+    }
+    void *d = nullptr;
+    char call[128];
+    std::snprintf(call, sizeof call, "cudaMalloc (%s)", what);
+    if (failed(cudaMalloc(&d, bytes), call, why, cap))
+        return -1;
+    g->blocks[g->block_count++] = d;
+    g->tree_bytes += bytes;
+    std::snprintf(call, sizeof call, "cudaMemcpy (%s)", what);
+    if (failed(cudaMemcpy(d, host, bytes, cudaMemcpyHostToDevice), call, why, cap))
+        return -1;
+    *out = d;
+    return 0;
+}
+
+/* One tree's arrays on the device. */
+static int put_tree(rtk_gpu *g, const rtk_device_tree *t, rtk_flat_tree *out, char *why, size_t cap)
+{
+    const void *nodes, *ids, *corners;
+    if (put(g, t->nodes, sizeof(rtk_bvh_node) * (size_t)t->node_count, &nodes, "nodes", why, cap) ||
+        put(g, t->prim_ids, sizeof(uint32_t) * (size_t)t->slot_count, &ids, "leaf order", why, cap) ||
+        put(g, t->corners, sizeof(float) * 9 * (size_t)t->slot_count, &corners, "triangles", why, cap))
+        return -1;
+    out->nodes = static_cast<const rtk_bvh_node *>(nodes);
+    out->prim_ids = static_cast<const uint32_t *>(ids);
+    out->corners = static_cast<const float *>(corners);
+    return 0;
+}
+
+static void free_trees(rtk_gpu *g)
+{
+    for (size_t i = 0; i < g->block_count; i++)
+        cudaFree(g->blocks[i]);
+    std::free(g->blocks);
+    g->blocks = nullptr;
+    g->block_count = g->block_cap = 0;
+    g->tree_bytes = 0;
+    g->scene = rtk_flat_scene();
+}
+
 int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, char *why, size_t cap)
 {
-    const size_t node_bytes = sizeof(rtk_bvh_node) * (size_t)tree->node_count;
-    const size_t id_bytes = sizeof(uint32_t) * (size_t)tree->slot_count;
-    const size_t corner_bytes = sizeof(float) * 9 * (size_t)tree->slot_count;
-    void *nodes = nullptr, *ids = nullptr, *corners = nullptr;
     cudaEvent_t start, stop;
     if (failed(cudaSetDevice(g->ordinal), "cudaSetDevice", why, cap) ||
         failed(cudaEventCreate(&start), "cudaEventCreate", why, cap))
@@ -109,18 +164,28 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
         cudaEventDestroy(start);
         return -1;
     }
-    int st = failed(cudaEventRecord(start), "cudaEventRecord", why, cap);
+    rtk_flat_scene scene = rtk_flat_scene();
+    rtk_flat_tree *meshes = nullptr;
+    int st = failed(cudaEventRecord(start), "cudaEventRecord", why, cap) || put_tree(g, tree, &scene.own, why, cap);
+    if (!st && tree->mesh_count) {
+        meshes = static_cast<rtk_flat_tree *>(std::calloc(tree->mesh_count, sizeof *meshes));
+        if (!meshes)
+            st = -1, std::snprintf(why, cap, "out of memory");
+        for (uint32_t i = 0; i < tree->mesh_count && !st; i++)
+            st = put_tree(g, &tree->meshes[i], &meshes[i], why, cap);
+    }
+    const void *mesh_table = nullptr, *tlas = nullptr, *order = nullptr, *instances = nullptr;
     if (!st)
-        st = failed(cudaMalloc(&nodes, node_bytes), "cudaMalloc (the tree's nodes)", why, cap) ||
-             failed(cudaMalloc(&ids, id_bytes), "cudaMalloc (the leaf order)", why, cap) ||
-             failed(cudaMalloc(&corners, corner_bytes), "cudaMalloc (the triangles)", why, cap) ||
-             failed(cudaMemcpy(nodes, tree->nodes, node_bytes, cudaMemcpyHostToDevice), "cudaMemcpy (nodes)", why,
-                    cap) ||
-             failed(cudaMemcpy(ids, tree->prim_ids, id_bytes, cudaMemcpyHostToDevice), "cudaMemcpy (leaf order)",
-                    why, cap) ||
-             failed(cudaMemcpy(corners, tree->corners, corner_bytes, cudaMemcpyHostToDevice),
-                    "cudaMemcpy (triangles)", why, cap) ||
-             failed(cudaEventRecord(stop), "cudaEventRecord", why, cap) ||
+        st = put(g, meshes, sizeof *meshes * (size_t)tree->mesh_count, &mesh_table, "mesh table", why, cap) ||
+             put(g, tree->tlas_nodes, sizeof(rtk_bvh_node) * (size_t)tree->tlas_node_count, &tlas, "top level", why,
+                 cap) ||
+             put(g, tree->tlas_order, sizeof(uint32_t) * (size_t)tree->instance_count, &order, "top-level order", why,
+                 cap) ||
+             put(g, tree->instances, sizeof(rtk_device_instance) * (size_t)tree->instance_count, &instances,
+                 "instances", why, cap);
+    std::free(meshes);
+    if (!st)
+        st = failed(cudaEventRecord(stop), "cudaEventRecord", why, cap) ||
              failed(cudaEventSynchronize(stop), "cudaEventSynchronize", why, cap);
     float ms = 0.0f;
     if (!st)
@@ -128,13 +193,16 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
     cudaEventDestroy(start);
     cudaEventDestroy(stop);
     if (st) {
-        cudaFree(nodes), cudaFree(ids), cudaFree(corners);
+        free_trees(g);
         return -1;
     }
-    g->tree.nodes = static_cast<const rtk_bvh_node *>(nodes);
-    g->tree.prim_ids = static_cast<const uint32_t *>(ids);
-    g->tree.corners = static_cast<const float *>(corners);
-    g->tree_bytes = node_bytes + id_bytes + corner_bytes;
+    scene.meshes = static_cast<const rtk_flat_tree *>(mesh_table);
+    scene.top.own = tree->node_count > 0;
+    scene.top.tlas = static_cast<const rtk_bvh_node *>(tlas);
+    scene.top.tlas_node_count = tree->tlas_node_count;
+    scene.top.order = static_cast<const uint32_t *>(order);
+    scene.top.instances = static_cast<const rtk_device_instance *>(instances);
+    g->scene = scene;
     *seconds = 1e-3 * (double)ms;
     return 0;
 }
@@ -149,9 +217,7 @@ void rtk_gpu_close(rtk_gpu *g)
     if (!g)
         return;
     cudaSetDevice(g->ordinal);
-    cudaFree(const_cast<rtk_bvh_node *>(g->tree.nodes));
-    cudaFree(const_cast<uint32_t *>(g->tree.prim_ids));
-    cudaFree(const_cast<float *>(g->tree.corners));
+    free_trees(g);
     delete g;
 }
 
@@ -229,9 +295,9 @@ int rtk_gpu_trace(rtk_gpu *g, rtk_gpu_lane *l, const rtk_ray *rays, uint32_t cou
     if (st)
         return -1;
     if (hits)
-        closest_kernel<<<blocks, block_threads, 0, l->stream>>>(g->tree, l->rays, count, l->hits);
+        closest_kernel<<<blocks, block_threads, 0, l->stream>>>(g->scene, l->rays, count, l->hits);
     else
-        any_kernel<<<blocks, block_threads, 0, l->stream>>>(g->tree, l->rays, count, l->occluded);
+        any_kernel<<<blocks, block_threads, 0, l->stream>>>(g->scene, l->rays, count, l->occluded);
     st = failed(cudaGetLastError(), hits ? "closest_kernel launch" : "any_kernel launch", why, cap) ||
          failed(cudaEventRecord(l->marks[2], l->stream), "cudaEventRecord", why, cap) ||
          failed(hits ? cudaMemcpyAsync(l->host_hits, l->hits, sizeof(rtk_hit) * (size_t)count, cudaMemcpyDeviceToHost,

@@ -18,7 +18,8 @@ typedef struct rtk_gpu_lane rtk_gpu_lane;
 
 /* Opens device ordinal (0 = the first), naming it in name[name_cap]. */
 int rtk_gpu_open(int ordinal, char *name, size_t name_cap, rtk_gpu **out, char *why, size_t cap);
-/* Copies tree's nodes, leaf order and corners to the device (once). */
+/* Copies tree's nodes, leaf order and corners to the device (once), and
+ * an instanced scene's meshes, top level and placements. */
 int rtk_gpu_upload(rtk_gpu *gpu, const rtk_device_tree *tree, double *seconds, char *why, size_t cap);
 /* Device memory the tree and the lanes hold, in bytes. */
 uint64_t rtk_gpu_bytes(const rtk_gpu *gpu);
@@ -29,7 +30,7 @@ void rtk_gpu_close(rtk_gpu *gpu);
 int rtk_gpu_lane_open(rtk_gpu *gpu, uint32_t capacity, rtk_gpu_lane **out, char *why, size_t cap);
 void rtk_gpu_lane_close(rtk_gpu *gpu, rtk_gpu_lane *lane);
 /* Traces count <= capacity rays on lane: closest hits into hits (as
- * device_tree.h's rtk_flat_closest) when hits is not NULL, else
+ * device_tree.h's rtk_flat_scene_closest) when hits is not NULL, else
  * occlusion into occluded (0 or 1). seconds gets the upload of the rays,
  * the traversal and the download of the results (CUDA events). */
 int rtk_gpu_trace(rtk_gpu *gpu, rtk_gpu_lane *lane, const rtk_ray *rays, uint32_t count, rtk_hit *hits,

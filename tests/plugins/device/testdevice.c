@@ -21,8 +21,9 @@
 
 typedef struct testdevice {
     int fail_attach;
-    rtk_flat_tree tree;
-    uint32_t node_count, slot_count;
+    rtk_flat_scene scene;
+    rtk_flat_tree *meshes;
+    uint64_t bytes;
     _Atomic uint64_t rays, batches;
     pthread_mutex_t lock;
     double trace_seconds; /* the batch loops' wall-clock time, as a device times its kernels */
@@ -66,9 +67,21 @@ static rtk_status testdevice_attach(void *state, const rtk_device_tree *tree)
     testdevice *d = state;
     if (d->fail_attach)
         return rtk_error(RTK_ERR_NOMEM, "testdevice: out of device memory (RTK_TESTDEVICE_FAIL=attach)");
-    d->tree = (rtk_flat_tree){tree->nodes, tree->prim_ids, tree->corners};
-    d->node_count = tree->node_count;
-    d->slot_count = tree->slot_count;
+    d->meshes = calloc(tree->mesh_count ? tree->mesh_count : 1, sizeof *d->meshes);
+    if (!d->meshes)
+        return rtk_error(RTK_ERR_NOMEM, "testdevice: out of memory");
+    d->bytes = (uint64_t)tree->node_count * sizeof(rtk_bvh_node) + (uint64_t)tree->slot_count * (4 + 36);
+    for (uint32_t i = 0; i < tree->mesh_count; i++) {
+        const rtk_device_tree *m = &tree->meshes[i];
+        d->meshes[i] = (rtk_flat_tree){m->nodes, m->prim_ids, m->corners};
+        d->bytes += (uint64_t)m->node_count * sizeof(rtk_bvh_node) + (uint64_t)m->slot_count * (4 + 36);
+    }
+    d->bytes += (uint64_t)tree->tlas_node_count * sizeof(rtk_bvh_node) +
+                (uint64_t)tree->instance_count * (4 + sizeof(rtk_device_instance));
+    d->scene.own = (rtk_flat_tree){tree->nodes, tree->prim_ids, tree->corners};
+    d->scene.meshes = d->meshes;
+    d->scene.top = (rtk_two_level){tree->node_count > 0, tree->tlas_nodes, tree->tlas_node_count, tree->tlas_order,
+                                   tree->instances};
     return RTK_OK;
 }
 
@@ -77,7 +90,7 @@ static void testdevice_closest_batch(const void *state, const rtk_ray *rays, uin
     testdevice *d = (testdevice *)state;
     const double t0 = now();
     for (uint32_t i = 0; i < count; i++)
-        rtk_flat_closest(&d->tree, &rays[i], &hits[i]);
+        rtk_flat_scene_closest(&d->scene, &rays[i], &hits[i]);
     count_batch(d, count, now() - t0);
 }
 
@@ -86,7 +99,7 @@ static void testdevice_any_batch(const void *state, const rtk_ray *rays, uint32_
     testdevice *d = (testdevice *)state;
     const double t0 = now();
     for (uint32_t i = 0; i < count; i++)
-        occluded[i] = (uint8_t)rtk_flat_any(&d->tree, &rays[i]);
+        occluded[i] = (uint8_t)rtk_flat_scene_any(&d->scene, &rays[i]);
     count_batch(d, count, now() - t0);
 }
 
@@ -99,13 +112,14 @@ static void testdevice_report(const void *state, rtk_device_report *out)
     pthread_mutex_lock(&d->lock);
     out->trace_seconds = d->trace_seconds;
     pthread_mutex_unlock(&d->lock);
-    out->device_bytes = (uint64_t)d->node_count * sizeof(rtk_bvh_node) + (uint64_t)d->slot_count * (4 + 36);
+    out->device_bytes = d->bytes;
 }
 
 static void testdevice_destroy(void *state)
 {
     testdevice *d = state;
     pthread_mutex_destroy(&d->lock);
+    free(d->meshes);
     free(d);
 }
 
