@@ -32,6 +32,13 @@
 #define RTK_HD
 #endif
 #define RTK_SDK_INLINE RTK_HD static inline
+/* Shared code that must inline into its caller (a function passed by
+ * pointer then becomes a direct call). */
+#if defined(__CUDACC__)
+#define RTK_HD_INLINE __host__ __device__ __forceinline__
+#else
+#define RTK_HD_INLINE inline __attribute__((always_inline))
+#endif
 
 /* Result of every fallible call; the message is in rtk_error_message(). */
 typedef enum rtk_status {

@@ -253,7 +253,7 @@ int rtk_ray_valid(const rtk_ray *ray);
 
 /* One coordinate of rtk_offset_ray_origin (Waechter and Binder 2019, Ray
  * Tracing Gems ch. 6): a fixed step near 0, else n x 256 ulps. */
-static inline float rtk_offset_component(float p, float n)
+RTK_HD static inline float rtk_offset_component(float p, float n)
 {
     const float origin = 1.0f / 32.0f, float_scale = 1.0f / 65536.0f, int_scale = 256.0f;
     if (fabsf(p) < origin)
@@ -268,7 +268,7 @@ static inline float rtk_offset_component(float p, float n)
 }
 
 /* rtk_offset_ray_origin inlined, for the kernel's own shadow rays. */
-static inline rtk_vec3 rtk_offset_point(rtk_vec3 p, rtk_vec3 n)
+RTK_HD static inline rtk_vec3 rtk_offset_point(rtk_vec3 p, rtk_vec3 n)
 {
     return rtk_vec3_make(rtk_offset_component(p.x, n.x), rtk_offset_component(p.y, n.y),
                          rtk_offset_component(p.z, n.z));

@@ -17,12 +17,6 @@
 #include <math.h>
 #include <stdint.h>
 
-#if defined(__CUDACC__)
-#define RTK_HD_INLINE __host__ __device__ __forceinline__
-#else
-#define RTK_HD_INLINE inline __attribute__((always_inline))
-#endif
-
 /* Deepest tree traversal accepts; a builder going deeper is refused. */
 #define RTK_BVH_MAX_DEPTH 256
 

@@ -3,7 +3,7 @@
  * constant 2D distribution over its pixels, luminance x sin(theta)
  * (marginal over rows, conditional within each row; pbrt-v3 13.6.5). The
  * mapping between directions and (u, v) is documented in rtk/lights.h. */
-#include "scene.h"
+#include "light_sample.h"
 #include "../image/image.h"
 
 #include <math.h>
@@ -154,101 +154,17 @@ rtk_status rtk_environment_load(const char *path, float strength, float rotation
     return st;
 }
 
-/* d turned by -rotation about +y: the map's own frame. */
-static rtk_vec3 to_map(const rtk_environment *env, rtk_vec3 d)
-{
-    return rtk_vec3_make(env->cos_rot * d.x - env->sin_rot * d.z, d.y, env->sin_rot * d.x + env->cos_rot * d.z);
-}
-
-/* Pixel of unit map-frame direction d; sets sin theta. */
-static size_t pixel_of(const rtk_environment *env, rtk_vec3 d, float *sin_theta)
-{
-    float y = fminf(1.0f, fmaxf(-1.0f, d.y));
-    float theta = acosf(y);
-    float u = 0.5f + atan2f(d.x, -d.z) * (float)(0.5 / RTK_PI), v = theta * (float)(1.0 / RTK_PI);
-    int col = (int)(u * (float)env->width), row = (int)(v * (float)env->height);
-    col = col < 0 ? 0 : col >= env->width ? env->width - 1 : col;
-    row = row < 0 ? 0 : row >= env->height ? env->height - 1 : row;
-    *sin_theta = sqrtf(fmaxf(0.0f, 1.0f - y * y));
-    return (size_t)row * (size_t)env->width + (size_t)col;
-}
-
 rtk_rgb rtk_environment_radiance(const rtk_environment *env, rtk_vec3 dir)
 {
-    if (!env->width)
-        return env->color;
-    float len = rtk_vec3_length(dir);
-    if (!(len > 0.0f) || !isfinite(len))
-        return rtk_rgb_make(0.0f, 0.0f, 0.0f);
-    float sin_theta;
-    const float *rgb = env->rgb + 3 * pixel_of(env, to_map(env, rtk_vec3_scale(dir, 1.0f / len)), &sin_theta);
-    return rtk_rgb_make(rgb[0], rgb[1], rgb[2]);
-}
-
-/* Index i of n bins with cdf[i] <= u < cdf[i + 1] (cdf[n] = 1 > u), and
- * u's position within it in [0, 1). */
-static int sample_cdf(const float *cdf, int n, float u, float *within)
-{
-    int lo = 0, hi = n;
-    while (hi - lo > 1) {
-        int mid = (lo + hi) / 2;
-        if (cdf[mid] <= u)
-            lo = mid;
-        else
-            hi = mid;
-    }
-    float w = (u - cdf[lo]) / (cdf[lo + 1] - cdf[lo]);
-    *within = w < 1.0f ? (w > 0.0f ? w : 0.0f) : 0x1.fffffep-1f;
-    return lo;
-}
-
-/* The world direction of map coordinates (u, v), and sin theta. */
-static rtk_vec3 direction_of(const rtk_environment *env, float u, float v, float *sin_theta)
-{
-    float theta = (float)RTK_PI * v, phi = 2.0f * (float)RTK_PI * (u - 0.5f);
-    float st = sinf(theta), ct = cosf(theta);
-    rtk_vec3 m = rtk_vec3_make(st * sinf(phi), ct, -st * cosf(phi));
-    *sin_theta = st;
-    return rtk_vec3_make(env->cos_rot * m.x + env->sin_rot * m.z, m.y, -env->sin_rot * m.x + env->cos_rot * m.z);
+    return rtk_env_radiance(env, dir);
 }
 
 float rtk_environment_sample(const rtk_environment *env, rtk_vec2 u, rtk_vec3 *wi, rtk_rgb *radiance)
 {
-    float u0 = fminf(fmaxf(u.x, 0.0f), 0x1.fffffep-1f), u1 = fminf(fmaxf(u.y, 0.0f), 0x1.fffffep-1f);
-    if (!env->width) {
-        /* Uniform on the sphere. */
-        float z = 1.0f - 2.0f * u0, r = sqrtf(fmaxf(0.0f, 1.0f - z * z)), phi = 2.0f * (float)RTK_PI * u1;
-        *wi = rtk_vec3_make(r * cosf(phi), z, r * sinf(phi));
-        *radiance = env->color;
-        return (float)(1.0 / (4.0 * RTK_PI));
-    }
-    if (!(env->func_mean > 0.0))
-        return 0.0f;
-    float dv, du;
-    int row = sample_cdf(env->row_cdf, env->height, u0, &dv);
-    const float *cdf = env->col_cdf + (size_t)row * ((size_t)env->width + 1);
-    int col = sample_cdf(cdf, env->width, u1, &du);
-    float sin_theta;
-    *wi = direction_of(env, ((float)col + du) / (float)env->width, ((float)row + dv) / (float)env->height, &sin_theta);
-    /* Radiance and pdf of the direction as lookups see it, so that a
-     * sample rounded across a pixel edge still agrees with
-     * rtk_environment_pdf and rtk_environment_radiance exactly (one
-     * rounded into a black pixel has pdf 0: about 1e-5 of the samples of
-     * a map with black rows). */
-    *radiance = rtk_environment_radiance(env, *wi);
-    return rtk_environment_pdf(env, *wi);
+    return rtk_env_sample(env, u, wi, radiance);
 }
 
 float rtk_environment_pdf(const rtk_environment *env, rtk_vec3 dir)
 {
-    if (!env->width)
-        return (float)(1.0 / (4.0 * RTK_PI));
-    float len = rtk_vec3_length(dir);
-    if (!(len > 0.0f) || !isfinite(len) || !(env->func_mean > 0.0))
-        return 0.0f;
-    float sin_theta;
-    size_t i = pixel_of(env, to_map(env, rtk_vec3_scale(dir, 1.0f / len)), &sin_theta);
-    if (!(sin_theta > 0.0f))
-        return 0.0f;
-    return (float)(env->func[i] / env->func_mean / (2.0 * RTK_PI * RTK_PI * sin_theta));
+    return rtk_env_pdf(env, dir);
 }

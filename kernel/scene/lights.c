@@ -3,8 +3,7 @@
  * uniform point on the chosen triangle; the punctual lights; and the
  * choice between all of them and the environment (environment.c) by
  * power, for rtk_sample_incident_light. */
-#include "scene.h"
-#include "../accel/accel.h"
+#include "light_sample.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -226,71 +225,53 @@ RTK_API uint32_t rtk_scene_light_count(const rtk_scene *s)
     return s->lights ? s->lights->count : 0;
 }
 
-/* rtk_scene_sample_light on s's table l, which has emitters; inlined
- * into rtk_sample_incident_light, which every light sample goes through. */
-static inline __attribute__((always_inline)) void sample_emitter(const rtk_scene *s, const rtk_lights *l, float u_pick, rtk_vec2 u,
-                                  rtk_light_sample *out)
+/* Emitter light's corners in world space, and whether its instance mirrors them. */
+static void emitter_corners(const void *ctx, uint32_t light, rtk_vec3 *a, rtk_vec3 *b, rtk_vec3 *c, int *mirrored)
 {
-    float x = u_pick * (float)l->count;
-    uint32_t col = (uint32_t)x;
-    if (col >= l->count)
-        col = l->count - 1;
-    float frac = x - (float)col;
-    uint32_t light = frac < l->alias_prob[col] ? col : l->alias[col];
-    uint32_t prim = l->prims[light], inst = l->insts[light];
-    const rtk_scene *mesh = s; /* the scene whose materials and uvs the triangle has */
-    rtk_vec3 a, b, c;
+    const rtk_scene *s = ctx;
+    uint32_t prim = s->lights->prims[light], inst = s->lights->insts[light];
     if (inst == RTK_INVALID_ID) {
-        rtk_scene_triangle(s, prim, &a, &b, &c);
+        rtk_scene_triangle(s, prim, a, b, c);
+        *mirrored = 0;
     } else {
-        mesh = s->meshes[s->instances[inst].mesh];
-        rtk_instance_triangle(s, inst, prim, &a, &b, &c);
+        rtk_instance_triangle(s, inst, prim, a, b, c);
+        *mirrored = s->instances[inst].mirrored;
     }
-    /* Uniform on the triangle: the square-root warp. */
-    float r = sqrtf(u.x);
-    float b0 = 1.0f - r, b1 = u.y * r, b2 = 1.0f - b0 - b1;
-    out->p = rtk_vec3_make(b0 * a.x + b1 * b.x + b2 * c.x, b0 * a.y + b1 * b.y + b2 * c.y,
-                           b0 * a.z + b1 * b.z + b2 * c.z);
-    out->n = rtk_vec3_normalize(rtk_vec3_cross(rtk_vec3_sub(b, a), rtk_vec3_sub(c, a)));
-    /* A mirrored instance's corners wind the other way round; the emitting
-     * side stays the authored one (see rtk_instance_surface). */
-    if (inst != RTK_INVALID_ID && s->instances[inst].mirrored)
-        out->n = rtk_vec3_neg(out->n);
+}
+
+/* Emitter light's radiance at barycentrics (b1, b2): its material's
+ * emission, times its emission texture where decoded. */
+static rtk_rgb emitter_emission(const void *ctx, uint32_t light, float b1, float b2)
+{
+    const rtk_scene *s = ctx;
+    uint32_t prim = s->lights->prims[light], inst = s->lights->insts[light];
+    const rtk_scene *mesh = inst == RTK_INVALID_ID ? s : s->meshes[s->instances[inst].mesh];
     const rtk_material *m = material_of(mesh, prim);
-    out->le = m->emission;
+    rtk_rgb le = m->emission;
     if (m->emission_tex >= 0 && (uint32_t)m->emission_tex < mesh->texture_count && mesh->uvs &&
         mesh->textures[m->emission_tex].decoded) {
         rtk_vec2 uv = rtk_tex_map_uv(mesh, &m->emission_uv, prim, b1, b2);
         float texel[4];
         rtk_texture_lookup(&mesh->textures[m->emission_tex], uv.x, uv.y, texel);
-        out->le = rtk_rgb_mul(out->le, rtk_rgb_make(texel[0], texel[1], texel[2]));
+        le = rtk_rgb_mul(le, rtk_rgb_make(texel[0], texel[1], texel[2]));
     }
-    out->pdf_area = l->pick[light] / l->area[light];
-    out->prim = prim;
-    out->inst = inst;
+    return le;
 }
+
+static const rtk_emitter_fns scene_emitters = {emitter_corners, emitter_emission};
 
 RTK_API int rtk_scene_sample_light(const rtk_scene *s, float u_pick, rtk_vec2 u, rtk_light_sample *out)
 {
     const rtk_lights *l = s->lights;
     if (!l || l->count == 0)
         return 0;
-    sample_emitter(s, l, u_pick, u, out);
+    rtk_emitter_sample(l, &scene_emitters, s, u_pick, u, out);
     return 1;
-}
-
-/* n, or -n when it faces away from d. */
-static rtk_vec3 facing(rtk_vec3 n, rtk_vec3 d)
-{
-    return rtk_vec3_dot(n, d) < 0.0f ? rtk_vec3_neg(n) : n;
 }
 
 RTK_API rtk_ray rtk_shadow_ray(rtk_vec3 p, rtk_vec3 np, rtk_vec3 q, rtk_vec3 nq)
 {
-    rtk_vec3 d = rtk_vec3_sub(q, p);
-    rtk_vec3 from = rtk_offset_point(p, facing(np, d)), to = rtk_offset_point(q, facing(nq, rtk_vec3_neg(d)));
-    rtk_ray r = {from, 0.0f, rtk_vec3_sub(to, from), 1.0f};
-    return r;
+    return rtk_shadow_between(p, np, q, nq);
 }
 
 /* rtk_scene_light_pdf on s's table l (or NULL). */
@@ -427,115 +408,7 @@ RTK_API const rtk_punctual_light *rtk_scene_punctual(const rtk_scene *s, uint32_
 
 RTK_API float rtk_spot_falloff(const rtk_punctual_light *light, float cos_axis)
 {
-    if (cos_axis <= light->cos_outer)
-        return 0.0f;
-    if (cos_axis >= light->cos_inner)
-        return 1.0f;
-    float t = (cos_axis - light->cos_outer) / (light->cos_inner - light->cos_outer);
-    return t * t * (3.0f - 2.0f * t);
-}
-
-/* The slot u_pick falls in, with u_pick rescaled to [0, 1) within it. */
-static uint32_t pick_slot(const rtk_lights *l, float *u_pick)
-{
-    uint32_t lo = 0, hi = l->slot_count; /* cdf[lo] <= u < cdf[hi] */
-    float u = *u_pick;
-    if (!(u < 1.0f))
-        u = u >= 1.0f ? 0x1.fffffep-1f : 0.0f; /* NaN as 0 */
-    else if (!(u >= 0.0f))
-        u = 0.0f;
-    while (hi - lo > 1) {
-        uint32_t mid = (lo + hi) / 2;
-        if (l->slot_cdf[mid] <= u)
-            lo = mid;
-        else
-            hi = mid;
-    }
-    float r = (u - l->slot_cdf[lo]) / l->slot_pick[lo];
-    *u_pick = r < 1.0f ? (r > 0.0f ? r : 0.0f) : 0x1.fffffep-1f;
-    return lo;
-}
-
-/* The shadow ray from p (normal ng) towards direction wi at infinity. */
-static rtk_ray ray_to_infinity(rtk_vec3 p, rtk_vec3 ng, rtk_vec3 wi)
-{
-    rtk_ray r = {rtk_offset_point(p, facing(ng, wi)), 0.0f, wi, INFINITY};
-    return r;
-}
-
-/* A point on an emitting triangle as seen from p. */
-static int incident_area(const rtk_scene *s, rtk_vec3 p, rtk_vec3 ng, float u_pick, rtk_vec2 u, float pick,
-                         rtk_light_incident *out)
-{
-    rtk_light_sample ls;
-    sample_emitter(s, s->lights, u_pick, u, &ls);
-    rtk_vec3 d = rtk_vec3_sub(ls.p, p);
-    float dist2 = rtk_vec3_dot(d, d);
-    if (!(dist2 > 0.0f))
-        return 0;
-    float inv = 1.0f / sqrtf(dist2);
-    out->wi = rtk_vec3_scale(d, inv);
-    float cos_l = -rtk_vec3_dot(ls.n, out->wi);
-    if (!(cos_l > 0.0f))
-        return 0;
-    out->pdf = ls.pdf_area * dist2 / cos_l * pick;
-    out->dist = dist2 * inv;
-    out->li = ls.le;
-    out->delta = 0;
-    out->shadow = rtk_shadow_ray(p, ng, ls.p, ls.n);
-    return out->pdf > 0.0f && out->pdf < INFINITY;
-}
-
-/* A punctual light as seen from p. */
-static int incident_punctual(const rtk_punctual_light *pl, rtk_vec3 p, rtk_vec3 ng, float pick,
-                             rtk_light_incident *out)
-{
-    out->pdf = pick;
-    out->delta = 1;
-    if (pl->type == RTK_LIGHT_DIRECTIONAL) {
-        out->wi = rtk_vec3_neg(pl->direction);
-        out->dist = INFINITY;
-        out->li = pl->intensity;
-        out->shadow = ray_to_infinity(p, ng, out->wi);
-        return 1;
-    }
-    rtk_vec3 d = rtk_vec3_sub(pl->position, p);
-    float r2 = rtk_vec3_dot(d, d);
-    if (!(r2 > 0.0f))
-        return 0;
-    float dist = sqrtf(r2);
-    out->wi = rtk_vec3_scale(d, 1.0f / dist);
-    out->dist = dist;
-    float scale = 1.0f / r2;
-    if (pl->type == RTK_LIGHT_SPOT) {
-        float falloff = rtk_spot_falloff(pl, -rtk_vec3_dot(out->wi, pl->direction));
-        if (!(falloff > 0.0f))
-            return 0;
-        scale *= falloff;
-    }
-    out->li = rtk_rgb_scale(pl->intensity, scale);
-    out->shadow = rtk_shadow_ray(p, ng, pl->position, rtk_vec3_make(0.0f, 0.0f, 0.0f));
-    return isfinite(scale);
-}
-
-/* rtk_sample_incident_light when the emitters are not the only light
- * (kept out of line, so that the common case stays a short call). */
-static __attribute__((noinline)) int sample_any(const rtk_scene *s, rtk_vec3 p, rtk_vec3 ng, float u_pick, rtk_vec2 u,
-                                                rtk_light_incident *out)
-{
-    const rtk_lights *l = s->lights;
-    uint32_t slot = pick_slot(l, &u_pick);
-    float pick = l->slot_pick[slot];
-    if (slot == 0)
-        return incident_area(s, p, ng, u_pick, u, pick, out);
-    if (slot <= s->punctual_count)
-        return incident_punctual(&s->punctual[slot - 1], p, ng, pick, out);
-    float pdf = rtk_environment_sample(l->environment, u, &out->wi, &out->li);
-    out->pdf = pdf * pick;
-    out->dist = INFINITY;
-    out->delta = 0;
-    out->shadow = ray_to_infinity(p, ng, out->wi);
-    return out->pdf > 0.0f && isfinite(out->pdf);
+    return rtk_spot_factor(light, cos_axis);
 }
 
 RTK_API int rtk_sample_incident_light(const rtk_scene *s, rtk_vec3 p, rtk_vec3 ng, float u_pick, rtk_vec2 u,
@@ -544,9 +417,7 @@ RTK_API int rtk_sample_incident_light(const rtk_scene *s, rtk_vec3 p, rtk_vec3 n
     const rtk_lights *l = s->lights;
     if (!l || l->slot_count == 0)
         return 0;
-    if (l->slot_pick[0] == 1.0f) /* the emitters alone: u_pick as it is */
-        return incident_area(s, p, ng, u_pick, u, 1.0f, out);
-    return sample_any(s, p, ng, u_pick, u, out);
+    return rtk_lights_incident(l, s->punctual, s->punctual_count, &scene_emitters, s, p, ng, u_pick, u, out);
 }
 
 /* The geometric normal of emitter light (its emitting side). */
@@ -561,20 +432,6 @@ static rtk_vec3 emitter_normal(const rtk_scene *s, uint32_t prim, uint32_t inst)
     return inst != RTK_INVALID_ID && s->instances[inst].mirrored ? rtk_vec3_neg(n) : n;
 }
 
-/* rtk_incident_light_pdf for a hit on an emitter of area density pdf_area
- * (kept out of line: most hits are not on emitters). */
-static __attribute__((noinline)) float emitter_pdf(const rtk_scene *s, const rtk_ray *ray, const rtk_hit *hit,
-                                                   float pdf_area)
-{
-    rtk_vec3 n = emitter_normal(s, hit->prim, hit->inst);
-    float len2 = rtk_vec3_dot(ray->dir, ray->dir);
-    float cos_l = -rtk_vec3_dot(n, ray->dir) / sqrtf(len2);
-    if (!(cos_l > 0.0f))
-        return 0.0f; /* the back of a one-sided emitter */
-    float pdf = pdf_area * hit->t * hit->t * len2 / cos_l * s->lights->slot_pick[0];
-    return isfinite(pdf) ? pdf : 0.0f;
-}
-
 RTK_API float rtk_incident_light_pdf(const rtk_scene *s, rtk_vec3 p, const rtk_ray *ray, const rtk_hit *hit)
 {
     (void)p; /* the ray leaves p: its length to the hit is hit->t x |dir| */
@@ -583,10 +440,12 @@ RTK_API float rtk_incident_light_pdf(const rtk_scene *s, rtk_vec3 p, const rtk_r
         return 0.0f;
     if (!hit || hit->prim == RTK_INVALID_ID) {
         float pick = l->slot_pick[l->slot_count - 1];
-        return pick > 0.0f ? rtk_environment_pdf(l->environment, ray->dir) * pick : 0.0f;
+        return pick > 0.0f ? rtk_env_pdf(l->environment, ray->dir) * pick : 0.0f;
     }
     float pdf_area = area_pdf(s, l, hit);
-    return pdf_area > 0.0f ? emitter_pdf(s, ray, hit, pdf_area) : 0.0f;
+    return pdf_area > 0.0f ? rtk_emitter_solid_pdf(emitter_normal(s, hit->prim, hit->inst), ray, hit->t, pdf_area,
+                                                   l->slot_pick[0])
+                           : 0.0f;
 }
 
 RTK_API rtk_rgb rtk_scene_environment(const rtk_scene *s, rtk_vec3 dir)
@@ -594,5 +453,5 @@ RTK_API rtk_rgb rtk_scene_environment(const rtk_scene *s, rtk_vec3 dir)
     const rtk_lights *l = s->lights;
     if (!l || !l->environment)
         return rtk_rgb_make(0.0f, 0.0f, 0.0f);
-    return rtk_environment_radiance(l->environment, dir);
+    return rtk_env_radiance(l->environment, dir);
 }

@@ -56,12 +56,13 @@ RTK_KERNEL_API rtk_status rtk_environment_load(const char *path, float strength,
                                                rtk_environment **out);
 RTK_KERNEL_API void rtk_environment_free(rtk_environment *env);
 /* Radiance from direction dir (any length). [any thread] */
-rtk_rgb rtk_environment_radiance(const rtk_environment *env, rtk_vec3 dir);
+RTK_KERNEL_API rtk_rgb rtk_environment_radiance(const rtk_environment *env, rtk_vec3 dir);
 /* Samples a direction with u: its unit wi, solid-angle pdf (0: none) and
  * radiance. [any thread] */
-float rtk_environment_sample(const rtk_environment *env, rtk_vec2 u, rtk_vec3 *wi, rtk_rgb *radiance);
+RTK_KERNEL_API float rtk_environment_sample(const rtk_environment *env, rtk_vec2 u, rtk_vec3 *wi,
+                                            rtk_rgb *radiance);
 /* Solid-angle density of rtk_environment_sample returning dir. [any thread] */
-float rtk_environment_pdf(const rtk_environment *env, rtk_vec3 dir);
+RTK_KERNEL_API float rtk_environment_pdf(const rtk_environment *env, rtk_vec3 dir);
 
 /* Gives scene the environment (owned by it from now, replacing one it
  * had; NULL removes it) and updates the choice between lights. */
