@@ -74,16 +74,7 @@ rtk_status rtk_camera_init(rtk_camera *cam, const rtk_camera_desc *d, uint32_t w
 
 rtk_ray rtk_camera_ray(const rtk_camera *cam, float fx, float fy)
 {
-    float sx = 2.0f * fx / (float)cam->width - 1.0f;
-    float sy = 1.0f - 2.0f * fy / (float)cam->height;
-    rtk_vec3 dir = rtk_vec3_add(cam->forward,
-                                rtk_vec3_add(rtk_vec3_scale(cam->right, sx), rtk_vec3_scale(cam->up, sy)));
-    rtk_ray r;
-    r.org = cam->eye;
-    r.dir = rtk_vec3_normalize(dir);
-    r.tmin = 0.0f;
-    r.tmax = INFINITY;
-    return r;
+    return rtk_camera_ray_at(cam, fx, fy);
 }
 
 void rtk_camera_differential(const rtk_camera *cam, float fx, float fy, rtk_ray_differential *out)
