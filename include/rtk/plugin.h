@@ -35,7 +35,7 @@ RTK_EXTERN_C_BEGIN
  * rtk_accelerator_fns.closest_batch and any_batch); build phases
  * (rtk_build_args.phase_log, rtk_build_phase).
  * 3.5: device accelerators (rtk_accelerator_fns.attach and report,
- * rtk_device_tree, rtk_device_report). */
+ * rtk_device_tree, rtk_device_instance, rtk_device_report). */
 #define RTK_ABI_MAJOR 3
 #define RTK_ABI_MINOR 5
 
