@@ -126,6 +126,8 @@ static void give_lane(cuda *c, rtk_gpu_lane *lane)
 static void trace(const void *state, const rtk_ray *rays, uint32_t count, rtk_hit *hits, uint8_t *occluded)
 {
     cuda *c = (cuda *)state;
+    if (count == 0)
+        return; /* an empty batch opens no lane */
     rtk_gpu_lane *lane = take_lane(c);
     double seconds[3], sums[3] = {0.0, 0.0, 0.0};
     uint32_t done = 0, chunks = 0;
