@@ -71,6 +71,9 @@ RTK_KERNEL_API int rtk_accelerator_is_device(const rtk_plugin *accelerator);
  * Refuses scenes with alpha cut-outs. */
 rtk_status rtk_device_build(rtk_scene *s, const rtk_plugin *device, const rtk_params *params, uint32_t threads,
                             const char *dir, struct rtk_bvh_cache_use *use);
+/* Why accelerator cannot build a device's tree ("builds no tree", "keeps
+ * its tree to itself"), or NULL when it can (it builds the kernel's). */
+const char *rtk_builder_unfit(const rtk_plugin *accelerator);
 /* Whether device accelerator device starts here with params: RTK_OK, or
  * its error (the message says why). Starts and stops it. */
 RTK_KERNEL_API rtk_status rtk_device_probe(const rtk_plugin *device, const rtk_params *params);

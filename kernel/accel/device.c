@@ -19,6 +19,13 @@ int rtk_accelerator_is_device(const rtk_plugin *accelerator)
 static pthread_mutex_t registry_lock = PTHREAD_MUTEX_INITIALIZER;
 static rtk_registry *builders;
 
+const char *rtk_builder_unfit(const rtk_plugin *accelerator)
+{
+    return rtk_accelerator_is_device(accelerator)           ? "builds no tree"
+           : rtk_accelerator_traverses_itself(accelerator) ? "keeps its tree to itself"
+                                                            : NULL;
+}
+
 static rtk_status find_builder(const rtk_plugin *device, const rtk_params *params, const rtk_plugin **out)
 {
     const char *name = rtk_params_string(params, "builder");
@@ -32,10 +39,10 @@ static rtk_status find_builder(const rtk_plugin *device, const rtk_params *param
         snprintf(msg, sizeof msg, "%s", rtk_error_message());
         return rtk_error(st, "accelerator '%s': builder = \"%s\": %s", device->name, name, msg);
     }
-    if (rtk_accelerator_is_device(*out) || rtk_accelerator_traverses_itself(*out))
+    const char *unfit = rtk_builder_unfit(*out);
+    if (unfit)
         return rtk_error(RTK_ERR_INVALID, "accelerator '%s': builder = \"%s\" names an accelerator that %s; name "
-                         "one that builds the kernel's tree (median, sah or lbvh)", device->name, name,
-                         rtk_accelerator_is_device(*out) ? "builds no tree" : "keeps its tree to itself");
+                         "one that builds the kernel's tree (median, sah or lbvh)", device->name, name, unfit);
     return RTK_OK;
 }
 

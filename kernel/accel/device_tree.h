@@ -56,6 +56,23 @@ typedef struct rtk_flat_scene {
     rtk_two_level top;
 } rtk_flat_scene;
 
+/* tree's view on the host, its meshes' flat trees in meshes (room for
+ * tree->mesh_count): what a device's CPU code traverses. */
+static inline void rtk_flat_scene_of(const rtk_device_tree *tree, rtk_flat_tree *meshes, rtk_flat_scene *out)
+{
+    for (uint32_t i = 0; i < tree->mesh_count; i++) {
+        const rtk_device_tree *m = &tree->meshes[i];
+        meshes[i].nodes = m->nodes, meshes[i].prim_ids = m->prim_ids, meshes[i].corners = m->corners;
+    }
+    out->own.nodes = tree->nodes, out->own.prim_ids = tree->prim_ids, out->own.corners = tree->corners;
+    out->meshes = meshes;
+    out->top.own = tree->node_count > 0;
+    out->top.tlas = tree->tlas_nodes;
+    out->top.tlas_node_count = tree->tlas_node_count;
+    out->top.order = tree->tlas_order;
+    out->top.instances = tree->instances;
+}
+
 RTK_HD static inline int rtk_flat_mesh_closest(const void *ctx, uint32_t mesh, const rtk_ray *ray, rtk_hit *hit,
                                                rtk_trace_work *work)
 {

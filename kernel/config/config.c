@@ -1803,10 +1803,10 @@ static rtk_status read_accelerator(const loader *ld, const config_setting_t *roo
         snprintf(msg, sizeof msg, "%s", rtk_error_message());
         return fail(ld, at ? at : group, st, "accelerator: builder: %s", msg);
     }
-    if (rtk_accelerator_is_device(builder) || rtk_accelerator_traverses_itself(builder))
+    const char *unfit = rtk_builder_unfit(builder);
+    if (unfit)
         return fail(ld, at ? at : group, RTK_ERR_INVALID, "accelerator: builder = \"%s\" names an accelerator that "
-                    "%s; name one that builds the kernel's tree (median, sah or lbvh)", name,
-                    rtk_accelerator_is_device(builder) ? "builds no tree" : "keeps its tree to itself");
+                    "%s; name one that builds the kernel's tree (median, sah or lbvh)", name, unfit);
     return RTK_OK;
 }
 

@@ -72,14 +72,7 @@ static rtk_status cuda_attach(void *state, const rtk_device_tree *tree)
     c->host_meshes = calloc(tree->mesh_count ? tree->mesh_count : 1, sizeof *c->host_meshes);
     if (!c->host_meshes)
         return rtk_error(RTK_ERR_NOMEM, "cuda: out of memory");
-    for (uint32_t i = 0; i < tree->mesh_count; i++) {
-        const rtk_device_tree *m = &tree->meshes[i];
-        c->host_meshes[i] = (rtk_flat_tree){m->nodes, m->prim_ids, m->corners};
-    }
-    c->host.own = (rtk_flat_tree){tree->nodes, tree->prim_ids, tree->corners};
-    c->host.meshes = c->host_meshes;
-    c->host.top = (rtk_two_level){tree->node_count > 0, tree->tlas_nodes, tree->tlas_node_count, tree->tlas_order,
-                                  tree->instances};
+    rtk_flat_scene_of(tree, c->host_meshes, &c->host);
     c->sums.upload_seconds = seconds;
     return RTK_OK;
 }

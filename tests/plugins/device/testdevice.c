@@ -70,18 +70,13 @@ static rtk_status testdevice_attach(void *state, const rtk_device_tree *tree)
     d->meshes = calloc(tree->mesh_count ? tree->mesh_count : 1, sizeof *d->meshes);
     if (!d->meshes)
         return rtk_error(RTK_ERR_NOMEM, "testdevice: out of memory");
-    d->bytes = (uint64_t)tree->node_count * sizeof(rtk_bvh_node) + (uint64_t)tree->slot_count * (4 + 36);
-    for (uint32_t i = 0; i < tree->mesh_count; i++) {
-        const rtk_device_tree *m = &tree->meshes[i];
-        d->meshes[i] = (rtk_flat_tree){m->nodes, m->prim_ids, m->corners};
-        d->bytes += (uint64_t)m->node_count * sizeof(rtk_bvh_node) + (uint64_t)m->slot_count * (4 + 36);
-    }
-    d->bytes += (uint64_t)tree->tlas_node_count * sizeof(rtk_bvh_node) +
-                (uint64_t)tree->instance_count * (4 + sizeof(rtk_device_instance));
-    d->scene.own = (rtk_flat_tree){tree->nodes, tree->prim_ids, tree->corners};
-    d->scene.meshes = d->meshes;
-    d->scene.top = (rtk_two_level){tree->node_count > 0, tree->tlas_nodes, tree->tlas_node_count, tree->tlas_order,
-                                   tree->instances};
+    rtk_flat_scene_of(tree, d->meshes, &d->scene);
+    d->bytes = (uint64_t)tree->node_count * sizeof(rtk_bvh_node) + (uint64_t)tree->slot_count * (4 + 36) +
+               (uint64_t)tree->tlas_node_count * sizeof(rtk_bvh_node) +
+               (uint64_t)tree->instance_count * (4 + sizeof(rtk_device_instance));
+    for (uint32_t i = 0; i < tree->mesh_count; i++)
+        d->bytes += (uint64_t)tree->meshes[i].node_count * sizeof(rtk_bvh_node) +
+                    (uint64_t)tree->meshes[i].slot_count * (4 + 36);
     return RTK_OK;
 }
 
