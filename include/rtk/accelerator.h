@@ -128,6 +128,9 @@ typedef struct rtk_device_tree {
     uint32_t instance_count;
     uint32_t mesh_count;
     const struct rtk_device_tree *meshes;
+    /* ABI 3.6: 9 floats a triangle id, its corners' shading normals
+     * (NULL when the scene has none), for device programs. */
+    const float *normals;
 } rtk_device_tree;
 
 /* ABI 3.5. What a device accelerator did so far, summed over its calls. */
@@ -140,7 +143,32 @@ typedef struct rtk_device_report {
     uint64_t rays, batches;    /* traced on the device */
     uint64_t cpu_rays;         /* traced on the CPU after a device failure */
     uint64_t device_bytes;     /* device memory held now */
+    /* ABI 3.6: camera samples shaded whole by device programs (their rays
+     * count in rays), and the programs' time on the device. */
+    uint64_t samples;
+    double shade_seconds;
 } rtk_device_report;
+
+struct rtk_device_program;
+struct rtk_li_result;
+struct rtk_sample_gen;
+struct rtk_sample_pos;
+
+/* ABI 3.6. Camera samples for a device program (rtk_accelerator_fns.shade):
+ * the kernel fills the inputs, shade fills out and the counts. The sampler
+ * types are the kernel's (kernel/render/sample.h), which device
+ * accelerators build with. */
+typedef struct rtk_shade_batch {
+    uint32_t size;                           /* sizeof(rtk_shade_batch) */
+    const struct rtk_device_program *program;
+    const struct rtk_sample_gen *gen;        /* the render's sample generator */
+    rtk_rgb albedo;                          /* the surface colour of a scene without materials */
+    uint32_t count;
+    const rtk_ray *rays;                     /* camera rays */
+    const struct rtk_sample_pos *pos;        /* each sample's stream, at li's first draw */
+    struct rtk_li_result *out;               /* set by shade: as li's pre-filled result, then by the program */
+    uint64_t rays_traced, invalid_rays;      /* what rtk_trace and rtk_occluded would have counted */
+} rtk_shade_batch;
 
 /* Function table of an accelerator. */
 typedef struct rtk_accelerator_fns {
@@ -182,6 +210,13 @@ typedef struct rtk_accelerator_fns {
      * Scenes with alpha cut-outs are refused. report fills out [any thread]. */
     rtk_status (*attach)(void *state, const rtk_device_tree *tree);
     void (*report)(const void *state, rtk_device_report *out);
+    /* ABI 3.6, optional, device accelerators only: runs batch->program
+     * (rtk_integrator_fns.device_program) on each camera sample of batch,
+     * on the device, tracing the attached tree. RTK_ERR_UNSUPPORTED when
+     * the program, or this scene, is not one it runs (a batch of count 0
+     * asks without running anything); other errors end the render.
+     * [any thread, concurrently] */
+    rtk_status (*shade)(const void *state, rtk_shade_batch *batch);
 } rtk_accelerator_fns;
 
 RTK_EXTERN_C_END

@@ -27,6 +27,13 @@ typedef struct rtk_li_result {
     float depth;      /* first-hit distance along the (unit) camera ray */
 } rtk_li_result;
 
+/* ABI 3.6. An integrator's estimator as plain data, for a device
+ * accelerator that runs it on its own processor (see device_program). */
+typedef struct rtk_device_program {
+    char name[32];    /* the estimator, e.g. "ao" */
+    float params[8];  /* its parameters, in the order the estimator documents */
+} rtk_device_program;
+
 /* Function table of an integrator. */
 typedef struct rtk_integrator_fns {
     uint32_t size; /* sizeof(rtk_integrator_fns) */
@@ -49,6 +56,13 @@ typedef struct rtk_integrator_fns {
      * checks it, and the renderer calls li_batch when it is set.
      * [any thread, concurrently] */
     void (*li_batch)(const void *state, rtk_ctx *ctx, const rtk_ray *rays, uint32_t count, rtk_li_result *out);
+    /* ABI 3.6, optional: 1 when this instance's estimator is one a device
+     * accelerator may run whole (plugins/integrators/device_programs.h lists
+     * them), described in *program; 0 when it is not (the render then
+     * calls li or li_batch). A device program must give what li gives for
+     * the same sample: on the CPU bit for bit, on a GPU within its math
+     * library's rounding. [main thread] */
+    int (*device_program)(const void *state, rtk_device_program *program);
 } rtk_integrator_fns;
 
 /* Most camera rays one li_batch call receives. */

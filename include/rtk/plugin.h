@@ -35,9 +35,12 @@ RTK_EXTERN_C_BEGIN
  * rtk_accelerator_fns.closest_batch and any_batch); build phases
  * (rtk_build_args.phase_log, rtk_build_phase).
  * 3.5: device accelerators (rtk_accelerator_fns.attach and report,
- * rtk_device_tree, rtk_device_instance, rtk_device_report). */
+ * rtk_device_tree, rtk_device_instance, rtk_device_report).
+ * 3.6: device programs (rtk_integrator_fns.device_program,
+ * rtk_device_program; rtk_accelerator_fns.shade, rtk_shade_batch;
+ * rtk_device_tree.normals; rtk_device_report.samples, shade_seconds). */
 #define RTK_ABI_MAJOR 3
-#define RTK_ABI_MINOR 5
+#define RTK_ABI_MINOR 6
 
 /* Name of the one symbol a plugin exports. */
 #define RTK_PLUGIN_ENTRY_NAME "rtk_plugin_entry"

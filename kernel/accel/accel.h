@@ -82,6 +82,11 @@ void rtk_device_release(rtk_scene *s);
 /* The report of the device accelerator tracing s's batches: 1, or 0 when
  * none does (out untouched). [any thread] */
 RTK_KERNEL_API int rtk_device_report_of(const rtk_scene *s, rtk_device_report *out);
+/* NULL when s's device accelerator runs program on s (rtk_shade_batch,
+ * ABI 3.6), else why not, in a phrase. [main thread] */
+RTK_KERNEL_API const char *rtk_device_runs(const rtk_scene *s, const rtk_device_program *program);
+/* Runs batch->program on s's device (rtk_device_runs said yes). [any thread] */
+rtk_status rtk_device_shade(const rtk_scene *s, rtk_shade_batch *batch);
 
 /* ---- build phases (build_phase.c) ---- */
 

@@ -5,6 +5,7 @@
 #include "accel.h"
 
 #include <pthread.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -89,6 +90,7 @@ static rtk_device_tree tree_view(const rtk_scene *m, float **corners, uint32_t t
     if (m->node_count) {
         t.nodes = m->nodes, t.node_count = m->node_count, t.depth = m->bvh_depth;
         t.prim_ids = m->prim_ids, t.corners = *corners, t.slot_count = m->triangle_count;
+        t.normals = m->normals;
     }
     *corners += 9 * (size_t)m->triangle_count;
     return t;
@@ -195,4 +197,32 @@ int rtk_device_report_of(const rtk_scene *s, rtk_device_report *out)
     out->size = sizeof *out;
     s->device->report(s->device_state, out);
     return 1;
+}
+
+/* The device's shade, when its table has one (ABI 3.6). */
+static rtk_status (*shade_fn(const rtk_accelerator_fns *f))(const void *, rtk_shade_batch *)
+{
+    return f->size >= offsetof(rtk_accelerator_fns, shade) + sizeof f->shade ? f->shade : NULL;
+}
+
+const char *rtk_device_runs(const rtk_scene *s, const rtk_device_program *program)
+{
+    if (!s->device)
+        return "no device accelerator traces this scene";
+    if (!shade_fn(s->device))
+        return "the device accelerator runs no programs";
+    if (s->instance_count)
+        return "device programs do not shade instances yet";
+    if (s->needs & (RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS))
+        return "device programs do not read materials, textures or lights yet";
+    rtk_shade_batch probe;
+    memset(&probe, 0, sizeof probe);
+    probe.size = sizeof probe;
+    probe.program = program;
+    return s->device->shade(s->device_state, &probe) == RTK_OK ? NULL : "the device does not run this program";
+}
+
+rtk_status rtk_device_shade(const rtk_scene *s, rtk_shade_batch *batch)
+{
+    return s->device->shade(s->device_state, batch);
 }

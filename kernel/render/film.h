@@ -58,6 +58,8 @@ typedef struct rtk_film_render {
     int progress;                          /* 1: progress bar on stderr; default 0 */
     int one_ray_at_a_time;                 /* 1: li for every sample, even where the integrator
                                               has li_batch (rtk conform compares); default 0 */
+    const rtk_device_program *device_program; /* the integrator's program, run on the scene's
+                                                 device (rtk_device_runs said yes); default NULL */
 } rtk_film_render;
 
 #define RTK_FILM_RENDER_DEFAULTS \

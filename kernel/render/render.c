@@ -31,6 +31,9 @@ typedef struct render_job {
     uint64_t seed;
     rtk_film film;
     int batches; /* the integrator's li_batch renders (batches_wanted) */
+    int on_device;  /* the scene's device runs the integrator's program */
+    rtk_device_program program;
+    uint32_t device_run; /* tiles a worker takes at once for the device */
     uint32_t tiles_x, tiles_y, tile_count;
     atomic_uint next_tile;
     atomic_uint tiles_done;
@@ -147,6 +150,94 @@ static void flush_batch(render_job *job, rtk_ctx *ctx, sample_batch *b, uint32_t
         add_sample(job, tile, b->px[i], b->py[i], b->fx[i], b->fy[i], b->fw[i], &b->out[i], bad);
 }
 
+/* Camera samples of several tiles gathered for one device call. */
+#define DEVICE_BATCH 65536u
+
+typedef struct device_batch {
+    rtk_ray rays[DEVICE_BATCH];
+    rtk_sample_pos pos[DEVICE_BATCH];
+    rtk_li_result out[DEVICE_BATCH];
+    float fx[DEVICE_BATCH], fy[DEVICE_BATCH], fw[DEVICE_BATCH];
+    int px[DEVICE_BATCH], py[DEVICE_BATCH];
+    uint32_t tile[DEVICE_BATCH]; /* index into the run's tiles */
+} device_batch;
+
+/* Has the device run the integrator's program on the n samples in b and
+ * adds them, in order, to their tiles. */
+static int flush_device(render_job *job, rtk_ctx *ctx, device_batch *b, uint32_t n, rtk_film_tile *tiles,
+                        uint64_t *bad)
+{
+    rtk_shade_batch sb;
+    memset(&sb, 0, sizeof sb);
+    sb.size = sizeof sb;
+    sb.program = &job->program;
+    sb.gen = &ctx->gen;
+    sb.albedo = rtk_material_default().base_color;
+    sb.count = n;
+    sb.rays = b->rays;
+    sb.pos = b->pos;
+    sb.out = b->out;
+    rtk_status st = rtk_device_shade(job->scene, &sb);
+    if (st != RTK_OK) {
+        fail(job, st);
+        return 0;
+    }
+    ctx->rays += sb.rays_traced;
+    ctx->invalid_rays += sb.invalid_rays;
+    for (uint32_t i = 0; i < n; i++)
+        add_sample(job, &tiles[b->tile[i]], b->px[i], b->py[i], b->fx[i], b->fy[i], b->fw[i], &b->out[i], bad);
+    return 1;
+}
+
+/* Renders tiles [first, end) through the device's program: their samples
+ * in film order, DEVICE_BATCH at a time, then merges them as render_tile does. */
+static void render_tiles_on_device(render_job *job, uint32_t first, uint32_t end, rtk_ctx *ctx, device_batch *b,
+                                   rtk_film_tile *tiles, uint64_t *bad)
+{
+    uint32_t made = 0, n = 0;
+    int ok = 1;
+    for (uint32_t k = 0; ok && k < end - first; k++) {
+        uint32_t index = first + k;
+        uint32_t x0 = index % job->tiles_x * TILE_SIZE, y0 = index / job->tiles_x * TILE_SIZE;
+        uint32_t x1 = x0 + TILE_SIZE < job->film.width ? x0 + TILE_SIZE : job->film.width;
+        uint32_t y1 = y0 + TILE_SIZE < job->film.height ? y0 + TILE_SIZE : job->film.height;
+        rtk_status st = rtk_film_tile_init(&tiles[k], &job->film, x0, y0, x1, y1, job->radius);
+        if (st != RTK_OK) {
+            fail(job, st);
+            ok = 0;
+            break;
+        }
+        made++;
+        for (uint32_t y = y0; ok && y < y1; y++)
+            for (uint32_t x = x0; ok && x < x1; x++)
+                for (uint32_t s = 0; ok && s < job->spp; s++) {
+                    b->rays[n] = start_sample(job, ctx, x, y, s, &b->fx[n], &b->fy[n], &b->fw[n]);
+                    b->pos[n] = ctx->pos;
+                    b->px[n] = (int)x, b->py[n] = (int)y;
+                    b->tile[n] = k;
+                    if (++n == DEVICE_BATCH) {
+                        ok = flush_device(job, ctx, b, n, tiles, bad);
+                        n = 0;
+                    }
+                }
+    }
+    if (ok && n)
+        ok = flush_device(job, ctx, b, n, tiles, bad);
+    if (!ok) {
+        for (uint32_t k = 0; k < made; k++)
+            rtk_film_tile_free(&tiles[k]);
+        return;
+    }
+    pthread_mutex_lock(&job->merge_lock);
+    for (uint32_t k = 0; k < made; k++) {
+        job->pending[first + k] = tiles[k];
+        job->ready[first + k] = 1;
+    }
+    merge_ready(job);
+    pthread_mutex_unlock(&job->merge_lock);
+    atomic_fetch_add(&job->tiles_done, made);
+}
+
 /* RTK_BATCH=off renders one camera ray at a time through li even where
  * the integrator has li_batch: the images must be equal, bit for bit. */
 static int batches_wanted(void)
@@ -216,18 +307,32 @@ static void *worker(void *arg)
     ctx.camera = &job->camera;
     rtk_ctx_set_sampler(&ctx, job->sampler, job->seed, job->spp);
     sample_batch *batch = NULL;
-    if (job->batches && !(batch = malloc(sizeof *batch))) {
+    device_batch *dbatch = NULL;
+    rtk_film_tile *tiles = NULL;
+    if (job->on_device && (!(dbatch = malloc(sizeof *dbatch)) || !(tiles = calloc(job->device_run, sizeof *tiles)))) {
+        free(dbatch);
+        fail(job, rtk_error(RTK_ERR_NOMEM, "out of memory for a device batch of %u camera samples", DEVICE_BATCH));
+        return NULL;
+    }
+    if (job->batches && !job->on_device && !(batch = malloc(sizeof *batch))) {
         fail(job, rtk_error(RTK_ERR_NOMEM, "out of memory for a batch of %u camera samples", RTK_BATCH_MAX));
         return NULL;
     }
     uint64_t bad = 0;
     for (;;) {
-        uint32_t i = atomic_fetch_add(&job->next_tile, 1);
+        uint32_t step = job->on_device ? job->device_run : 1;
+        uint32_t i = atomic_fetch_add(&job->next_tile, step);
         if (i >= job->tile_count || atomic_load(&job->failed))
             break;
-        render_tile(job, i, &ctx, batch, &bad);
+        if (job->on_device)
+            render_tiles_on_device(job, i, i + step < job->tile_count ? i + step : job->tile_count, &ctx, dbatch,
+                                   tiles, &bad);
+        else
+            render_tile(job, i, &ctx, batch, &bad);
     }
     free(batch);
+    free(dbatch);
+    free(tiles);
     pthread_mutex_lock(&job->merge_lock);
     job->rays += ctx.rays;
     job->invalid_rays += ctx.invalid_rays;
@@ -319,6 +424,12 @@ rtk_status rtk_render_film(const rtk_film_render *r, float *pixels, rtk_render_s
     job.camera = *r->camera;
     job.integrator = r->integrator;
     job.batches = batch_fn(r->integrator) && !r->one_ray_at_a_time && batches_wanted();
+    job.on_device = r->device_program != NULL;
+    if (job.on_device) {
+        job.program = *r->device_program;
+        uint64_t per_tile = (uint64_t)TILE_SIZE * TILE_SIZE * (r->spp ? r->spp : 1);
+        job.device_run = per_tile < DEVICE_BATCH ? (uint32_t)(DEVICE_BATCH / per_tile) : 1;
+    }
     job.istate = r->integrator_state;
     job.filter = r->filter;
     job.fstate = r->filter_state;
@@ -562,6 +673,31 @@ static rtk_status phase_prepare(render_state *rs)
     return rs->pixels ? RTK_OK : RTK_ERR_NOMEM;
 }
 
+/* The integrator's device program when the scene's device runs it (it
+ * then shades whole samples), else NULL, saying why in the log. */
+static const rtk_device_program *device_program(const render_state *rs, rtk_device_program *program)
+{
+    const rtk_integrator_fns *f = rs->ifn;
+    if (!rs->scene->device)
+        return NULL;
+    const char *name = rs->cfg->integrator.plugin->name;
+    int has = f->size >= offsetof(rtk_integrator_fns, device_program) + sizeof f->device_program &&
+              f->device_program && f->device_program(rs->istate, program);
+    if (!has) {
+        rtk_log(RTK_LOG_INFO, "integrator '%s' (with these parameters) has no device program: it shades on the CPU "
+                "and the device traces its batches", name);
+        return NULL;
+    }
+    program->name[sizeof program->name - 1] = '\0';
+    const char *why = rtk_device_runs(rs->scene, program);
+    if (why) {
+        rtk_log(RTK_LOG_INFO, "device program '%s' of integrator '%s' stays on the CPU (%s): the device traces its "
+                "batches", program->name, name, why);
+        return NULL;
+    }
+    return program;
+}
+
 /* Renders the film on the thread pool and reports its rays and mean. */
 static rtk_status phase_render(render_state *rs)
 {
@@ -582,6 +718,8 @@ static rtk_status phase_render(render_state *rs)
     job.seed = cfg->seed;
     job.threads = rs->threads;
     job.progress = rs->progress;
+    rtk_device_program program;
+    job.device_program = device_program(rs, &program);
     rtk_status st = rtk_render_film(&job, rs->pixels, &rs->stats);
     if (st != RTK_OK)
         return with_context(st, cfg->path);
@@ -724,11 +862,15 @@ RTK_API void rtk_render_report_print(const rtk_render_report *r, FILE *f)
             (unsigned long long)r->bad_samples);
     if (REPORT_HAS(r, device) && r->on_device) {
         const rtk_device_report *d = &r->device;
-        fprintf(f, "device  %8.3f s   %.127s: upload %.3f s, trace %.3f s, download %.3f s; %llu rays in %llu "
-                "batches", d->upload_seconds + d->trace_seconds + d->download_seconds, d->device, d->upload_seconds,
-                d->trace_seconds, d->download_seconds, (unsigned long long)d->rays, (unsigned long long)d->batches);
-        if (d->trace_seconds > 0.0)
-            fprintf(f, " (%.1f Mrays/s traced)", (double)d->rays / d->trace_seconds * 1e-6);
+        double busy = d->trace_seconds + d->shade_seconds;
+        fprintf(f, "device  %8.3f s   %.127s: upload %.3f s, trace %.3f s, shade %.3f s, download %.3f s; %llu rays "
+                "in %llu batches", d->upload_seconds + busy + d->download_seconds, d->device, d->upload_seconds,
+                d->trace_seconds, d->shade_seconds, d->download_seconds, (unsigned long long)d->rays,
+                (unsigned long long)d->batches);
+        if (busy > 0.0)
+            fprintf(f, " (%.1f Mrays/s on the device)", (double)d->rays / busy * 1e-6);
+        if (d->samples)
+            fprintf(f, "; %llu samples shaded by the integrator's device program", (unsigned long long)d->samples);
         fprintf(f, "; %.1f MiB device memory", (double)d->device_bytes / (1024.0 * 1024.0));
         if (d->cpu_rays)
             fprintf(f, "; %llu rays on the CPU after a device failure", (unsigned long long)d->cpu_rays);

@@ -173,13 +173,6 @@ RTK_API void rtk_scene_triangle(const rtk_scene *s, uint32_t prim, rtk_vec3 *a, 
     *c = rtk_vec3_make(p2[0], p2[1], p2[2]);
 }
 
-static rtk_vec3 lerp3(const float *corner, float u, float v)
-{
-    float w = 1.0f - u - v;
-    return rtk_vec3_make(w * corner[0] + u * corner[3] + v * corner[6], w * corner[1] + u * corner[4] + v * corner[7],
-                         w * corner[2] + u * corner[5] + v * corner[8]);
-}
-
 static int finite3d(const double v[3])
 {
     return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
@@ -333,18 +326,9 @@ static void surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differ
     rtk_vec3 a, b, c;
     rtk_scene_triangle(s, hit->prim, &a, &b, &c);
     float u = hit->u, v = hit->v, w = 1.0f - u - v;
-    out->p = rtk_vec3_make(w * a.x + u * b.x + v * c.x, w * a.y + u * b.y + v * c.y, w * a.z + u * b.z + v * c.z);
-    rtk_vec3 ng = rtk_vec3_normalize(rtk_vec3_cross(rtk_vec3_sub(b, a), rtk_vec3_sub(c, a)));
-    out->front_face = rtk_vec3_dot(ng, ray->dir) < 0.0f;
-    if (!out->front_face)
-        ng = rtk_vec3_neg(ng);
-    out->ng = ng;
-    out->ns = ng;
-    if (s->normals) {
-        rtk_vec3 ns = rtk_vec3_normalize(lerp3(s->normals + 9 * (size_t)hit->prim, u, v));
-        if (rtk_vec3_dot(ns, ns) > 0.0f && isfinite(ns.x) && isfinite(ns.y) && isfinite(ns.z))
-            out->ns = rtk_vec3_dot(ns, ng) < 0.0f ? rtk_vec3_neg(ns) : ns;
-    }
+    rtk_surface_geometry(a, b, c, s->normals ? s->normals + 9 * (size_t)hit->prim : NULL, u, v, ray->dir, &out->p,
+                         &out->ng, &out->ns, &out->front_face);
+    rtk_vec3 ng = out->ng;
     /* Cutouts make a scene keep uvs and materials the integrator did not
      * ask for; it still gets the neutral values it was promised. */
     const int uvs = s->uvs && (s->needs & RTK_NEED_UVS);

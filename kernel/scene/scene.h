@@ -9,6 +9,7 @@
 #include "camera.h"
 #include "files.h"
 #include "texture.h"
+#include "surface_geom.h"
 
 RTK_EXTERN_C_BEGIN
 

@@ -9,10 +9,13 @@
  *
  * Example: integrator = { plugin = "ao"; rays = 64; distance = 0.5; };
  */
+#include "ao_estimator.h"
+
 #include <rtk/rtk.h>
 
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 typedef struct ao {
     int rays;
@@ -38,16 +41,6 @@ static uint32_t ao_needs(const void *state)
     return RTK_NEED_NORMALS | (a->albedo ? RTK_NEED_MATERIALS | RTK_NEED_TEXTURES : 0u);
 }
 
-/* Orthonormal basis around unit n (Duff et al. 2017). */
-static void basis(rtk_vec3 n, rtk_vec3 *b1, rtk_vec3 *b2)
-{
-    float s = copysignf(1.0f, n.z);
-    float a = -1.0f / (s + n.z);
-    float b = n.x * n.y * a;
-    *b1 = rtk_vec3_make(1.0f + s * n.x * n.x * a, s * b, -s * n.x);
-    *b2 = rtk_vec3_make(b, s + n.y * n.y * a, -n.y);
-}
-
 /* The hit's surface (the current sample's camera ray) into out's AOVs. */
 static void surface(const ao *a, rtk_ctx *ctx, const rtk_ray *ray, const rtk_hit *hit, rtk_surface *s,
                     rtk_li_result *out)
@@ -61,26 +54,16 @@ static void surface(const ao *a, rtk_ctx *ctx, const rtk_ray *ray, const rtk_hit
     out->depth = hit->t * rtk_vec3_length(ray->dir);
 }
 
-/* Occlusion ray i of a->rays around s (the current sample's draws in
- * order); 0 when its direction is below the geometric surface (possible
- * with interpolated normals): it would start inside and counts as blocked. */
+/* The next occlusion ray around s (the current sample's next draw);
+ * 0 when it points below the surface (rtk_ao_ray). */
 static int occlusion_ray(const ao *a, rtk_ctx *ctx, const rtk_surface *s, rtk_vec3 b1, rtk_vec3 b2, rtk_ray *r)
 {
-    rtk_vec2 u = rtk_sample_2d(ctx);
-    float rad = sqrtf(u.x), phi = 2.0f * (float)RTK_PI * u.y;
-    float z = sqrtf(fmaxf(0.0f, 1.0f - u.x));
-    r->org = rtk_offset_ray_origin(s->p, s->ng);
-    r->tmin = 0.0f;
-    r->tmax = a->distance;
-    r->dir = rtk_vec3_add(rtk_vec3_add(rtk_vec3_scale(b1, rad * cosf(phi)), rtk_vec3_scale(b2, rad * sinf(phi))),
-                          rtk_vec3_scale(s->ns, z));
-    return rtk_vec3_dot(r->dir, s->ng) > 0.0f;
+    return rtk_ao_ray(rtk_sample_2d(ctx), rtk_offset_ray_origin(s->p, s->ng), s->ng, s->ns, b1, b2, a->distance, r);
 }
 
 static void finish(const ao *a, int open, rtk_rgb base_color, rtk_li_result *out)
 {
-    float v = (float)open / (float)a->rays;
-    out->radiance = a->albedo ? rtk_rgb_scale(base_color, v) : rtk_rgb_make(v, v, v);
+    out->radiance = rtk_ao_value(open, a->rays, a->albedo, base_color);
 }
 
 static void ao_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
@@ -92,7 +75,7 @@ static void ao_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_re
     rtk_surface s;
     surface(a, ctx, ray, &hit, &s, out);
     rtk_vec3 b1, b2;
-    basis(s.ns, &b1, &b2);
+    rtk_ao_basis(s.ns, &b1, &b2);
     int open = 0;
     for (int i = 0; i < a->rays; i++) {
         rtk_ray r;
@@ -124,7 +107,7 @@ static void ao_li_batch(const void *state, rtk_ctx *ctx, const rtk_ray *rays, ui
         rtk_surface s;
         surface(a, ctx, &rays[i], &hits[i], &s, &out[i]);
         rtk_vec3 b1, b2;
-        basis(s.ns, &b1, &b2);
+        rtk_ao_basis(s.ns, &b1, &b2);
         for (int k = 0; k < a->rays; k++) {
             if (!occlusion_ray(a, ctx, &s, b1, b2, &wave[n]))
                 continue;
@@ -143,6 +126,21 @@ static void ao_li_batch(const void *state, rtk_ctx *ctx, const rtk_ray *rays, ui
     for (uint32_t i = 0; i < count; i++)
         if (hits[i].prim != RTK_INVALID_ID)
             finish(a, open[i], out[i].albedo, &out[i]);
+}
+
+/* Device program "ao" (plugins/integrators/device_programs.h): params rays and
+ * distance. With albedo the surface colour needs materials and textures
+ * on the device, which device programs do not have: li renders it. */
+static int ao_device_program(const void *state, rtk_device_program *program)
+{
+    const ao *a = state;
+    if (a->albedo)
+        return 0;
+    memset(program, 0, sizeof *program);
+    strcpy(program->name, "ao");
+    program->params[0] = (float)a->rays;
+    program->params[1] = a->distance;
+    return 1;
 }
 
 static void ao_destroy(void *state)
@@ -166,6 +164,7 @@ static const rtk_integrator_fns ao_fns = {
     .li = ao_li,
     .li_batch = ao_li_batch,
     .destroy = ao_destroy,
+    .device_program = ao_device_program,
 };
 
 static const rtk_plugin ao_plugin = {

@@ -1,10 +1,12 @@
 /* What the tests/cuda programs share: the ok/FAIL lines and their count,
- * a repeatable random spread, and the GPU probe with its closing lines. */
+ * a repeatable random spread, copies to the device, and the GPU probe
+ * with its closing lines. */
 #ifndef RTK_TESTS_CUDA_TEST_H
 #define RTK_TESTS_CUDA_TEST_H
 
 #include <cuda_runtime.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 
@@ -34,6 +36,20 @@ inline bool gpu_present(cudaError_t *why)
     int devices = 0;
     *why = cudaGetDeviceCount(&devices);
     return *why == cudaSuccess && devices > 0;
+}
+
+/* A device copy of n items at p; nullptr when p is null, n is 0 or CUDA
+ * fails. [caller cudaFrees] */
+template <typename T> T *upload(const T *p, size_t n)
+{
+    T *d = nullptr;
+    if (!p || n == 0 || cudaMalloc(&d, n * sizeof *p) != cudaSuccess)
+        return nullptr;
+    if (cudaMemcpy(d, p, n * sizeof *p, cudaMemcpyHostToDevice) != cudaSuccess) {
+        cudaFree(d);
+        return nullptr;
+    }
+    return d;
 }
 
 /* The closing lines (the skip of the device code without a GPU, the

@@ -248,18 +248,6 @@ __global__ void light_kernel(rtk_environment env, const rtk_punctual_light *ligh
         run_shared(&env, lights, &in[i], &out[i]);
 }
 
-template <typename T> T *upload(const T *p, size_t n)
-{
-    T *d = nullptr;
-    if (!p || n == 0 || cudaMalloc(&d, n * sizeof *p) != cudaSuccess)
-        return nullptr;
-    if (cudaMemcpy(d, p, n * sizeof *p, cudaMemcpyHostToDevice) != cudaSuccess) {
-        cudaFree(d);
-        return nullptr;
-    }
-    return d;
-}
-
 bool close(float a, float b)
 {
     return std::fabs(a - b) <= 1e-3f * std::fmax(std::fabs(a), std::fabs(b)) + 1e-6f;

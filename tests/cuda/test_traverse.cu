@@ -140,19 +140,6 @@ __global__ void trace_kernel(rtk_flat_tree f, const rtk_ray *rays, trace_out *ou
         trace_flat(&f, &rays[i], &out[i]);
 }
 
-/* Copies n items to the device; nullptr on failure. */
-template <typename T> T *upload(const T *p, size_t n)
-{
-    T *d = nullptr;
-    if (cudaMalloc(&d, n * sizeof *p) != cudaSuccess)
-        return nullptr;
-    if (cudaMemcpy(d, p, n * sizeof *p, cudaMemcpyHostToDevice) != cudaSuccess) {
-        cudaFree(d);
-        return nullptr;
-    }
-    return d;
-}
-
 /* The device code's answers for rays on tree f (host pointers); false
  * when CUDA fails. */
 bool trace_on_gpu(const rtk_flat_tree &f, size_t nodes, size_t slots, const std::vector<rtk_ray> &rays,

@@ -101,6 +101,19 @@ void rtk_conform_add_quad(rtk_scene *s, rtk_vec3 o, rtk_vec3 e1, rtk_vec3 e2, ui
 void rtk_conform_accelerator(rtk_conform_runner *r, const rtk_plugin *p, const rtk_conform_options *o);
 void rtk_conform_filter(rtk_conform_runner *r, const rtk_plugin *p);
 void rtk_conform_integrator(rtk_conform_runner *r, const rtk_plugin *p);
+/* The check line name for two renders of the same film (RTK_FILM_CHANNELS
+ * values a pixel): a through `way`, through_li through li; every value
+ * and the counts of rays and invalid rays must be equal. */
+void rtk_conform_same_films(rtk_conform_runner *r, const char *name, const char *way, const float *a,
+                            const rtk_render_stats *sa, const float *through_li, const rtk_render_stats *sb,
+                            size_t count);
+/* When integrator f (instance state) has a device program: the kernel
+ * knows it, and job (the standard room, built as scene) rendered through
+ * it equals the render through li, for each sampler (conform_programs.c).
+ * through_program and through_li hold count film values. */
+void rtk_conform_device_program(rtk_conform_runner *r, const rtk_integrator_fns *f, void *state, rtk_scene *scene,
+                                rtk_film_render *job, float *through_program, float *through_li, size_t count,
+                                const char *label);
 
 /* Runs the exact tests of the profile integrator p declares
  * (rtk_plugin.conform), one line per check to out, counting into *passed

@@ -1,7 +1,8 @@
 /* Conformance checks for integrator plugins, for every parameter set:
  * known flags, and a render of a small lit room that is finite, not black
  * (black where the parameter set is documented as "emitters only"),
- * the same on 1 and 2 threads and traced through the kernel; then the
+ * the same on 1 and 2 threads and traced through the kernel, li_batch
+ * and the device program (conform_programs.c) equal to li; then the
  * known-answer profiles the plugin declares (conform_profiles.c). Also
  * the stand-in accelerator and filter those renders use. */
 #include "conform.h"
@@ -168,6 +169,23 @@ static int emitters_only(const rtk_plugin *p, const char *label)
     return 0;
 }
 
+void rtk_conform_same_films(rtk_conform_runner *r, const char *name, const char *way, const float *a,
+                            const rtk_render_stats *sa, const float *through_li, const rtk_render_stats *sb,
+                            size_t count)
+{
+    size_t differ = 0, first = count;
+    for (size_t i = 0; i < count; i++)
+        if (memcmp(&a[i], &through_li[i], sizeof(float)) != 0 && differ++ == 0)
+            first = i;
+    rtk_conform_check(r, differ == 0 && sa->rays == sb->rays && sa->invalid_rays == sb->invalid_rays, name,
+                      "%zu of %zu values differ (first: pixel %zu channel %zu, %.9g through %s, %.9g through li); "
+                      "rays %llu against %llu, invalid %llu against %llu",
+                      differ, count, first / RTK_FILM_CHANNELS, first % RTK_FILM_CHANNELS,
+                      differ ? (double)a[first] : 0.0, way, differ ? (double)through_li[first] : 0.0,
+                      (unsigned long long)sa->rays, (unsigned long long)sb->rays,
+                      (unsigned long long)sa->invalid_rays, (unsigned long long)sb->invalid_rays);
+}
+
 /* li_batch gives what li gives, bit for bit: job (rendered through
  * li_batch into batched) again one ray at a time into single, for each
  * sampler; the pixels and the rays traced must be equal. */
@@ -190,16 +208,7 @@ static void check_batches(rtk_conform_runner *r, rtk_film_render *job, float *ba
             rtk_conform_check(r, 0, name, "%s", rtk_error_message());
             continue;
         }
-        size_t differ = 0, first = count;
-        for (size_t i = 0; i < count; i++)
-            if (memcmp(&batched[i], &single[i], sizeof(float)) != 0 && differ++ == 0)
-                first = i;
-        rtk_conform_check(r, differ == 0 && sa.rays == sb.rays && sa.invalid_rays == sb.invalid_rays, name,
-                          "%zu of %zu values differ (first: pixel %zu channel %zu, %.9g through li_batch, %.9g "
-                          "through li); rays %llu against %llu",
-                          differ, count, first / RTK_FILM_CHANNELS, first % RTK_FILM_CHANNELS,
-                          differ ? (double)batched[first] : 0.0, differ ? (double)single[first] : 0.0,
-                          (unsigned long long)sa.rays, (unsigned long long)sb.rays);
+        rtk_conform_same_films(r, name, "li_batch", batched, &sa, single, &sb, count);
     }
     job->sampler = RTK_SAMPLER_INDEPENDENT;
     job->one_ray_at_a_time = 0;
@@ -275,6 +284,7 @@ static void check_integrator(rtk_conform_runner *r, const rtk_plugin *p, void *s
             rtk_conform_check(r, sa.rays > 0, name, "no ray was traced");
             if (f->size >= offsetof(rtk_integrator_fns, li_batch) + sizeof f->li_batch && f->li_batch)
                 check_batches(r, &job, a, b, count, label);
+            rtk_conform_device_program(r, f, state, scene, &job, a, b, count, label);
         }
         free(a);
         free(b);

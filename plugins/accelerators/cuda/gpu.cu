@@ -19,6 +19,7 @@
 struct rtk_gpu {
     int ordinal;
     rtk_flat_scene scene;   /* device pointers */
+    rtk_program_scene program_scene; /* the same, with slots and normals */
     void **blocks;          /* every device allocation of the trees */
     size_t block_count, block_cap;
     uint64_t tree_bytes, lane_bytes;
@@ -31,6 +32,10 @@ struct rtk_gpu_lane {
     rtk_ray *rays, *host_rays;    /* device, pinned host */
     rtk_hit *hits, *host_hits;
     uint8_t *occluded, *host_occluded;
+    /* Device programs' buffers, made at the lane's first program. */
+    rtk_sample_pos *pos, *host_pos;
+    rtk_li_result *out, *host_out;
+    rtk_program_count *counts, *host_counts;
 };
 
 namespace {
@@ -59,6 +64,16 @@ __global__ void any_kernel(rtk_flat_scene scene, const rtk_ray *rays, uint32_t c
     const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
     if (i < count)
         occluded[i] = (uint8_t)rtk_flat_scene_any(&scene, &rays[i]);
+}
+
+/* One sample a thread. */
+__global__ void program_kernel(rtk_program p, rtk_program_scene s, rtk_sample_gen g, const rtk_ray *rays,
+                               const rtk_sample_pos *pos, uint32_t count, rtk_li_result *out,
+                               rtk_program_count *counts)
+{
+    const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+    if (i < count)
+        rtk_program_run(&p, &s, &g, &pos[i], &rays[i], &out[i], &counts[i]);
 }
 
 const unsigned block_threads = 128;
@@ -152,6 +167,7 @@ static void free_trees(rtk_gpu *g)
     g->block_count = g->block_cap = 0;
     g->tree_bytes = 0;
     g->scene = rtk_flat_scene();
+    g->program_scene = rtk_program_scene();
 }
 
 int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, char *why, size_t cap)
@@ -184,6 +200,18 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
              put(g, tree->instances, sizeof(rtk_device_instance) * (size_t)tree->instance_count, &instances,
                  "instances", why, cap);
     std::free(meshes);
+    const void *slots = nullptr, *normals = nullptr;
+    if (!st && tree->slot_count) {
+        uint32_t *slot_of = static_cast<uint32_t *>(std::malloc(sizeof *slot_of * tree->slot_count));
+        if (!slot_of)
+            st = -1, std::snprintf(why, cap, "out of memory");
+        if (!st) {
+            rtk_program_slots(tree, slot_of);
+            st = put(g, slot_of, sizeof *slot_of * (size_t)tree->slot_count, &slots, "triangle slots", why, cap) ||
+                 put(g, tree->normals, sizeof(float) * 9 * (size_t)tree->slot_count, &normals, "normals", why, cap);
+        }
+        std::free(slot_of);
+    }
     if (!st)
         st = failed(cudaEventRecord(stop), "cudaEventRecord", why, cap) ||
              failed(cudaEventSynchronize(stop), "cudaEventSynchronize", why, cap);
@@ -203,6 +231,9 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
     scene.top.order = static_cast<const uint32_t *>(order);
     scene.top.instances = static_cast<const rtk_device_instance *>(instances);
     g->scene = scene;
+    g->program_scene.flat = scene;
+    g->program_scene.slot_of = static_cast<const uint32_t *>(slots);
+    g->program_scene.normals = static_cast<const float *>(normals);
     *seconds = 1e-3 * (double)ms;
     return 0;
 }
@@ -221,11 +252,29 @@ void rtk_gpu_close(rtk_gpu *g)
     delete g;
 }
 
+/* The lane's last upload, run and download (its four events), in seconds. */
+static int lane_seconds(const rtk_gpu_lane *l, double seconds[3], char *why, size_t cap)
+{
+    for (int k = 0; k < 3; k++) {
+        float ms = 0.0f;
+        if (failed(cudaEventElapsedTime(&ms, l->marks[k], l->marks[k + 1]), "cudaEventElapsedTime", why, cap))
+            return -1;
+        seconds[k] = 1e-3 * (double)ms;
+    }
+    return 0;
+}
+
 /* Bytes of device memory (and as many of pinned host memory) a lane of
  * capacity rays holds. */
 static uint64_t lane_bytes(uint32_t capacity)
 {
     return (uint64_t)capacity * (sizeof(rtk_ray) + sizeof(rtk_hit) + 1);
+}
+
+/* The same for a lane's program buffers. */
+static uint64_t program_bytes(uint32_t capacity)
+{
+    return (uint64_t)capacity * (sizeof(rtk_sample_pos) + sizeof(rtk_li_result) + sizeof(rtk_program_count));
 }
 
 void rtk_gpu_lane_close(rtk_gpu *g, rtk_gpu_lane *l)
@@ -240,8 +289,12 @@ void rtk_gpu_lane_close(rtk_gpu *g, rtk_gpu_lane *l)
             cudaEventDestroy(e);
     cudaFree(l->rays), cudaFree(l->hits), cudaFree(l->occluded);
     cudaFreeHost(l->host_rays), cudaFreeHost(l->host_hits), cudaFreeHost(l->host_occluded);
+    cudaFree(l->pos), cudaFree(l->out), cudaFree(l->counts);
+    cudaFreeHost(l->host_pos), cudaFreeHost(l->host_out), cudaFreeHost(l->host_counts);
     if (l->capacity)
         g->lane_bytes -= lane_bytes(l->capacity);
+    if (l->counts)
+        g->lane_bytes -= program_bytes(l->capacity);
     delete l;
 }
 
@@ -308,15 +361,80 @@ int rtk_gpu_trace(rtk_gpu *g, rtk_gpu_lane *l, const rtk_ray *rays, uint32_t cou
          failed(cudaStreamSynchronize(l->stream), hits ? "closest_kernel" : "any_kernel", why, cap);
     if (st)
         return -1;
-    for (int k = 0; k < 3; k++) {
-        float ms = 0.0f;
-        if (failed(cudaEventElapsedTime(&ms, l->marks[k], l->marks[k + 1]), "cudaEventElapsedTime", why, cap))
-            return -1;
-        seconds[k] = 1e-3 * (double)ms;
-    }
+    if (lane_seconds(l, seconds, why, cap))
+        return -1;
     if (hits)
         std::memcpy(hits, l->host_hits, sizeof(rtk_hit) * (size_t)count);
     else
         std::memcpy(occluded, l->host_occluded, count);
+    return 0;
+}
+
+/* Makes lane l's program buffers if it has none yet. */
+static int program_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
+{
+    if (l->counts)
+        return 0;
+    const size_t n = l->capacity;
+    int st = failed(cudaMalloc(&l->pos, sizeof(rtk_sample_pos) * n), "cudaMalloc (sample streams)", why, cap) ||
+             failed(cudaMalloc(&l->out, sizeof(rtk_li_result) * n), "cudaMalloc (results)", why, cap) ||
+             failed(cudaMallocHost(&l->host_pos, sizeof(rtk_sample_pos) * n), "cudaMallocHost (sample streams)", why,
+                    cap) ||
+             failed(cudaMallocHost(&l->host_out, sizeof(rtk_li_result) * n), "cudaMallocHost (results)", why, cap) ||
+             failed(cudaMallocHost(&l->host_counts, sizeof(rtk_program_count) * n), "cudaMallocHost (ray counts)",
+                    why, cap) ||
+             failed(cudaMalloc(&l->counts, sizeof(rtk_program_count) * n), "cudaMalloc (ray counts)", why, cap);
+    if (st)
+        return -1; /* what was made is freed with the lane */
+    g->lane_bytes += program_bytes(l->capacity);
+    return 0;
+}
+
+int rtk_gpu_shade(rtk_gpu *g, rtk_gpu_lane *l, const rtk_program *p, rtk_rgb albedo, const rtk_sample_gen *gen,
+                  const rtk_ray *rays, const rtk_sample_pos *pos, uint32_t count, rtk_li_result *out,
+                  uint64_t counts[2], double seconds[3], char *why, size_t cap)
+{
+    if (count == 0)
+        return 0;
+    if (count > l->capacity) {
+        std::snprintf(why, cap, "a batch of %u samples on a lane of %u", count, l->capacity);
+        return -1;
+    }
+    if (failed(cudaSetDevice(g->ordinal), "cudaSetDevice", why, cap) || program_buffers(g, l, why, cap))
+        return -1;
+    std::memcpy(l->host_rays, rays, sizeof(rtk_ray) * (size_t)count);
+    std::memcpy(l->host_pos, pos, sizeof(rtk_sample_pos) * (size_t)count);
+    rtk_program_scene scene = g->program_scene;
+    scene.albedo = albedo;
+    const unsigned blocks = (count + block_threads - 1) / block_threads;
+    int st = failed(cudaEventRecord(l->marks[0], l->stream), "cudaEventRecord", why, cap) ||
+             failed(cudaMemcpyAsync(l->rays, l->host_rays, sizeof(rtk_ray) * (size_t)count, cudaMemcpyHostToDevice,
+                                    l->stream),
+                    "cudaMemcpyAsync (rays)", why, cap) ||
+             failed(cudaMemcpyAsync(l->pos, l->host_pos, sizeof(rtk_sample_pos) * (size_t)count,
+                                    cudaMemcpyHostToDevice, l->stream),
+                    "cudaMemcpyAsync (sample streams)", why, cap) ||
+             failed(cudaEventRecord(l->marks[1], l->stream), "cudaEventRecord", why, cap);
+    if (st)
+        return -1;
+    program_kernel<<<blocks, block_threads, 0, l->stream>>>(*p, scene, *gen, l->rays, l->pos, count, l->out,
+                                                             l->counts);
+    st = failed(cudaGetLastError(), "program_kernel launch", why, cap) ||
+         failed(cudaEventRecord(l->marks[2], l->stream), "cudaEventRecord", why, cap) ||
+         failed(cudaMemcpyAsync(l->host_out, l->out, sizeof(rtk_li_result) * (size_t)count, cudaMemcpyDeviceToHost,
+                                l->stream),
+                "cudaMemcpyAsync (results)", why, cap) ||
+         failed(cudaMemcpyAsync(l->host_counts, l->counts, sizeof(rtk_program_count) * (size_t)count,
+                                cudaMemcpyDeviceToHost, l->stream),
+                "cudaMemcpyAsync (ray counts)", why, cap) ||
+         failed(cudaEventRecord(l->marks[3], l->stream), "cudaEventRecord", why, cap) ||
+         failed(cudaStreamSynchronize(l->stream), "program_kernel", why, cap);
+    if (st)
+        return -1;
+    if (lane_seconds(l, seconds, why, cap))
+        return -1;
+    std::memcpy(out, l->host_out, sizeof(rtk_li_result) * (size_t)count);
+    for (uint32_t i = 0; i < count; i++)
+        counts[0] += l->host_counts[i].traced, counts[1] += l->host_counts[i].invalid;
     return 0;
 }

@@ -6,6 +6,8 @@
 #ifndef RTK_CUDA_GPU_H
 #define RTK_CUDA_GPU_H
 
+#include "../../integrators/device_programs.h"
+
 #include <rtk/accelerator.h>
 
 #include <stddef.h>
@@ -18,8 +20,9 @@ typedef struct rtk_gpu_lane rtk_gpu_lane;
 
 /* Opens device ordinal (0 = the first), naming it in name[name_cap]. */
 int rtk_gpu_open(int ordinal, char *name, size_t name_cap, rtk_gpu **out, char *why, size_t cap);
-/* Copies tree's nodes, leaf order and corners to the device (once), and
- * an instanced scene's meshes, top level and placements. */
+/* Copies tree's nodes, leaf order and corners to the device (once), an
+ * instanced scene's meshes, top level and placements, and what device
+ * programs read (each triangle's slot, the normals). */
 int rtk_gpu_upload(rtk_gpu *gpu, const rtk_device_tree *tree, double *seconds, char *why, size_t cap);
 /* Device memory the tree and the lanes hold, in bytes. */
 uint64_t rtk_gpu_bytes(const rtk_gpu *gpu);
@@ -35,6 +38,15 @@ void rtk_gpu_lane_close(rtk_gpu *gpu, rtk_gpu_lane *lane);
  * the traversal and the download of the results (CUDA events). */
 int rtk_gpu_trace(rtk_gpu *gpu, rtk_gpu_lane *lane, const rtk_ray *rays, uint32_t count, rtk_hit *hits,
                   uint8_t *occluded, double seconds[3], char *why, size_t cap);
+
+/* Runs program p on count <= capacity camera samples on lane (one GPU
+ * thread a sample, plugins/integrators/device_programs.h): results into out
+ * (filled as the kernel pre-fills them, then by the program), the rays
+ * it traced and the invalid ones added to counts[0] and counts[1].
+ * seconds as for rtk_gpu_trace. */
+int rtk_gpu_shade(rtk_gpu *gpu, rtk_gpu_lane *lane, const rtk_program *p, rtk_rgb albedo, const rtk_sample_gen *gen,
+                  const rtk_ray *rays, const rtk_sample_pos *pos, uint32_t count, rtk_li_result *out,
+                  uint64_t counts[2], double seconds[3], char *why, size_t cap);
 
 RTK_EXTERN_C_END
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The kernel's device accelerators end to end, with testdevice (a device
 # that is the CPU): images through it equal the builder's bit for bit (ao,
-# headlight and path, which trace in batches; an instanced scene), the
+# headlight and path, which trace in batches; an instanced scene; ao's
+# device program, AOVs included, and where it does not run), the
 # report's device line, the BVH cache, `rtk bench`'s device table and
 # counts, and every refusal with its message (a wrong builder at its
 # config line, a device that cannot start or take the tree).
@@ -51,6 +52,82 @@ same_image path "$cornell/cornell.cfg" --set integrator.max_depth=4
 printf 'scene = "%s/cornell.obj";\ninstances = ( { file = "%s/cornell.obj"; translate = [0.3, 0.1, 0.4]; scale = [0.3, 0.3, 0.3]; },\n  { file = "%s/cornell.obj"; translate = [0.35, 0.0, 0.2]; rotate = [0.0, 1.0, 0.0, 30.0]; scale = [-0.25, 0.25, 0.25]; } );\ncamera = { position = [0.278, 0.273, -0.8]; look_at = [0.278, 0.273, 0.0]; fov = 39.3076; };\nintegrator = { plugin = "ao"; rays = 8; distance = 0.3; };\n' \
     "$cornell" "$cornell" "$cornell" >"$tmp/instanced.cfg"
 same_image instanced "$tmp/instanced.cfg"
+
+# Device programs (ABI 3.6): ao shades whole samples on the device. Its
+# images, AOVs included, equal li's bit for bit: the EXR files differ only
+# in their capDate attribute.
+same_but_date() {
+    local date_at
+    date_at=$(grep -obUa capDate "$1" | head -1 | cut -d: -f1)
+    [ -n "$date_at" ] && [ "$(stat -c %s "$1")" = "$(stat -c %s "$2")" ] &&
+        cmp -l "$1" "$2" | awk -v d="$date_at" '$1 - 1 < d || $1 - 1 > d + 64 { bad = 1 } END { exit bad }'
+}
+program_image() {
+    local name=$1 cfg=$2
+    shift 2
+    local dev=("$rtk" render "$cfg" "${small[@]}" "$@" --set 'film.aovs=["albedo","normal","depth"]')
+    if ! "${dev[@]}" --set accelerator.plugin=sah --set film.output="$tmp/$name-sah.exr" >"$tmp/$name-sah.log" 2>&1 ||
+       ! "${dev[@]}" --set accelerator.plugin=testdevice --set film.output="$tmp/$name-dev.exr" \
+         >"$tmp/$name-dev.log" 2>&1; then
+        bad "$name: a render failed"; sed 's/^/    /' "$tmp/$name-sah.log" "$tmp/$name-dev.log"; return
+    fi
+    local samples rays_sah rays_dev
+    samples=$(sed -n 's/^device .*; \([0-9]*\) samples shaded by the integrator.s device program.*/\1/p' "$tmp/$name-dev.log")
+    rays_sah=$(awk '$1 == "rays" { print $2 }' "$tmp/$name-sah.log")
+    rays_dev=$(awk '$1 == "rays" { print $2 }' "$tmp/$name-dev.log")
+    if same_but_date "$tmp/$name-dev.exr" "$tmp/$name-sah.exr" && [ -n "$samples" ] && [ "$samples" -gt 0 ] &&
+       [ "$rays_sah" = "$rays_dev" ]; then
+        ok "$name: ao's device program: image and AOVs equal li's; $samples samples, $rays_dev rays as on the CPU"
+    else
+        bad "$name: files differ beyond their date, or no samples shaded ('$samples'), or rays $rays_dev != $rays_sah"
+        sed 's/^/    /' "$tmp/$name-dev.log"
+    fi
+}
+# A smooth sphere (corner normals, so shading and geometric normals part)
+# on a floor.
+awk 'BEGIN {
+    pi = 3.14159265358979; nu = 24; nv = 12
+    for (j = 0; j <= nv; j++) for (i = 0; i < nu; i++) {
+        t = pi * j / nv; p = 2 * pi * i / nu
+        x = sin(t) * cos(p); y = cos(t); z = sin(t) * sin(p)
+        printf "v %.6f %.6f %.6f\nvn %.6f %.6f %.6f\n", 0.3 * x, 0.3 * y + 0.3, 0.3 * z, x, y, z
+    }
+    for (j = 0; j < nv; j++) for (i = 0; i < nu; i++) {
+        a = j * nu + i + 1; b = j * nu + (i + 1) % nu + 1; c = a + nu; d = b + nu
+        printf "f %d//%d %d//%d %d//%d\nf %d//%d %d//%d %d//%d\n", a, a, c, c, b, b, b, b, c, c, d, d
+    }
+    n = (nv + 1) * nu
+    printf "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nvn 0 1 0\n"
+    printf "f %d//%d %d//%d %d//%d\nf %d//%d %d//%d %d//%d\n", n+1, n+1, n+3, n+1, n+2, n+1, n+1, n+1, n+4, n+1, n+3, n+1
+}' >"$tmp/sphere.obj"
+printf 'scene = "%s/sphere.obj";\ncamera = { position = [0.0, 0.9, -1.4]; look_at = [0.0, 0.25, 0.0]; fov = 45.0; };\nintegrator = { plugin = "ao"; rays = 6; distance = 0.5; };\n' \
+    "$tmp" >"$tmp/sphere.cfg"
+program_image "program, independent" "$tmp/sphere.cfg"
+program_image "program, stratified" "$tmp/sphere.cfg" --set sampler.type=\"stratified\" --set film.spp=6
+program_image "program, sobol, importance" "$tmp/sphere.cfg" --set sampler.type=\"sobol\" \
+    --set film.reconstruction=\"importance\" --set filter.plugin=\"mitchell\"
+program_image "program, cornell, any distance" "$cornell/cornell-ao.cfg" --set integrator.distance=inf
+
+# Where the device runs no program, it traces the integrator's batches, saying why.
+fallback() {
+    local name=$1 fragment=$2
+    shift 2
+    local out
+    out=$("$@" 2>&1)
+    if grep -qF -- "$fragment" <<<"$out" && grep -q "^device .* rays in" <<<"$out" &&
+       ! grep -q "samples shaded" <<<"$out"; then
+        ok "$name"
+    else
+        bad "$name (want '$fragment', a device line, no samples shaded)"; echo "$out" | sed 's/^/    /'
+    fi
+}
+dev_ao=("$rtk" render "$tmp/sphere.cfg" "${small[@]}" --set accelerator.plugin=testdevice --set film.output="$tmp/fb.exr")
+fallback "programs = false: batches only" "stays on the CPU (the device does not run this program)" \
+    "${dev_ao[@]}" --set accelerator.programs=false
+fallback "ao with albedo has no device program" "integrator 'ao' (with these parameters) has no device program" \
+    "${dev_ao[@]}" --set integrator.albedo=true
+fallback "instanced scenes stay on the CPU" "device programs do not shade instances yet" \
+    "$rtk" render "$tmp/instanced.cfg" "${small[@]}" --set accelerator.plugin=testdevice --set film.output="$tmp/fb.exr"
 
 # expect NAME FRAGMENT CMD...: CMD fails, saying FRAGMENT.
 refused() {

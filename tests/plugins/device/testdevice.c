@@ -5,11 +5,17 @@
  * reports, refusals) and `rtk conform` are tested on machines without a
  * GPU.
  *
+ * It runs device programs (plugins/integrators/device_programs.h) on the CPU as
+ * the cuda plugin's fallback does, so renders through them must equal the
+ * kernel's own, bit for bit.
+ *
  * Parameters:
- *   builder  string  sah  the accelerator that builds its trees
+ *   builder   string  sah   the accelerator that builds its trees
+ *   programs  bool    true  run integrators' device programs (false: trace batches only)
  * With RTK_TESTDEVICE_FAIL=create or attach in the environment it fails
  * there, with a message (tests of the kernel's errors). */
 #include "accel/device_tree.h"
+#include "../../../plugins/integrators/device_programs.h"
 
 #include <rtk/rtk.h>
 
@@ -21,12 +27,16 @@
 
 typedef struct testdevice {
     int fail_attach;
+    int programs;
     rtk_flat_scene scene;
     rtk_flat_tree *meshes;
+    rtk_program_scene program_scene;
+    uint32_t *slot_of;
     uint64_t bytes;
-    _Atomic uint64_t rays, batches;
+    _Atomic uint64_t rays, batches, samples;
     pthread_mutex_t lock;
     double trace_seconds; /* the batch loops' wall-clock time, as a device times its kernels */
+    double shade_seconds; /* the same for programs */
 } testdevice;
 
 static double now(void)
@@ -48,7 +58,6 @@ static void count_batch(testdevice *d, uint32_t count, double seconds)
 
 static rtk_status testdevice_create(const rtk_params *params, void **state)
 {
-    (void)params;
     const char *fail = getenv("RTK_TESTDEVICE_FAIL");
     fail = fail ? fail : "";
     if (strcmp(fail, "create") == 0)
@@ -57,6 +66,7 @@ static rtk_status testdevice_create(const rtk_params *params, void **state)
     if (!d)
         return rtk_error(RTK_ERR_NOMEM, "testdevice: out of memory");
     d->fail_attach = strcmp(fail, "attach") == 0;
+    d->programs = rtk_params_bool(params, "programs");
     pthread_mutex_init(&d->lock, NULL);
     *state = d;
     return RTK_OK;
@@ -71,9 +81,12 @@ static rtk_status testdevice_attach(void *state, const rtk_device_tree *tree)
     if (!d->meshes)
         return rtk_error(RTK_ERR_NOMEM, "testdevice: out of memory");
     rtk_flat_scene_of(tree, d->meshes, &d->scene);
+    if (rtk_program_scene_of(tree, &d->scene, &d->slot_of, &d->program_scene) != 0)
+        return rtk_error(RTK_ERR_NOMEM, "testdevice: out of memory");
     d->bytes = (uint64_t)tree->node_count * sizeof(rtk_bvh_node) + (uint64_t)tree->slot_count * (4 + 36) +
                (uint64_t)tree->tlas_node_count * sizeof(rtk_bvh_node) +
-               (uint64_t)tree->instance_count * (4 + sizeof(rtk_device_instance));
+               (uint64_t)tree->instance_count * (4 + sizeof(rtk_device_instance)) +
+               (uint64_t)tree->slot_count * (4 + (tree->normals ? 36 : 0)); /* programs' slots and normals */
     for (uint32_t i = 0; i < tree->mesh_count; i++)
         d->bytes += (uint64_t)tree->meshes[i].node_count * sizeof(rtk_bvh_node) +
                     (uint64_t)tree->meshes[i].slot_count * (4 + 36);
@@ -98,6 +111,34 @@ static void testdevice_any_batch(const void *state, const rtk_ray *rays, uint32_
     count_batch(d, count, now() - t0);
 }
 
+static rtk_status testdevice_shade(const void *state, rtk_shade_batch *b)
+{
+    testdevice *d = (testdevice *)state;
+    const rtk_program p = rtk_program_of(b->program);
+    if (!d->programs || p.kind == RTK_PROGRAM_NONE)
+        return rtk_error(RTK_ERR_UNSUPPORTED, "testdevice: %s", d->programs ? "unknown program" : "programs = false");
+    const double t0 = now();
+    rtk_program_scene scene = d->program_scene;
+    scene.albedo = b->albedo;
+    uint64_t traced = 0, invalid = 0;
+    for (uint32_t i = 0; i < b->count; i++) {
+        rtk_program_count c;
+        rtk_program_run(&p, &scene, b->gen, &b->pos[i], &b->rays[i], &b->out[i], &c);
+        traced += c.traced, invalid += c.invalid;
+    }
+    b->rays_traced = traced;
+    b->invalid_rays = invalid;
+    if (b->count) {
+        atomic_fetch_add(&d->rays, traced);
+        atomic_fetch_add(&d->batches, 1);
+        atomic_fetch_add(&d->samples, b->count);
+        pthread_mutex_lock(&d->lock);
+        d->shade_seconds += now() - t0;
+        pthread_mutex_unlock(&d->lock);
+    }
+    return RTK_OK;
+}
+
 static void testdevice_report(const void *state, rtk_device_report *out)
 {
     testdevice *d = (testdevice *)state;
@@ -106,7 +147,9 @@ static void testdevice_report(const void *state, rtk_device_report *out)
     out->batches = atomic_load(&d->batches);
     pthread_mutex_lock(&d->lock);
     out->trace_seconds = d->trace_seconds;
+    out->shade_seconds = d->shade_seconds;
     pthread_mutex_unlock(&d->lock);
+    out->samples = atomic_load(&d->samples);
     out->device_bytes = d->bytes;
 }
 
@@ -115,12 +158,15 @@ static void testdevice_destroy(void *state)
     testdevice *d = state;
     pthread_mutex_destroy(&d->lock);
     free(d->meshes);
+    free(d->slot_of);
     free(d);
 }
 
 static const rtk_param_desc testdevice_params[] = {
     {.name = "builder", .type = RTK_PARAM_STRING, .def_string = "sah",
      .doc = "the accelerator that builds the trees this device traces"},
+    {.name = "programs", .type = RTK_PARAM_BOOL, .def = 1,
+     .doc = "run integrators' device programs (false: trace their batches only)"},
 };
 
 static const rtk_accelerator_fns testdevice_fns = {
@@ -131,6 +177,7 @@ static const rtk_accelerator_fns testdevice_fns = {
     .any_batch = testdevice_any_batch,
     .attach = testdevice_attach,
     .report = testdevice_report,
+    .shade = testdevice_shade,
 };
 
 static const rtk_plugin testdevice_plugin = {

@@ -1,0 +1,38 @@
+/* A hit's position and normals from its triangle and barycentrics, in
+ * plain C that nvcc compiles too (RTK_HD): scene.c's rtk_surface_at and
+ * device programs (plugins/integrators/device_programs.h) share it, so both see
+ * the same surface. */
+#ifndef RTK_KERNEL_SURFACE_GEOM_H
+#define RTK_KERNEL_SURFACE_GEOM_H
+
+#include <rtk/math.h>
+
+#include <math.h>
+
+/* Point (u, v) of triangle (a, b, c), hit along dir: p; the geometric
+ * normal ng turned towards the ray (front 1 when it already faced it);
+ * the shading normal ns, interpolated from the corners' normals (9
+ * floats, NULL for none) and turned to ng's side, else ng where they
+ * are missing or degenerate. */
+RTK_HD static inline void rtk_surface_geometry(rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, const float *normals, float u,
+                                               float v, rtk_vec3 dir, rtk_vec3 *p, rtk_vec3 *ng, rtk_vec3 *ns,
+                                               int *front)
+{
+    float w = 1.0f - u - v;
+    *p = rtk_vec3_make(w * a.x + u * b.x + v * c.x, w * a.y + u * b.y + v * c.y, w * a.z + u * b.z + v * c.z);
+    rtk_vec3 n = rtk_vec3_normalize(rtk_vec3_cross(rtk_vec3_sub(b, a), rtk_vec3_sub(c, a)));
+    *front = rtk_vec3_dot(n, dir) < 0.0f;
+    if (!*front)
+        n = rtk_vec3_neg(n);
+    *ng = n;
+    *ns = n;
+    if (!normals)
+        return;
+    const float *k = normals;
+    rtk_vec3 s = rtk_vec3_normalize(rtk_vec3_make(w * k[0] + u * k[3] + v * k[6], w * k[1] + u * k[4] + v * k[7],
+                                                  w * k[2] + u * k[5] + v * k[8]));
+    if (rtk_vec3_dot(s, s) > 0.0f && isfinite(s.x) && isfinite(s.y) && isfinite(s.z))
+        *ns = rtk_vec3_dot(s, n) < 0.0f ? rtk_vec3_neg(s) : s;
+}
+
+#endif
