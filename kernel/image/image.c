@@ -113,6 +113,10 @@ rtk_status rtk_image_check_output(const char *path, int width, int height, int n
 {
     if (!path || !path[0])
         return rtk_error(RTK_ERR_INVALID, "no output file name given");
+    if (rtk_pfm_path(path)) {
+        rtk_status st = rtk_pfm_check(path, nchannels);
+        return st == RTK_OK ? rtk_output_check(path) : st;
+    }
     pthread_once(&module_once, load_module);
     if (!module_write)
         return rtk_error(RTK_ERR_IO, "cannot write image '%s': %s", path, module_problem);
@@ -143,7 +147,7 @@ rtk_status rtk_image_write(const char *path, int width, int height, int nchannel
     rtk_image_write_job job = {.path = path, .width = width, .height = height, .nchannels = nchannels,
                                .channel_names = channel_names, .pixels = pixels, .half = half,
                                .file = &file, .write_at = rtk_temp_write_at};
-    st = module_write(&job);
+    st = rtk_pfm_path(path) ? rtk_pfm_encode(&job) : module_write(&job);
     if (st != RTK_OK && file.err)
         return rtk_temp_commit(&file, 1); /* a failed write is the cause: say which and why */
     if (st != RTK_OK) {

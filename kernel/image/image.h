@@ -76,6 +76,13 @@ typedef struct rtk_image_write_job {
  * writes, and the format's size limits. */
 rtk_status rtk_image_check_output(const char *path, int width, int height, int nchannels);
 
+/* PFM, which the kernel writes itself (image_pfm.c): whether path names
+ * one (.pfm); whether an image of nchannels (0: unknown) fits one; and
+ * the encoder, called as the module's is. */
+int rtk_pfm_path(const char *path);
+rtk_status rtk_pfm_check(const char *path, int nchannels);
+rtk_status rtk_pfm_encode(const rtk_image_write_job *job);
+
 RTK_EXTERN_C_END
 
 #endif

@@ -6,16 +6,17 @@
  * OpenImageIO is then told the format, so it never probes the bytes with
  * every reader it has (a Maya IFF file named .png crashed its IFF reader;
  * /dev/zero hung its probe). Formats: PNG, JPEG, OpenEXR, Radiance HDR,
- * TIFF, BMP, TGA, PNM (PBM/PGM/PPM). */
+ * TIFF, BMP, TGA, PNM (PBM/PGM/PPM), PFM. */
 #include "image.h"
 
 #include <ctype.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 
 /* The formats rtk decodes, for messages. */
-#define ALLOWED "PNG, JPEG, OpenEXR, Radiance HDR, TIFF, BMP, TGA and PNM"
+#define ALLOWED "PNG, JPEG, OpenEXR, Radiance HDR, TIFF, BMP, TGA, PNM and PFM"
 
 /* Sizes above this are a broken or hostile header (OpenImageIO's own
  * limit on a side is far larger; rtk's pixel limit is 2^28). */
@@ -252,6 +253,66 @@ static rtk_status check_tga(rtk_image_source *src)
     return RTK_OK;
 }
 
+/* Skips whitespace and # comments of a PNM header from *at; 1 when a
+ * token starts there. */
+static int pnm_token(const char *b, size_t n, size_t *at)
+{
+    for (;;) {
+        while (*at < n && isspace((unsigned char)b[*at]))
+            (*at)++;
+        if (*at < n && b[*at] == '#') {
+            while (*at < n && b[*at] != '\n')
+                (*at)++;
+            continue;
+        }
+        return *at < n;
+    }
+}
+
+/* The header number at *at (capped past 10^8), or 0 when there is none. */
+static int pnm_number(const char *b, size_t n, size_t *at, unsigned long *v)
+{
+    *v = 0;
+    if (!pnm_token(b, n, at) || !isdigit((unsigned char)b[*at]))
+        return 0;
+    while (*at < n && isdigit((unsigned char)b[*at]) && *v <= 100000000ul)
+        *v = *v * 10 + (unsigned long)(b[(*at)++] - '0');
+    return 1;
+}
+
+/* PFM (PF: RGB, Pf: grey): width, height, a non-zero scale (its sign the
+ * byte order), then every float. */
+static rtk_status check_pfm(rtk_image_source *src)
+{
+    const char *b = (const char *)src->bytes;
+    size_t n = src->count, at = 2;
+    unsigned long w, h;
+    if (!pnm_number(b, n, &at, &w) || !pnm_number(b, n, &at, &h))
+        return bad(src, "is truncated or damaged: its header lacks a number", NULL);
+    rtk_status st = set_size(src, w, h);
+    if (st != RTK_OK)
+        return st;
+    char scale[32];
+    size_t len = 0;
+    if (pnm_token(b, n, &at))
+        while (at < n && len + 1 < sizeof scale &&
+               (isdigit((unsigned char)b[at]) || (b[at] && strchr("+-.eE", b[at]))))
+            scale[len++] = b[at++];
+    scale[len] = '\0';
+    char *end = NULL;
+    double s = len ? strtod(scale, &end) : 0.0;
+    if (!len || *end || !(s != 0.0) || !isfinite(s))
+        return bad(src, "is damaged: its scale (the third header field) is not a non-zero number", NULL);
+    at++; /* the single whitespace before the floats */
+    uint64_t need = (uint64_t)src->width * (uint64_t)src->height * (b[1] == 'F' ? 3u : 1u) * 4u;
+    char text[96];
+    snprintf(text, sizeof text, " (%llu bytes of pixels, %llu present)", (unsigned long long)need,
+             (unsigned long long)(at <= n ? n - at : 0));
+    if (at > n || need > n - at)
+        return bad(src, "is truncated: it ends before its last pixel", text);
+    return RTK_OK;
+}
+
 /* PNM: the header's numbers and, for the binary kinds, all pixels. */
 static rtk_status check_pnm(rtk_image_source *src)
 {
@@ -260,22 +321,9 @@ static rtk_status check_pnm(rtk_image_source *src)
     int kind = b[1] - '0';
     int fields = kind == 1 || kind == 4 ? 2 : 3;
     unsigned long v[3] = {0, 0, 0};
-    for (int f = 0; f < fields; f++) {
-        for (;;) {
-            while (at < n && isspace((unsigned char)b[at]))
-                at++;
-            if (at < n && b[at] == '#') {
-                while (at < n && b[at] != '\n')
-                    at++;
-                continue;
-            }
-            break;
-        }
-        if (at >= n || !isdigit((unsigned char)b[at]))
+    for (int f = 0; f < fields; f++)
+        if (!pnm_number(b, n, &at, &v[f]))
             return bad(src, "is truncated or damaged: its header lacks a number", NULL);
-        while (at < n && isdigit((unsigned char)b[at]) && v[f] <= 100000000ul)
-            v[f] = v[f] * 10 + (unsigned long)(b[at++] - '0');
-    }
     if (fields == 3 && (v[2] == 0 || v[2] > 65535))
         return bad(src, "declares an impossible maximum value", NULL);
     rtk_status st = set_size(src, v[0], v[1]);
@@ -329,6 +377,11 @@ rtk_status rtk_image_source_check(rtk_image_source *src)
         src->format = "pnm";
         src->format_label = "PNM";
         return check_pnm(src);
+    }
+    if (n >= 3 && b[0] == 'P' && (b[1] == 'F' || b[1] == 'f') && isspace(b[2])) {
+        src->format = "pnm";
+        src->format_label = "PFM";
+        return check_pfm(src);
     }
     if (ends_with_tga(src->name)) {
         src->format = "targa";

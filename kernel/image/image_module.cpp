@@ -318,7 +318,7 @@ const int jpeg_max_dimension = 65500;
  * messages: those rtk also reads back, each written through checked writes
  * (TIFF by name, then read back, see write_image). */
 const char *const writable_formats[] = {"openexr", "png", "jpeg", "hdr", "tiff", "targa", "bmp", "pnm"};
-const char *const writable_list = ".exr, .png, .jpg, .hdr, .tif, .tga, .bmp or .ppm";
+const char *const writable_list = ".exr, .pfm, .png, .jpg, .hdr, .tif, .tga, .bmp or .ppm"; /* .pfm: image_pfm.c */
 
 /* Reads the TIFF at file back and compares its pixels with expected (8-bit
  * RGB): proof that a write the library reported done is whole. */

@@ -431,6 +431,75 @@ static void test_read_errors(void)
     free(data);
 }
 
+/* PFM, which the kernel writes itself: the exact header and floats (rows
+ * from the bottom, little-endian), read back exactly through the image
+ * module; 1 and 3 channels only; damaged files refused, naming the fault. */
+static void test_pfm(void)
+{
+    const int w = 5, h = 3;
+    float *px = make_pixels(w, h, 3);
+    px[0] = -2.5f, px[1] = 1e-30f, px[2] = 65504.5f;
+    const char *path = file_in(0, "out.pfm");
+    CHECK(rtk_image_write(path, w, h, 3, NULL, px, 0) == RTK_OK, "%s", rtk_error_message());
+    size_t size = 0;
+    char *data = read_whole(path, &size);
+    const char header[] = "PF\n5 3\n-1.0\n";
+    const size_t hl = sizeof header - 1;
+    CHECK(data && size == hl + (size_t)w * h * 3 * 4 && memcmp(data, header, hl) == 0, "PFM header or size (%zu)",
+          size);
+    int exact = data != NULL && size == hl + (size_t)w * h * 3 * 4;
+    for (int y = 0; exact && y < h; y++)
+        for (int i = 0; i < w * 3; i++) {
+            const unsigned char *b = (const unsigned char *)data + hl + 4 * ((size_t)(h - 1 - y) * w * 3 + i);
+            uint32_t bits = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
+            float v;
+            memcpy(&v, &bits, 4);
+            exact &= memcmp(&v, &px[(size_t)y * w * 3 + i], 4) == 0;
+        }
+    CHECK(exact, "PFM floats differ from the pixels (rows bottom-up, little-endian)");
+    rtk_image img;
+    CHECK(rtk_image_read(path, NULL, 0, 0, &img) == RTK_OK, "%s", rtk_error_message());
+    int same = img.rgba && img.width == w && img.height == h && img.channels == 3;
+    for (int i = 0; same && i < w * h; i++)
+        for (int c = 0; c < 3; c++)
+            same &= memcmp(&img.rgba[4 * i + c], &px[3 * i + c], 4) == 0;
+    CHECK(same, "the PFM read back differs (%dx%d, %d channels)", img.width, img.height, img.channels);
+    free(img.rgba);
+
+    const char *grey = file_in(1, "grey.pfm");
+    CHECK(rtk_image_write(grey, w, h, 1, NULL, px, 0) == RTK_OK, "%s", rtk_error_message());
+    char *g = read_whole(grey, &size);
+    CHECK(g && size == 12 + (size_t)w * h * 4 && memcmp(g, "Pf\n5 3\n-1.0\n", 12) == 0, "grey PFM header");
+    free(g);
+    rtk_status s = rtk_image_write(file_in(1, "aovs.PFM"), w, h, 10, NULL, px, 0);
+    CHECK(s == RTK_ERR_INVALID && strstr(rtk_error_message(), "a PFM holds 1 or 3 channels"), "10 channels: %d %s",
+          s, rtk_error_message());
+    s = rtk_image_write(file_in(1, "empty.pfm"), 0, h, 3, NULL, px, 0);
+    CHECK(s == RTK_ERR_INVALID, "zero width: %d %s", s, rtk_error_message());
+
+    static const struct {
+        const char *name, *text, *fault;
+    } broken[] = {
+        {"cut.pfm", NULL, "is truncated: it ends before its last pixel"},
+        {"scale0.pfm", "PF\n5 3\n0\n", "its scale"},
+        {"scalex.pfm", "PF\n5 3\nabc\n", "its scale"},
+        {"noheight.pfm", "Pf\n5\n", "its header lacks a number"},
+        {"huge.pfm", "Pf\n99999999 99999999\n-1.0\n", "declares an impossible size"},
+    };
+    for (size_t k = 0; k < sizeof broken / sizeof broken[0]; k++) {
+        const char *p = file_in(2, broken[k].name);
+        if (broken[k].text)
+            write_whole(p, broken[k].text, strlen(broken[k].text));
+        else
+            write_whole(p, data, size - 1);
+        s = rtk_image_read(p, NULL, 0, 0, &img);
+        CHECK(s == RTK_ERR_PARSE && strstr(rtk_error_message(), broken[k].fault) && strstr(rtk_error_message(), p),
+              "%s: %d %s", broken[k].name, s, rtk_error_message());
+    }
+    free(data);
+    free(px);
+}
+
 /* Embedded images decode exactly as the same bytes from a file, whatever
  * the name given (glTF names have no extension). */
 static void test_embedded(void)
@@ -688,6 +757,7 @@ int main(void)
     test_colour_metadata();
     test_read_errors();
     test_embedded();
+    test_pfm();
     test_hostile_size();
     test_texture_lookup();
     test_texture_decode();

@@ -4,14 +4,18 @@
 # check and benchmark of the cuda plugin in one go:
 #   1. tests/cuda's programs, whose device code runs where a GPU is;
 #   2. `rtk conform cuda`: every accelerator check through the GPU;
-#   3. `rtk bench` with cuda beside sah (and embree when packed) on the four
+#   3. `rtk render` of ao (its device program on the GPU; 8 rays, 512x512,
+#      16 spp; distance 1 in the showroom, a closed room) on bunny, dragon
+#      and the showroom, with cuda and with sah at 16 threads (seeds 0 and
+#      1): the renders as PFM in $OUT/renders-MESH.tar.gz, for compare.sh;
+#   4. `rtk bench` with cuda beside sah (and embree when packed) on the four
 #      meshes and the showroom, at 1 and 16 threads.
 # Logs and CSVs go to $OUT/gpu-check.tar.gz; each step's last lines and the
 # bench tables are printed, the summary last. Nothing here needs a network.
 #
-#   bash tools/gpu-check/run.sh [STEPS]      (STEPS: any of tests conform bench; default all)
+#   bash tools/gpu-check/run.sh [STEPS]      (STEPS: any of tests conform render bench; default all)
 set -u
-steps=${1:-tests conform bench}
+steps=${1:-tests conform render bench}
 out=${OUT:-/tmp/gpu-check-out}
 logs=/tmp/gpu-check-logs
 rm -rf /tmp/rtk "$logs" && mkdir -p "$logs" "$out" || exit 2
@@ -54,6 +58,32 @@ if [[ " $steps " == *" conform "* ]]; then
     st=$?
     grep -E '^(FAIL|skip)' "$logs/conform_cuda.log" | head -20
     note "rtk conform cuda: exit $st in $(($(date +%s) - t0)) s ($(tail -1 "$logs/conform_cuda.log"))"
+fi
+
+if [[ " $steps " == *" render "* ]]; then
+    for m in bunny dragon showroom; do
+        renders=/tmp/gpu-check-renders/$m
+        mkdir -p "$renders"
+        f=$b/shared/data/meshes/$m.obj cam="" distance=inf
+        [ $m = showroom ] && f=$b/shared/data/showroom/showroom.obj distance=1.0 &&
+            cam='camera = { position = [-2.5, 2.2, -2.5]; look_at = [14.0, 0.5, 10.0]; fov = 60.0; };'
+        [ -f "$f" ] || { note "render $m: not packed"; continue; }
+        printf 'scene = "%s";\n%s\nintegrator = { plugin = "ao"; rays = 8; distance = %s; };\nfilm = { width = 512; height = 512; spp = 16; };\nsampler = { seed = 0; };\n' \
+            "$f" "$cam" "$distance" >"$renders/$m.cfg"
+        for way in cuda:cuda:0 cpu0:sah:0 cpu1:sah:1; do
+            IFS=: read -r name accel seed <<<"$way"
+            timeout 300 bash -c "$(declare -f run); libpath=$libpath b=$b; run $b/bin/rtk render $renders/$m.cfg \
+                --threads 16 --set accelerator.plugin=$accel --set sampler.seed=$seed -o $renders/$m-$name.pfm" \
+                >"$logs/render_${m}_$name.txt" 2>&1
+            st=$?
+            echo "---- render $m, $name"
+            grep -E '^(render|rays|device|mean) ' "$logs/render_${m}_$name.txt"
+            [ $st -ne 0 ] && tail -3 "$logs/render_${m}_$name.txt"
+            note "render $m $name: exit $st"
+        done
+        tar czf "$out/renders-$m.tar.gz" -C "$renders" . 2>/dev/null
+    done
+    note "renders in \$OUT/renders-*.tar.gz (tools/gpu-check/compare.sh compares them)"
 fi
 
 if [[ " $steps " == *" bench "* ]]; then
