@@ -128,9 +128,18 @@ typedef struct rtk_device_tree {
     uint32_t instance_count;
     uint32_t mesh_count;
     const struct rtk_device_tree *meshes;
-    /* ABI 3.6: 9 floats a triangle id, its corners' shading normals
-     * (NULL when the scene has none), for device programs. */
+    /* ABI 3.6, for device programs: 9 floats a triangle id, its corners'
+     * shading normals (NULL when the scene has none); where the
+     * integrator reads materials, each triangle's material (an index
+     * into base_colors; others mean the default material, whose colour
+     * is rtk_shade_batch.albedo), each material's base colour and 12
+     * floats a triangle, its corners' RGBA vertex colours (each NULL
+     * when absent). */
     const float *normals;
+    const uint32_t *tri_materials;
+    const rtk_rgb *base_colors;
+    uint32_t material_count;
+    const float *colors;
 } rtk_device_tree;
 
 /* ABI 3.5. What a device accelerator did so far, summed over its calls. */
@@ -162,7 +171,7 @@ typedef struct rtk_shade_batch {
     uint32_t size;                           /* sizeof(rtk_shade_batch) */
     const struct rtk_device_program *program;
     const struct rtk_sample_gen *gen;        /* the render's sample generator */
-    rtk_rgb albedo;                          /* the surface colour of a scene without materials */
+    rtk_rgb albedo;                          /* the default material's base colour */
     uint32_t count;
     const rtk_ray *rays;                     /* camera rays */
     const struct rtk_sample_pos *pos;        /* each sample's stream, at li's first draw */

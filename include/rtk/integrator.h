@@ -61,7 +61,8 @@ typedef struct rtk_integrator_fns {
      * them), described in *program; 0 when it is not (the render then
      * calls li or li_batch). A device program must give what li gives for
      * the same sample: on the CPU bit for bit, on a GPU within its math
-     * library's rounding. [main thread] */
+     * library's rounding; programs never contract a * b + c into an FMA,
+     * so the plugin is compiled with -ffp-contract=off. [main thread] */
     int (*device_program)(const void *state, rtk_device_program *program);
 } rtk_integrator_fns;
 

@@ -79,8 +79,15 @@ static int any_cutouts(const rtk_scene *s)
     return cut;
 }
 
-/* One tree's view for the device, its corners gathered at *corners. */
-static rtk_device_tree tree_view(const rtk_scene *m, float **corners, uint32_t threads)
+/* Whether m's hits read its materials (as rtk_surface_at does). */
+static int reads_materials(const rtk_scene *m)
+{
+    return m->tri_material && (m->needs & (RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS));
+}
+
+/* One tree's view for the device, its corners gathered at *corners and
+ * its materials' base colours at *bases. */
+static rtk_device_tree tree_view(const rtk_scene *m, float **corners, rtk_rgb **bases, uint32_t threads)
 {
     corner_job job = {m, *corners};
     rtk_parallel_ranges(m->triangle_count, threads ? threads : 1, 65536, gather_corners, &job);
@@ -91,9 +98,30 @@ static rtk_device_tree tree_view(const rtk_scene *m, float **corners, uint32_t t
         t.nodes = m->nodes, t.node_count = m->node_count, t.depth = m->bvh_depth;
         t.prim_ids = m->prim_ids, t.corners = *corners, t.slot_count = m->triangle_count;
         t.normals = m->normals;
+        if (reads_materials(m)) {
+            for (uint32_t i = 0; i < m->material_count; i++)
+                (*bases)[i] = m->materials[i].base_color;
+            t.tri_materials = m->tri_material;
+            t.base_colors = *bases;
+            t.material_count = m->material_count;
+            t.colors = m->colors;
+        }
     }
     *corners += 9 * (size_t)m->triangle_count;
+    *bases += m->material_count;
     return t;
+}
+
+rtk_status rtk_device_tree_view(const rtk_scene *s, uint32_t threads, rtk_device_tree *out, void **block)
+{
+    const size_t bases_size = sizeof(rtk_rgb) * (size_t)s->material_count;
+    *block = rtk_alloc(bases_size + sizeof(float) * 9 * (size_t)s->triangle_count + 1);
+    if (!*block)
+        return rtk_error(RTK_ERR_NOMEM, "out of memory for the device's copy of %u triangles", s->triangle_count);
+    rtk_rgb *bases = *block;
+    float *corners = (float *)(void *)((char *)*block + bases_size);
+    *out = tree_view(s, &corners, &bases, threads);
+    return RTK_OK;
 }
 
 /* rtk_device_build inside the build log that it opens. */
@@ -133,22 +161,25 @@ static rtk_status device_build(rtk_scene *s, const rtk_plugin *device, const rtk
         return st;
     }
     rtk_build_log_mark(s->build_log, "device: upload", 0, 0);
-    /* One block: the meshes' views, then every tree's corners. */
-    uint64_t triangles = s->triangle_count;
+    /* One block: the meshes' views, every tree's materials' base colours,
+     * then every tree's corners. */
+    uint64_t triangles = s->triangle_count, materials = s->material_count;
     for (uint32_t i = 0; i < s->mesh_count; i++)
-        triangles += s->meshes[i]->triangle_count;
+        triangles += s->meshes[i]->triangle_count, materials += s->meshes[i]->material_count;
     const size_t views = sizeof(rtk_device_tree) * s->mesh_count;
-    s->device_data = rtk_alloc(views + sizeof(float) * 9 * (size_t)triangles);
+    const size_t bases_size = sizeof(rtk_rgb) * (size_t)materials;
+    s->device_data = rtk_alloc(views + bases_size + sizeof(float) * 9 * (size_t)triangles);
     if (!s->device_data) {
         f->destroy(state);
         return rtk_error(RTK_ERR_NOMEM, "%s: out of memory for the device's copy of %llu triangles", where,
                          (unsigned long long)triangles);
     }
     rtk_device_tree *meshes = s->device_data;
-    float *corners = (float *)(void *)((char *)s->device_data + views);
-    rtk_device_tree tree = tree_view(s, &corners, threads);
+    rtk_rgb *bases = (rtk_rgb *)(void *)((char *)s->device_data + views);
+    float *corners = (float *)(void *)((char *)s->device_data + views + bases_size);
+    rtk_device_tree tree = tree_view(s, &corners, &bases, threads);
     for (uint32_t i = 0; i < s->mesh_count; i++)
-        meshes[i] = tree_view(s->meshes[i], &corners, threads);
+        meshes[i] = tree_view(s->meshes[i], &corners, &bases, threads);
     if (s->instance_count) {
         tree.tlas_nodes = s->tlas_nodes, tree.tlas_node_count = s->tlas_node_count, tree.tlas_depth = s->tlas_depth;
         tree.tlas_order = s->tlas_order;
@@ -213,8 +244,10 @@ const char *rtk_device_runs(const rtk_scene *s, const rtk_device_program *progra
         return "the device accelerator runs no programs";
     if (s->instance_count)
         return "device programs do not shade instances yet";
-    if (s->needs & (RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS))
-        return "device programs do not read materials, textures or lights yet";
+    if (s->needs & RTK_NEED_LIGHTS)
+        return "device programs do not sample lights yet";
+    if ((s->needs & RTK_NEED_TEXTURES) && s->textures && s->uvs)
+        return "device programs do not read textures yet";
     rtk_shade_batch probe;
     memset(&probe, 0, sizeof probe);
     probe.size = sizeof probe;

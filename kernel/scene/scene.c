@@ -266,10 +266,7 @@ void rtk_vertex_color(const rtk_scene *s, uint32_t prim, float u, float v, float
         rgba[0] = rgba[1] = rgba[2] = rgba[3] = 1.0f;
         return;
     }
-    const float *c = s->colors + 12 * (size_t)prim;
-    float w = 1.0f - u - v;
-    for (int k = 0; k < 4; k++)
-        rgba[k] = w * c[k] + u * c[4 + k] + v * c[8 + k];
+    rtk_corner_colors(s->colors + 12 * (size_t)prim, u, v, rgba);
 }
 
 /* Whether texture slot tex of the scene is decoded, so lookups read it. */
@@ -365,9 +362,10 @@ static void surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differ
     out->transmission = m->transmission;
     out->illum = m->illum;
     if (materials && s->colors) {
+        const float *c = s->colors + 12 * (size_t)hit->prim;
         float vc[4];
-        rtk_vertex_color(s, hit->prim, u, v, vc);
-        out->base_color = rtk_rgb_mul(out->base_color, rtk_rgb_make(vc[0], vc[1], vc[2]));
+        rtk_corner_colors(c, u, v, vc);
+        out->base_color = rtk_surface_base_color(out->base_color, c, u, v);
         out->alpha *= vc[3];
     }
     if (s->textures && uvs && (s->needs & RTK_NEED_TEXTURES)) {

@@ -1,7 +1,8 @@
-/* A hit's position and normals from its triangle and barycentrics, in
- * plain C that nvcc compiles too (RTK_HD): scene.c's rtk_surface_at and
- * device programs (plugins/integrators/device_programs.h) share it, so both see
- * the same surface. */
+/* A hit's position, normals and base colour (before textures) from its
+ * triangle, barycentrics and material, in plain C that nvcc compiles too
+ * (RTK_HD): scene.c's rtk_surface_at and device programs
+ * (plugins/integrators/device_programs.h) share it, so both see the same
+ * surface. */
 #ifndef RTK_KERNEL_SURFACE_GEOM_H
 #define RTK_KERNEL_SURFACE_GEOM_H
 
@@ -33,6 +34,26 @@ RTK_HD static inline void rtk_surface_geometry(rtk_vec3 a, rtk_vec3 b, rtk_vec3 
                                                   w * k[2] + u * k[5] + v * k[8]));
     if (rtk_vec3_dot(s, s) > 0.0f && isfinite(s.x) && isfinite(s.y) && isfinite(s.z))
         *ns = rtk_vec3_dot(s, n) < 0.0f ? rtk_vec3_neg(s) : s;
+}
+
+/* The RGBA vertex colour at (u, v) of a triangle's 12 corner values. */
+RTK_HD static inline void rtk_corner_colors(const float *c, float u, float v, float rgba[4])
+{
+    float w = 1.0f - u - v;
+    for (int k = 0; k < 4; k++)
+        rgba[k] = w * c[k] + u * c[4 + k] + v * c[8 + k];
+}
+
+/* A hit's base colour before textures: its material's factor (base) times
+ * the vertex colour's RGB at (u, v) when the triangle has colours (12
+ * floats, NULL for none). */
+RTK_HD static inline rtk_rgb rtk_surface_base_color(rtk_rgb base, const float *colors, float u, float v)
+{
+    if (!colors)
+        return base;
+    float vc[4];
+    rtk_corner_colors(colors, u, v, vc);
+    return rtk_rgb_mul(base, rtk_rgb_make(vc[0], vc[1], vc[2]));
 }
 
 #endif

@@ -128,18 +128,16 @@ static void ao_li_batch(const void *state, rtk_ctx *ctx, const rtk_ray *rays, ui
             finish(a, open[i], out[i].albedo, &out[i]);
 }
 
-/* Device program "ao" (plugins/integrators/device_programs.h): params rays and
- * distance. With albedo the surface colour needs materials and textures
- * on the device, which device programs do not have: li renders it. */
+/* Device program "ao" (plugins/integrators/device_programs.h): params
+ * rays, distance and albedo (0 or 1). */
 static int ao_device_program(const void *state, rtk_device_program *program)
 {
     const ao *a = state;
-    if (a->albedo)
-        return 0;
     memset(program, 0, sizeof *program);
     strcpy(program->name, "ao");
     program->params[0] = (float)a->rays;
     program->params[1] = a->distance;
+    program->params[2] = a->albedo ? 1.0f : 0.0f;
     return 1;
 }
 

@@ -6,10 +6,13 @@
  *
  * Example: integrator = { plugin = "headlight"; ambient = 0.05; };
  */
+#include "headlight_estimator.h"
+
 #include <rtk/rtk.h>
 
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 typedef struct headlight {
     float ambient;
@@ -39,10 +42,7 @@ static void shade(const headlight *h, rtk_ctx *ctx, const rtk_ray *ray, rtk_hit 
     int has_diff = rtk_ctx_camera_differential(ctx, &diff);
     rtk_surface s;
     rtk_surface_at_footprint(rtk_ctx_scene(ctx), ray, has_diff ? &diff : NULL, &hit, &s);
-    rtk_vec3 d = rtk_vec3_normalize(ray->dir);
-    float c = fabsf(rtk_vec3_dot(s.ns, d));
-    float k = h->ambient + (1.0f - h->ambient) * c;
-    out->radiance = rtk_rgb_scale(s.base_color, k);
+    out->radiance = rtk_headlight_value(s.base_color, s.ns, ray->dir, h->ambient);
     out->albedo = s.base_color;
     out->normal = s.ns;
     out->depth = hit.t * rtk_vec3_length(ray->dir);
@@ -69,6 +69,16 @@ static void headlight_li_batch(const void *state, rtk_ctx *ctx, const rtk_ray *r
     }
 }
 
+/* Device program "headlight" (plugins/integrators/device_programs.h): params ambient. */
+static int headlight_device_program(const void *state, rtk_device_program *program)
+{
+    const headlight *h = state;
+    memset(program, 0, sizeof *program);
+    strcpy(program->name, "headlight");
+    program->params[0] = h->ambient;
+    return 1;
+}
+
 static void headlight_destroy(void *state)
 {
     free(state);
@@ -86,6 +96,7 @@ static const rtk_integrator_fns headlight_fns = {
     .li = headlight_li,
     .li_batch = headlight_li_batch,
     .destroy = headlight_destroy,
+    .device_program = headlight_device_program,
 };
 
 static const rtk_plugin headlight_plugin = {

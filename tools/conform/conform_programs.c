@@ -14,7 +14,7 @@
 /* The stand-in device: the scene's own tree as a flat tree. */
 typedef struct cpu_device {
     rtk_program_scene ps;
-    float *corners;
+    void *block; /* the tree view's corners and base colours */
     uint32_t *slot_of;
 } cpu_device;
 
@@ -62,26 +62,17 @@ static const rtk_accelerator_fns cpu_device_fns = {
     .shade = cpu_shade,
 };
 
-/* The stand-in device over scene's built tree (no instances). */
+/* The stand-in device over scene's built tree (no instances), given it
+ * as the kernel gives a device its tree. */
 static rtk_status cpu_device_of(const rtk_scene *scene, cpu_device *d)
 {
     memset(d, 0, sizeof *d);
-    const uint32_t n = scene->triangle_count;
-    if (!(d->corners = malloc(sizeof *d->corners * 9 * (n ? n : 1))))
-        return RTK_ERR_NOMEM;
-    for (uint32_t slot = 0; slot < n; slot++)
-        rtk_slot_corners(scene, slot, d->corners + 9 * (size_t)slot);
     rtk_device_tree tree;
-    memset(&tree, 0, sizeof tree);
-    tree.prim_ids = scene->prim_ids;
-    tree.slot_count = n;
-    tree.normals = scene->normals;
+    rtk_status st = rtk_device_tree_view(scene, 1, &tree, &d->block);
+    if (st != RTK_OK)
+        return st;
     rtk_flat_scene flat;
-    memset(&flat, 0, sizeof flat);
-    flat.own.nodes = scene->nodes;
-    flat.own.prim_ids = scene->prim_ids;
-    flat.own.corners = d->corners;
-    flat.top.own = 1;
+    rtk_flat_scene_of(&tree, NULL, &flat);
     return rtk_program_scene_of(&tree, &flat, &d->slot_of, &d->ps) == 0 ? RTK_OK : RTK_ERR_NOMEM;
 }
 
@@ -136,6 +127,6 @@ void rtk_conform_device_program(rtk_conform_runner *r, const rtk_integrator_fns 
     job->device_program = NULL;
     scene->device = saved_device;
     scene->device_state = saved_state;
-    free(d.corners);
+    free(d.block);
     free(d.slot_of);
 }

@@ -7,9 +7,10 @@
  * `chunk` rays on a lane (stream and buffers) of the calling thread's own;
  * if the GPU fails mid-run, a warning names the CUDA error and the rest is
  * traced on the CPU with the same code.
- * It also runs integrators' device programs (plugins/integrators/device_programs.h:
- * ao), one GPU thread per camera sample, which trace and shade whole
- * samples there; likewise on the CPU after a failure.
+ * It also runs integrators' device programs (plugins/integrators/
+ * device_programs.h: ao, headlight), one GPU thread per camera sample,
+ * which trace and shade whole samples there; likewise on the CPU after a
+ * failure.
  *
  * Parameters:
  *   builder   string            sah     the accelerator that builds the tree

@@ -200,7 +200,7 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
              put(g, tree->instances, sizeof(rtk_device_instance) * (size_t)tree->instance_count, &instances,
                  "instances", why, cap);
     std::free(meshes);
-    const void *slots = nullptr, *normals = nullptr;
+    const void *slots = nullptr, *normals = nullptr, *tri_materials = nullptr, *bases = nullptr, *colors = nullptr;
     if (!st && tree->slot_count) {
         uint32_t *slot_of = static_cast<uint32_t *>(std::malloc(sizeof *slot_of * tree->slot_count));
         if (!slot_of)
@@ -208,7 +208,13 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
         if (!st) {
             rtk_program_slots(tree, slot_of);
             st = put(g, slot_of, sizeof *slot_of * (size_t)tree->slot_count, &slots, "triangle slots", why, cap) ||
-                 put(g, tree->normals, sizeof(float) * 9 * (size_t)tree->slot_count, &normals, "normals", why, cap);
+                 put(g, tree->normals, sizeof(float) * 9 * (size_t)tree->slot_count, &normals, "normals", why, cap) ||
+                 put(g, tree->tri_materials, sizeof(uint32_t) * (size_t)tree->slot_count, &tri_materials,
+                     "triangle materials", why, cap) ||
+                 put(g, tree->base_colors, sizeof(rtk_rgb) * (size_t)tree->material_count, &bases,
+                     "base colours", why, cap) ||
+                 put(g, tree->colors, sizeof(float) * 12 * (size_t)tree->slot_count, &colors, "vertex colours", why,
+                     cap);
         }
         std::free(slot_of);
     }
@@ -234,6 +240,10 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
     g->program_scene.flat = scene;
     g->program_scene.slot_of = static_cast<const uint32_t *>(slots);
     g->program_scene.normals = static_cast<const float *>(normals);
+    g->program_scene.tri_materials = static_cast<const uint32_t *>(tri_materials);
+    g->program_scene.base_colors = static_cast<const rtk_rgb *>(bases);
+    g->program_scene.material_count = tree->material_count;
+    g->program_scene.colors = static_cast<const float *>(colors);
     *seconds = 1e-3 * (double)ms;
     return 0;
 }

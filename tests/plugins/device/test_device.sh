@@ -2,7 +2,8 @@
 # The kernel's device accelerators end to end, with testdevice (a device
 # that is the CPU): images through it equal the builder's bit for bit (ao,
 # headlight and path, which trace in batches; an instanced scene; ao's
-# device program, AOVs included, and where it does not run), the
+# and headlight's device programs, AOVs included, over normals, materials
+# and vertex colours, and where they do not run), the
 # report's device line, the BVH cache, `rtk bench`'s device table and
 # counts, and every refusal with its message (a wrong builder at its
 # config line, a device that cannot start or take the tree).
@@ -77,7 +78,7 @@ program_image() {
     rays_dev=$(awk '$1 == "rays" { print $2 }' "$tmp/$name-dev.log")
     if same_but_date "$tmp/$name-dev.exr" "$tmp/$name-sah.exr" && [ -n "$samples" ] && [ "$samples" -gt 0 ] &&
        [ "$rays_sah" = "$rays_dev" ]; then
-        ok "$name: ao's device program: image and AOVs equal li's; $samples samples, $rays_dev rays as on the CPU"
+        ok "$name: the device program's image and AOVs equal li's; $samples samples, $rays_dev rays as on the CPU"
     else
         bad "$name: files differ beyond their date, or no samples shaded ('$samples'), or rays $rays_dev != $rays_sah"
         sed 's/^/    /' "$tmp/$name-dev.log"
@@ -107,6 +108,36 @@ program_image "program, stratified" "$tmp/sphere.cfg" --set sampler.type=\"strat
 program_image "program, sobol, importance" "$tmp/sphere.cfg" --set sampler.type=\"sobol\" \
     --set film.reconstruction=\"importance\" --set filter.plugin=\"mitchell\"
 program_image "program, cornell, any distance" "$cornell/cornell-ao.cfg" --set integrator.distance=inf
+program_image "program, ao albedo over materials" "$cornell/cornell-ao.cfg" --set integrator.albedo=true
+program_image "program, headlight over materials" "$cornell/cornell-headlight.cfg" --set integrator.ambient=0.1
+# Vertex colours (glTF COLOR_0) times the material's colour: a quad coloured per corner.
+# (written by python3; skipped, saying so, where there is none)
+if command -v python3 >/dev/null; then
+    python3 - "$tmp/colours.gltf" <<'PY'
+import base64, json, struct, sys
+pos = [-1, 0, -1, 1, 0, -1, 1, 0, 1, -1, 0, 1]
+col = [1, 0, 0, 1, 0, 1, 0, 1, 0, 0, 1, 1, 1, 1, 1, 1]
+idx = [0, 2, 1, 0, 3, 2]
+data = struct.pack('<12f', *pos) + struct.pack('<16f', *col) + struct.pack('<6H', *idx)
+view = lambda off, n: {"buffer": 0, "byteOffset": off, "byteLength": n}
+doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+       "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "COLOR_0": 1}, "indices": 2, "material": 0}]}],
+       "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.6, 0.3, 1.0]}, "doubleSided": True}],
+       "buffers": [{"byteLength": len(data),
+                    "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}],
+       "bufferViews": [view(0, 48), view(48, 64), view(112, 12)],
+       "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                      "min": [-1, 0, -1], "max": [1, 0, 1]},
+                     {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC4"},
+                     {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}]}
+open(sys.argv[1], "w").write(json.dumps(doc))
+PY
+    printf 'scene = "%s/colours.gltf";\ncamera = { position = [0.0, 2.0, -2.0]; look_at = [0.0, 0.0, 0.0]; fov = 60.0; };\nintegrator = { plugin = "headlight"; };\n' \
+        "$tmp" >"$tmp/colours.cfg"
+    program_image "program, headlight over vertex colours" "$tmp/colours.cfg"
+else
+    echo "skip  program, headlight over vertex colours: no python3 to write its glTF"
+fi
 
 # Where the device runs no program, it traces the integrator's batches, saying why.
 fallback() {
@@ -124,8 +155,12 @@ fallback() {
 dev_ao=("$rtk" render "$tmp/sphere.cfg" "${small[@]}" --set accelerator.plugin=testdevice --set film.output="$tmp/fb.exr")
 fallback "programs = false: batches only" "stays on the CPU (the device does not run this program)" \
     "${dev_ao[@]}" --set accelerator.programs=false
-fallback "ao with albedo has no device program" "integrator 'ao' (with these parameters) has no device program" \
-    "${dev_ao[@]}" --set integrator.albedo=true
+fallback "path has no device program" "integrator 'path' (with these parameters) has no device program" \
+    "$rtk" render "$cornell/cornell.cfg" "${small[@]}" --set accelerator.plugin=testdevice --set film.output="$tmp/fb.exr"
+printf 'scene = "%s/tests/fuzz/seeds/quad.obj";\ncamera = { position = [0.5, 0.5, 2.0]; look_at = [0.5, 0.5, 0.0]; fov = 40.0; };\nintegrator = { plugin = "headlight"; };\n' \
+    "$src" >"$tmp/textured.cfg"
+fallback "textured scenes stay on the CPU" "device programs do not read textures yet" \
+    "$rtk" render "$tmp/textured.cfg" "${small[@]}" --set accelerator.plugin=testdevice --set film.output="$tmp/fb.exr"
 fallback "instanced scenes stay on the CPU" "device programs do not shade instances yet" \
     "$rtk" render "$tmp/instanced.cfg" "${small[@]}" --set accelerator.plugin=testdevice --set film.output="$tmp/fb.exr"
 
