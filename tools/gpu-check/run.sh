@@ -38,7 +38,7 @@ nproc | sed 's/^/cpu cores: /' | tee -a "$logs/gpu.txt"
 grep -m1 'model name' /proc/cpuinfo | tee -a "$logs/gpu.txt"
 
 if [[ " $steps " == *" tests "* ]]; then
-    for t in isect sampler bsdf lights program; do
+    for t in isect sampler bsdf material lights program; do
         timeout 300 bash -c "$(declare -f run); libpath=$libpath b=$b; run $b/tests/test_${t}_cuda" \
             >"$logs/test_$t.log" 2>&1
         note "tests/cuda $t: exit $? ($(tail -1 "$logs/test_$t.log"))"
