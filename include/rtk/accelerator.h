@@ -140,6 +140,18 @@ typedef struct rtk_device_tree {
     const rtk_rgb *base_colors;
     uint32_t material_count;
     const float *colors;
+    /* ABI 3.7, for device programs that sample lights: where the
+     * integrator reads materials, the materials themselves (the kernel's
+     * rtk_material, kernel/scene/scene.h, material_count of them; their
+     * names and texture slots mean nothing on a device); where it samples
+     * lights, the scene's lights as they were when the device took the
+     * tree (the kernel's rtk_lights, kernel/scene/lights.h: light_of has
+     * slot_count entries) and its punctual lights (each NULL, 0 when
+     * absent). */
+    const struct rtk_material *materials;
+    const struct rtk_lights *lights;
+    const struct rtk_punctual_light *punctual;
+    uint32_t punctual_count;
 } rtk_device_tree;
 
 /* ABI 3.5. What a device accelerator did so far, summed over its calls. */

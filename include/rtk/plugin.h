@@ -38,9 +38,11 @@ RTK_EXTERN_C_BEGIN
  * rtk_device_tree, rtk_device_instance, rtk_device_report).
  * 3.6: device programs (rtk_integrator_fns.device_program,
  * rtk_device_program; rtk_accelerator_fns.shade, rtk_shade_batch;
- * rtk_device_tree.normals; rtk_device_report.samples, shade_seconds). */
+ * rtk_device_tree.normals; rtk_device_report.samples, shade_seconds).
+ * 3.7: device programs that sample lights (rtk_device_tree.materials,
+ * lights, punctual, punctual_count). */
 #define RTK_ABI_MAJOR 3
-#define RTK_ABI_MINOR 6
+#define RTK_ABI_MINOR 7
 
 /* Name of the one symbol a plugin exports. */
 #define RTK_PLUGIN_ENTRY_NAME "rtk_plugin_entry"

@@ -85,8 +85,10 @@ RTK_KERNEL_API int rtk_device_report_of(const rtk_scene *s, rtk_device_report *o
 /* NULL when s's device accelerator runs program on s (rtk_shade_batch,
  * ABI 3.6), else why not, in a phrase. [main thread] */
 RTK_KERNEL_API const char *rtk_device_runs(const rtk_scene *s, const rtk_device_program *program);
-/* s's own tree (no top level) as device_build hands it to a device,
- * its corners and materials' base colours in *block [caller frees]. */
+/* s's own tree (no top level) as device_build hands it to a device, its
+ * lights included, its corners and materials' base colours in *block
+ * [caller frees]. Whoever makes it s's device sets s->device_lights to
+ * out->lights' stamp. */
 RTK_KERNEL_API rtk_status rtk_device_tree_view(const rtk_scene *s, uint32_t threads, rtk_device_tree *out,
                                                void **block);
 /* Runs batch->program on s's device (rtk_device_runs said yes). [any thread] */

@@ -68,6 +68,7 @@ void rtk_device_release(rtk_scene *s)
     s->device = NULL;
     s->device_state = NULL;
     s->device_data = NULL;
+    s->device_lights = 0;
 }
 
 /* Some triangle of s, or of a mesh it places, needs the per-hit material test. */
@@ -102,6 +103,7 @@ static rtk_device_tree tree_view(const rtk_scene *m, float **corners, rtk_rgb **
             for (uint32_t i = 0; i < m->material_count; i++)
                 (*bases)[i] = m->materials[i].base_color;
             t.tri_materials = m->tri_material;
+            t.materials = m->materials;
             t.base_colors = *bases;
             t.material_count = m->material_count;
             t.colors = m->colors;
@@ -110,6 +112,16 @@ static rtk_device_tree tree_view(const rtk_scene *m, float **corners, rtk_rgb **
     *corners += 9 * (size_t)m->triangle_count;
     *bases += m->material_count;
     return t;
+}
+
+/* The lights of s for device programs that sample them (none else). */
+static void lights_view(const rtk_scene *s, rtk_device_tree *t)
+{
+    if (!(s->needs & RTK_NEED_LIGHTS) || !s->lights)
+        return;
+    t->lights = s->lights;
+    t->punctual = s->punctual;
+    t->punctual_count = s->punctual_count;
 }
 
 rtk_status rtk_device_tree_view(const rtk_scene *s, uint32_t threads, rtk_device_tree *out, void **block)
@@ -121,6 +133,7 @@ rtk_status rtk_device_tree_view(const rtk_scene *s, uint32_t threads, rtk_device
     rtk_rgb *bases = *block;
     float *corners = (float *)(void *)((char *)*block + bases_size);
     *out = tree_view(s, &corners, &bases, threads);
+    lights_view(s, out);
     return RTK_OK;
 }
 
@@ -178,6 +191,7 @@ static rtk_status device_build(rtk_scene *s, const rtk_plugin *device, const rtk
     rtk_rgb *bases = (rtk_rgb *)(void *)((char *)s->device_data + views);
     float *corners = (float *)(void *)((char *)s->device_data + views + bases_size);
     rtk_device_tree tree = tree_view(s, &corners, &bases, threads);
+    lights_view(s, &tree);
     for (uint32_t i = 0; i < s->mesh_count; i++)
         meshes[i] = tree_view(s->meshes[i], &corners, &bases, threads);
     if (s->instance_count) {
@@ -198,6 +212,7 @@ static rtk_status device_build(rtk_scene *s, const rtk_plugin *device, const rtk
     }
     s->device = f;
     s->device_state = state;
+    s->device_lights = tree.lights ? tree.lights->stamp : 0;
     return RTK_OK;
 }
 
@@ -244,8 +259,8 @@ const char *rtk_device_runs(const rtk_scene *s, const rtk_device_program *progra
         return "the device accelerator runs no programs";
     if (s->instance_count)
         return "device programs do not shade instances yet";
-    if (s->needs & RTK_NEED_LIGHTS)
-        return "device programs do not sample lights yet";
+    if ((s->needs & RTK_NEED_LIGHTS) && s->lights && s->lights->stamp != s->device_lights)
+        return "the scene's lights changed after the device took its tree";
     if ((s->needs & RTK_NEED_TEXTURES) && s->textures && s->uvs)
         return "device programs do not read textures yet";
     rtk_shade_batch probe;

@@ -5,7 +5,8 @@
  * rtk_bsdf_eval/pdf/flags/sample (bsdf.c) and a GPU backend's, checked
  * against each other by tests/cuda. Everything is in the local shading
  * frame (normal +z); the header states the conventions. Included by
- * bsdf.c and CUDA sources only: its helpers have short names. */
+ * bsdf.c, device programs (plugins/integrators/path_estimator.h) and CUDA
+ * sources only: its helpers have short names. */
 #ifndef RTK_KERNEL_BSDF_LOBES_H
 #define RTK_KERNEL_BSDF_LOBES_H
 

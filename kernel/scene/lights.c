@@ -355,7 +355,9 @@ static rtk_status update_choice(rtk_scene *s)
 {
     if (!s->lights && !(s->lights = rtk_calloc(1, sizeof *s->lights)))
         return RTK_ERR_NOMEM;
+    static uint64_t stamps;
     rtk_lights *l = s->lights;
+    l->stamp = __atomic_add_fetch(&stamps, 1, __ATOMIC_RELAXED);
     l->slot_count = 0; /* no choice until the table is whole */
     uint32_t n = s->punctual_count + 2;
     float *pick = rtk_realloc_array(l->slot_pick, n, sizeof *pick);

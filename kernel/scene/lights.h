@@ -25,6 +25,7 @@ typedef struct rtk_lights {
     float *slot_pick;     /* slot -> probability of being chosen */
     float *slot_cdf;      /* slot_count + 1 running sums, the last 1 */
     struct rtk_environment *environment; /* owned, or NULL */
+    uint64_t stamp;       /* new at every change of the lights, unique in the process */
 } rtk_lights;
 
 /* An environment light: a constant colour, or an equirectangular image

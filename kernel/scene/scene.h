@@ -207,6 +207,7 @@ struct rtk_scene {
     const rtk_accelerator_fns *device;
     void *device_state;
     void *device_data;
+    uint64_t device_lights; /* the stamp of the lights it was given (0: none) */
     /* The binary tree collapsed for SIMD traversal (kernel/accel/bvh_wide_build.c), or NULL. */
     struct rtk_wide_bvh *wide;
     /* Where builds of this scene record their phases (kernel/accel/accel.h),

@@ -12,10 +12,15 @@
  *                (0 or 1).
  *   "headlight"  headlight (plugins/integrators/headlight_estimator.h):
  *                params[0] ambient (0 to 1).
- * Surfaces: position, normals and base colour (material factor times
- * vertex colour), no textures. Scenes: a device accelerator's (no
- * cut-outs, no single-sided materials), without instances, textures or
- * lights to sample (the kernel offers no others: rtk_device_runs).
+ *   "path"       path (plugins/integrators/path_estimator.h): params[0]
+ *                max_depth (0 to 1024), params[1] rr_depth (1 to 1024),
+ *                params[2] clamp (>= 0), all lights (emitters, punctual,
+ *                environment) as rtk_sample_incident_light samples them.
+ * Surfaces: position, normals, the material's factors (base colour times
+ * vertex colour, emission, the BSDF of kernel/scene/material_bsdf.h), no
+ * textures. Scenes: a device accelerator's (no cut-outs, no single-sided
+ * materials), without instances or textures to read (the kernel offers
+ * no others: rtk_device_runs).
  *
  * Run on a CPU, a program gives what the integrator's li gives, bit for
  * bit (tests/plugins/device checks it); on a GPU, hits are still the
@@ -25,20 +30,30 @@
 
 #include "ao_estimator.h"
 #include "headlight_estimator.h"
+#define RTK_PATH_BSDF_INLINE
+#include "path_estimator.h"
 
 /* The kernel's shared code: its folder must be on the include path. */
 #include "accel/accel.h"
 #include "accel/device_tree.h"
 #include "render/sample.h"
+#include "scene/light_sample.h"
+#include "scene/material_bsdf.h"
 #include "scene/surface_geom.h"
 
 #include <rtk/integrator.h>
 
+#include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
-typedef enum rtk_program_kind { RTK_PROGRAM_NONE = 0, RTK_PROGRAM_AO = 1, RTK_PROGRAM_HEADLIGHT = 2 } rtk_program_kind;
+typedef enum rtk_program_kind {
+    RTK_PROGRAM_NONE = 0,
+    RTK_PROGRAM_AO = 1,
+    RTK_PROGRAM_HEADLIGHT = 2,
+    RTK_PROGRAM_PATH = 3
+} rtk_program_kind;
 
 /* A program checked and unpacked from its description. */
 typedef struct rtk_program {
@@ -47,20 +62,24 @@ typedef struct rtk_program {
     float distance; /* ao */
     int albedo;     /* ao */
     float ambient;  /* headlight */
+    rtk_path_params path;
 } rtk_program;
 
 /* What a program reads: the scene's tree, each triangle's leaf slot (to
- * find its corners), the corners' normals, the materials' base colours
- * and vertex colours (rtk_device_tree's) and the default material's
- * colour. Pointers are the device's or the host's alike. */
+ * find its corners), the corners' normals, the materials, vertex colours
+ * and lights (rtk_device_tree's) and the default material's colour.
+ * Pointers are the device's or the host's alike. */
 typedef struct rtk_program_scene {
     rtk_flat_scene flat;
     const uint32_t *slot_of;       /* triangle id -> leaf slot of flat.own */
     const float *normals;          /* 9 floats a triangle id; NULL: none */
     const uint32_t *tri_materials; /* NULL: materials not read */
-    const rtk_rgb *base_colors;
+    const rtk_material *materials;
     uint32_t material_count;
     const float *colors;           /* 12 floats a triangle id; NULL: none */
+    const rtk_lights *lights;      /* NULL: none sampled */
+    const rtk_punctual_light *punctual;
+    uint32_t punctual_count;
     rtk_rgb albedo;
 } rtk_program_scene;
 
@@ -80,6 +99,12 @@ static inline rtk_program rtk_program_of(const rtk_device_program *d)
     } else if (strncmp(d->name, "headlight", sizeof d->name) == 0 && v[0] >= 0.0f && v[0] <= 1.0f) {
         p.kind = RTK_PROGRAM_HEADLIGHT;
         p.ambient = v[0];
+    } else if (strncmp(d->name, "path", sizeof d->name) == 0 && v[0] >= 0.0f && v[0] <= 1024.0f &&
+               v[0] == floorf(v[0]) && v[1] >= 1.0f && v[1] <= 1024.0f && v[1] == floorf(v[1]) && v[2] >= 0.0f) {
+        p.kind = RTK_PROGRAM_PATH;
+        p.path.max_depth = (int)v[0];
+        p.path.rr_depth = (int)v[1];
+        p.path.clamp = v[2];
     }
     return p;
 }
@@ -109,9 +134,12 @@ static inline int rtk_program_scene_of(const rtk_device_tree *tree, const rtk_fl
     out->slot_of = *slot_of;
     out->normals = tree->normals;
     out->tri_materials = tree->tri_materials;
-    out->base_colors = tree->base_colors;
+    out->materials = tree->materials;
     out->material_count = tree->material_count;
     out->colors = tree->colors;
+    out->lights = tree->lights;
+    out->punctual = tree->punctual;
+    out->punctual_count = tree->punctual_count;
     return 0;
 }
 
@@ -121,40 +149,96 @@ typedef struct rtk_program_count {
     uint32_t traced, invalid;
 } rtk_program_count;
 
-/* A camera ray's first hit as rtk_trace and rtk_surface_at give it:
- * 0 when it misses (or is invalid, counted); else its point, normals and
- * base colour, with out's AOVs set. */
-typedef struct rtk_program_hit {
-    rtk_vec3 p, ng, ns;
-    rtk_rgb base;
-} rtk_program_hit;
-
-RTK_HD static inline int rtk_program_camera_hit(const rtk_program_scene *s, const rtk_ray *ray, rtk_li_result *out,
-                                                rtk_program_count *count, rtk_program_hit *h)
+/* rtk_trace: 1 with the closest hit of ray, 0 when it misses (or is
+ * invalid, counted). */
+RTK_HD static inline int rtk_program_trace(const rtk_program_scene *s, const rtk_ray *ray, rtk_program_count *count,
+                                           rtk_hit *hit)
 {
     count->traced++;
     if (!rtk_ray_usable(ray)) {
         count->invalid++;
         return 0;
     }
-    rtk_hit hit;
-    rtk_flat_scene_closest(&s->flat, ray, &hit);
-    if (hit.prim == RTK_INVALID_ID)
+    rtk_flat_scene_closest(&s->flat, ray, hit);
+    return hit->prim != RTK_INVALID_ID;
+}
+
+/* rtk_occluded: an invalid ray (counted) is not blocked. */
+RTK_HD static inline int rtk_program_occluded(const rtk_program_scene *s, const rtk_ray *ray, rtk_program_count *count)
+{
+    count->traced++;
+    if (!rtk_ray_usable(ray)) {
+        count->invalid++;
         return 0;
-    const float *c = s->flat.own.corners + 9 * (size_t)s->slot_of[hit.prim];
-    rtk_vec3 p0 = {c[0], c[1], c[2]}, p1 = {c[3], c[4], c[5]}, p2 = {c[6], c[7], c[8]};
-    int front;
-    rtk_surface_geometry(p0, p1, p2, s->normals ? s->normals + 9 * (size_t)hit.prim : NULL, hit.u, hit.v, ray->dir,
-                         &h->p, &h->ng, &h->ns, &front);
-    h->base = s->albedo;
-    const float *colors = NULL;
-    if (s->tri_materials) {
-        const uint32_t id = s->tri_materials[hit.prim];
-        if (id < s->material_count)
-            h->base = s->base_colors[id];
-        colors = s->colors ? s->colors + 12 * (size_t)hit.prim : NULL;
     }
-    h->base = rtk_surface_base_color(h->base, colors, hit.u, hit.v);
+    return rtk_flat_scene_any(&s->flat, ray);
+}
+
+/* Triangle prim's corners. */
+RTK_HD static inline void rtk_program_corners(const rtk_program_scene *s, uint32_t prim, rtk_vec3 *a, rtk_vec3 *b,
+                                              rtk_vec3 *c)
+{
+    const float *v = s->flat.own.corners + 9 * (size_t)s->slot_of[prim];
+    *a = rtk_vec3_make(v[0], v[1], v[2]);
+    *b = rtk_vec3_make(v[3], v[4], v[5]);
+    *c = rtk_vec3_make(v[6], v[7], v[8]);
+}
+
+/* Triangle prim's material, NULL for the default one. */
+RTK_HD static inline const rtk_material *rtk_program_material(const rtk_program_scene *s, uint32_t prim)
+{
+    if (!s->tri_materials || !s->materials)
+        return NULL;
+    const uint32_t id = s->tri_materials[prim];
+    return id < s->material_count ? &s->materials[id] : NULL;
+}
+
+/* A hit's surface as rtk_surface_at gives it without textures. */
+typedef struct rtk_program_surface {
+    rtk_vec3 p, ng, ns;
+    int front;
+    rtk_rgb base, emission;
+    float alpha, ior;
+    const rtk_material *m; /* NULL: the default material */
+} rtk_program_surface;
+
+RTK_HD static inline void rtk_program_surface_at(const rtk_program_scene *s, const rtk_ray *ray, const rtk_hit *hit,
+                                                 rtk_program_surface *out)
+{
+    rtk_vec3 p0, p1, p2;
+    rtk_program_corners(s, hit->prim, &p0, &p1, &p2);
+    rtk_surface_geometry(p0, p1, p2, s->normals ? s->normals + 9 * (size_t)hit->prim : NULL, hit->u, hit->v, ray->dir,
+                         &out->p, &out->ng, &out->ns, &out->front);
+    out->m = rtk_program_material(s, hit->prim);
+    out->base = s->albedo;
+    out->emission = rtk_rgb_make(0.0f, 0.0f, 0.0f);
+    out->alpha = 1.0f;
+    out->ior = 1.5f;
+    if (out->m) {
+        out->base = out->m->base_color;
+        out->emission = out->m->emission;
+        out->alpha = out->m->alpha;
+        out->ior = out->m->ior;
+    }
+    if (s->tri_materials && s->colors) {
+        const float *colors = s->colors + 12 * (size_t)hit->prim;
+        float vc[4];
+        rtk_corner_colors(colors, hit->u, hit->v, vc);
+        out->base = rtk_surface_base_color(out->base, colors, hit->u, hit->v);
+        out->alpha *= vc[3];
+    }
+}
+
+/* A camera ray's first hit as rtk_trace and rtk_surface_at give it:
+ * 0 when it misses (or is invalid, counted); else its surface, with out's
+ * AOVs set. */
+RTK_HD static inline int rtk_program_camera_hit(const rtk_program_scene *s, const rtk_ray *ray, rtk_li_result *out,
+                                                rtk_program_count *count, rtk_program_surface *h)
+{
+    rtk_hit hit;
+    if (!rtk_program_trace(s, ray, count, &hit))
+        return 0;
+    rtk_program_surface_at(s, ray, &hit, h);
     out->albedo = h->base;
     out->normal = h->ns;
     out->depth = hit.t * rtk_vec3_length(ray->dir);
@@ -166,7 +250,7 @@ RTK_HD static inline void rtk_program_ao(const rtk_program *p, const rtk_program
                                          rtk_sample_pos pos, const rtk_ray *ray, rtk_li_result *out,
                                          rtk_program_count *count)
 {
-    rtk_program_hit h;
+    rtk_program_surface h;
     if (!rtk_program_camera_hit(s, ray, out, count, &h))
         return;
     rtk_vec3 b1, b2;
@@ -177,13 +261,7 @@ RTK_HD static inline void rtk_program_ao(const rtk_program *p, const rtk_program
         rtk_ray r;
         if (!rtk_ao_ray(rtk_sample_next_2d(g, &pos), org, h.ng, h.ns, b1, b2, p->distance, &r))
             continue;
-        count->traced++;
-        if (!rtk_ray_usable(&r)) {
-            count->invalid++;
-            open++; /* rtk_occluded: an invalid ray is not blocked */
-            continue;
-        }
-        open += !rtk_flat_scene_any(&s->flat, &r);
+        open += !rtk_program_occluded(s, &r, count);
     }
     out->radiance = rtk_ao_value(open, p->rays, p->albedo, h.base);
 }
@@ -192,9 +270,142 @@ RTK_HD static inline void rtk_program_ao(const rtk_program *p, const rtk_program
 RTK_HD static inline void rtk_program_headlight(const rtk_program *p, const rtk_program_scene *s, const rtk_ray *ray,
                                                 rtk_li_result *out, rtk_program_count *count)
 {
-    rtk_program_hit h;
+    rtk_program_surface h;
     if (rtk_program_camera_hit(s, ray, out, count, &h))
         out->radiance = rtk_headlight_value(h.base, h.ns, ray->dir, p->ambient);
+}
+
+/* rtk_emitter_fns over a program scene: an emitter's corners and its
+ * material's emission (no instances, no textures). */
+RTK_HD static inline void rtk_program_emitter_corners(const void *ctx, uint32_t light, rtk_vec3 *a, rtk_vec3 *b,
+                                                      rtk_vec3 *c, int *mirrored)
+{
+    const rtk_program_scene *s = (const rtk_program_scene *)ctx;
+    rtk_program_corners(s, s->lights->prims[light], a, b, c);
+    *mirrored = 0;
+}
+
+RTK_HD static inline rtk_rgb rtk_program_emitter_emission(const void *ctx, uint32_t light, float b1, float b2)
+{
+    (void)b1, (void)b2;
+    const rtk_program_scene *s = (const rtk_program_scene *)ctx;
+    const rtk_material *m = rtk_program_material(s, s->lights->prims[light]);
+    return m ? m->emission : rtk_rgb_make(0.0f, 0.0f, 0.0f);
+}
+
+/* rtk_sample_incident_light. */
+RTK_HD static inline int rtk_program_sample_light(const rtk_program_scene *s, rtk_vec3 p, rtk_vec3 ng, float u_pick,
+                                                  rtk_vec2 u, rtk_light_incident *out)
+{
+    const rtk_lights *l = s->lights;
+    if (!l || l->slot_count == 0)
+        return 0;
+    const rtk_emitter_fns fns = {rtk_program_emitter_corners, rtk_program_emitter_emission};
+    return rtk_lights_incident(l, s->punctual, s->punctual_count, &fns, s, p, ng, u_pick, u, out);
+}
+
+/* rtk_incident_light_pdf of ray, which hit an emitter (hit) or left the
+ * scene (hit NULL). */
+RTK_HD static inline float rtk_program_light_pdf(const rtk_program_scene *s, const rtk_ray *ray, const rtk_hit *hit)
+{
+    const rtk_lights *l = s->lights;
+    if (!l || l->slot_count == 0)
+        return 0.0f;
+    if (!hit) {
+        float pick = l->slot_pick[l->slot_count - 1];
+        return pick > 0.0f && l->environment ? rtk_env_pdf(l->environment, ray->dir) * pick : 0.0f;
+    }
+    if (l->count == 0)
+        return 0.0f;
+    const uint32_t light = l->light_of[hit->prim];
+    if (light == RTK_INVALID_ID)
+        return 0.0f;
+    const float pdf_area = l->pick[light] / l->area[light];
+    if (!(pdf_area > 0.0f))
+        return 0.0f;
+    rtk_vec3 a, b, c;
+    rtk_program_corners(s, hit->prim, &a, &b, &c);
+    rtk_vec3 n = rtk_vec3_normalize(rtk_vec3_cross(rtk_vec3_sub(b, a), rtk_vec3_sub(c, a)));
+    return rtk_emitter_solid_pdf(n, ray, hit->t, pdf_area, l->slot_pick[0]);
+}
+
+/* rtk_scene_environment. */
+RTK_HD static inline rtk_rgb rtk_program_environment(const rtk_program_scene *s, rtk_vec3 dir)
+{
+    const rtk_lights *l = s->lights;
+    return l && l->environment ? rtk_env_radiance(l->environment, dir) : rtk_rgb_make(0.0f, 0.0f, 0.0f);
+}
+
+/* path's li (plugins/integrators/path.c) for camera ray camera, drawing
+ * from pos: its bounces in li's order, each shadow ray traced after the
+ * bounce that made it. */
+RTK_HD static inline void rtk_program_path(const rtk_program *p, const rtk_program_scene *s, const rtk_sample_gen *g,
+                                           rtk_sample_pos pos, const rtk_ray *camera, rtk_li_result *out,
+                                           rtk_program_count *count)
+{
+    const rtk_path_params *pt = &p->path;
+    rtk_path_state ps = rtk_path_start(camera->org);
+    rtk_rgb L = rtk_rgb_make(0.0f, 0.0f, 0.0f);
+    rtk_ray ray = *camera;
+    for (;; ps.depth++) {
+        rtk_sample_seek_pos(g, &pos, (uint32_t)ps.depth * RTK_PATH_DIMS_PER_BOUNCE);
+        rtk_hit hit;
+        if (!rtk_program_trace(s, &ray, count, &hit)) {
+            rtk_rgb env = rtk_program_environment(s, ray.dir);
+            if (!rtk_path_is_black(env)) {
+                float w = ps.delta ? 1.0f : rtk_path_found_weight(&ps, rtk_program_light_pdf(s, &ray, NULL));
+                L = rtk_rgb_add(L, rtk_path_weighted(pt, ps.beta, rtk_rgb_scale(env, w)));
+            }
+            break;
+        }
+        rtk_program_surface sf;
+        rtk_program_surface_at(s, &ray, &hit, &sf);
+        if (ps.depth == 0) {
+            out->albedo = sf.base;
+            out->normal = sf.ns;
+            out->depth = hit.t * rtk_vec3_length(ray.dir);
+        }
+        if (sf.front && !rtk_path_is_black(sf.emission)) {
+            float w = ps.delta ? 1.0f : rtk_path_found_weight(&ps, rtk_program_light_pdf(s, &ray, &hit));
+            L = rtk_rgb_add(L, rtk_path_weighted(pt, ps.beta, rtk_rgb_scale(sf.emission, w)));
+        }
+        if (ps.depth >= pt->max_depth)
+            break;
+        rtk_bsdf bsdf;
+        rtk_material_bsdf(sf.m, sf.base, sf.alpha, sf.ior, rtk_no_maps, NULL, &bsdf);
+        if (bsdf.count == 0)
+            break;
+        rtk_path_vertex v = rtk_path_vertex_at(sf.ng, sf.ns, sf.front, &bsdf, ray.dir);
+        int shadowed = 0;
+        rtk_rgb nee = rtk_rgb_make(0.0f, 0.0f, 0.0f);
+        rtk_ray shadow;
+        if (rtk_lobes_flags(&bsdf) & (RTK_BSDF_DIFFUSE | RTK_BSDF_GLOSSY)) {
+            float u_pick = rtk_sample_next_1d(g, &pos);
+            rtk_vec2 u = rtk_sample_next_2d(g, &pos);
+            rtk_light_incident li;
+            rtk_rgb c;
+            if (rtk_program_sample_light(s, sf.p, sf.ng, u_pick, u, &li) && rtk_path_light(&v, &bsdf, &li, &c)) {
+                nee = rtk_path_weighted(pt, ps.beta, c);
+                shadow = li.shadow;
+                shadowed = 1;
+            }
+        }
+        float u_lobe = rtk_sample_next_1d(g, &pos);
+        rtk_vec2 u = rtk_sample_next_2d(g, &pos);
+        rtk_bsdf_sample_out bs;
+        rtk_vec3 side;
+        float m;
+        const int more = rtk_lobes_sample(&bsdf, v.wo, u_lobe, u, &bs) && bs.pdf > 0.0f &&
+                         rtk_path_scatter(&ps, &v, sf.p, sf.ng, &bs, &ray, &side) &&
+                         !(rtk_path_roulette_due(pt, &ps, &m) && !rtk_path_survives(&ps, m, rtk_sample_next_1d(g, &pos)));
+        if (more)
+            ray.org = rtk_offset_point(sf.p, side);
+        if (shadowed && !rtk_program_occluded(s, &shadow, count))
+            L = rtk_rgb_add(L, nee);
+        if (!more)
+            break;
+    }
+    out->radiance = L;
 }
 
 /* Program p on one sample: out as the kernel pre-fills li's (all 0, depth
@@ -211,6 +422,8 @@ RTK_HD static inline void rtk_program_run(const rtk_program *p, const rtk_progra
         rtk_program_ao(p, s, g, *pos, ray, out, count);
     else if (p->kind == RTK_PROGRAM_HEADLIGHT)
         rtk_program_headlight(p, s, ray, out, count);
+    else if (p->kind == RTK_PROGRAM_PATH)
+        rtk_program_path(p, s, g, *pos, ray, out, count);
 }
 
 #endif

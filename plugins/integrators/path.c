@@ -17,24 +17,18 @@
  *
  * Example: integrator = { plugin = "path"; max_depth = 8; };
  */
+#include "path_estimator.h"
+
 #include <rtk/rtk.h>
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
-
-/* Sampler dimensions each bounce reserves (7 used: light pick, light
- * point, lobe, direction, roulette). */
-#define DIMS_PER_BOUNCE 8
-
-typedef struct path {
-    int max_depth;
-    int rr_depth;
-    float clamp;
-} path;
+#include <string.h>
 
 static rtk_status path_create(const rtk_params *params, void **state)
 {
-    path *p = malloc(sizeof *p);
+    rtk_path_params *p = malloc(sizeof *p);
     if (!p)
         return rtk_error(RTK_ERR_NOMEM, "path: out of memory");
     p->max_depth = (int)rtk_params_int(params, "max_depth");
@@ -63,112 +57,35 @@ static rtk_status path_prepare(void *state, const rtk_scene *scene)
     return RTK_OK;
 }
 
-static float power_heuristic(float f, float g)
+/* The device program of this instance (device_programs.h, "path"). */
+static int path_device_program(const void *state, rtk_device_program *out)
 {
-    return f * f / (f * f + g * g);
-}
-
-static float max3(rtk_rgb c)
-{
-    return fmaxf(c.r, fmaxf(c.g, c.b));
-}
-
-static int is_black(rtk_rgb c)
-{
-    return c.r <= 0.0f && c.g <= 0.0f && c.b <= 0.0f;
-}
-
-/* beta x c, scaled down to the clamp when one is set: what a
- * contribution adds to the radiance. */
-static rtk_rgb weighted(const path *pt, rtk_rgb beta, rtk_rgb c)
-{
-    rtk_rgb v = rtk_rgb_mul(beta, c);
-    float m = max3(v);
-    if (pt->clamp > 0.0f && m > pt->clamp)
-        v = rtk_rgb_scale(v, pt->clamp / m);
-    return v;
-}
-
-/* Adds beta x c to L (weighted). */
-static void add(const path *pt, rtk_rgb *L, rtk_rgb beta, rtk_rgb c)
-{
-    *L = rtk_rgb_add(*L, weighted(pt, beta, c));
-}
-
-/* One vertex's shading frame: the shading normal on the side the ray came
- * from, or, for BSDFs that transmit, on the side the surface was authored
- * to face (rtk/bsdf.h: inside is -z), with the geometric normal to match. */
-typedef struct vertex {
-    rtk_frame frame;
-    rtk_vec3 ng; /* geometric normal on the frame's side */
-    rtk_vec3 wo; /* local, towards where the ray came from */
-} vertex;
-
-static vertex make_vertex(const rtk_surface *s, const rtk_bsdf *bsdf, rtk_vec3 ray_dir)
-{
-    vertex v;
-    int flip = (rtk_bsdf_flags(bsdf) & RTK_BSDF_TRANSMISSION) && !s->front_face;
-    v.ng = flip ? rtk_vec3_neg(s->ng) : s->ng;
-    v.frame = rtk_frame_from_normal(flip ? rtk_vec3_neg(s->ns) : s->ns);
-    v.wo = rtk_frame_to_local(&v.frame, rtk_vec3_neg(rtk_vec3_normalize(ray_dir)));
-    return v;
-}
-
-/* 1 when the world direction w lies on the side of the geometric surface
- * that the local direction's z says: no light through shading normals. */
-static int same_side(const vertex *v, rtk_vec3 w, float local_z)
-{
-    float g = rtk_vec3_dot(w, v->ng);
-    return (g > 0.0f && local_z > 0.0f) || (g < 0.0f && local_z < 0.0f);
-}
-
-/* Light sampled at the vertex, weighted against the BSDF's own sampling:
- * 1 with its contribution c (unoccluded) and the shadow ray that decides
- * it, 0 when it adds nothing whatever the shadow ray finds. */
-static int next_event(rtk_ctx *ctx, const rtk_surface *s, const vertex *v, const rtk_bsdf *bsdf, rtk_rgb *c,
-                      rtk_ray *shadow)
-{
-    float u_pick = rtk_sample_1d(ctx);
-    rtk_vec2 u = rtk_sample_2d(ctx);
-    rtk_light_incident li;
-    if (!rtk_sample_incident_light(rtk_ctx_scene(ctx), s->p, s->ng, u_pick, u, &li) || !(li.pdf > 0.0f))
-        return 0;
-    rtk_vec3 wi = rtk_frame_to_local(&v->frame, li.wi);
-    if (!same_side(v, li.wi, wi.z))
-        return 0;
-    rtk_rgb f = rtk_bsdf_eval(bsdf, v->wo, wi);
-    if (is_black(f))
-        return 0;
-    float w = li.delta ? 1.0f : power_heuristic(li.pdf, rtk_bsdf_pdf(bsdf, v->wo, wi));
-    *c = rtk_rgb_scale(rtk_rgb_mul(f, li.li), fabsf(wi.z) * w / li.pdf);
-    *shadow = li.shadow;
+    const rtk_path_params *p = state;
+    memset(out, 0, sizeof *out);
+    snprintf(out->name, sizeof out->name, "path");
+    out->params[0] = (float)p->max_depth;
+    out->params[1] = (float)p->rr_depth;
+    out->params[2] = p->clamp;
     return 1;
 }
 
-/* What the path has carried to the current ray: its throughput and how
- * the ray's direction was chosen, for weighting what the ray finds. */
-typedef struct path_state {
-    rtk_rgb beta;
-    int depth;
-    int delta;        /* camera ray or delta lobe: what it finds counts whole */
-    float bsdf_pdf;   /* else the solid-angle density it was sampled with */
-    rtk_vec3 from;    /* and the point it left */
-} path_state;
+/* Adds beta x c to L (weighted). */
+static void add(const rtk_path_params *pt, rtk_rgb *L, rtk_rgb beta, rtk_rgb c)
+{
+    *L = rtk_rgb_add(*L, rtk_path_weighted(pt, beta, c));
+}
 
 /* Weight of light the ray finds (an emitter it hits, or the environment
  * when hit is NULL) against sampling that light from where the ray left. */
-static float found_weight(const rtk_scene *scene, const path_state *ps, const rtk_ray *ray, const rtk_hit *hit)
+static float found_weight(const rtk_scene *scene, const rtk_path_state *ps, const rtk_ray *ray, const rtk_hit *hit)
 {
-    if (ps->delta)
-        return 1.0f;
-    float light_pdf = rtk_incident_light_pdf(scene, ps->from, ray, hit);
-    return light_pdf > 0.0f ? power_heuristic(ps->bsdf_pdf, light_pdf) : 1.0f;
+    return ps->delta ? 1.0f : rtk_path_found_weight(ps, rtk_incident_light_pdf(scene, ps->from, ray, hit));
 }
 
 /* A path between two traces: its state, radiance so far, and a light
  * sample's contribution waiting for its shadow ray. */
 typedef struct path_vertex {
-    path_state ps;
+    rtk_path_state ps;
     rtk_rgb L;
     int shadowed;    /* 1: nee and shadow hold a pending light sample */
     rtk_rgb nee;     /* added to L when shadow is unoccluded */
@@ -179,15 +96,15 @@ typedef struct path_vertex {
  * missed: hit NULL): adds what it finds to pv->L, samples a light (left
  * pending in pv) and the next direction. Returns 1 with the next ray in
  * *ray, 0 when the path ends. */
-static int bounce(const path *pt, rtk_ctx *ctx, path_vertex *pv, rtk_ray *ray, const rtk_hit *hit,
+static int bounce(const rtk_path_params *pt, rtk_ctx *ctx, path_vertex *pv, rtk_ray *ray, const rtk_hit *hit,
                   rtk_li_result *out)
 {
     const rtk_scene *scene = rtk_ctx_scene(ctx);
-    path_state *ps = &pv->ps;
+    rtk_path_state *ps = &pv->ps;
     pv->shadowed = 0;
     if (!hit) {
         rtk_rgb env = rtk_scene_environment(scene, ray->dir);
-        if (!is_black(env))
+        if (!rtk_path_is_black(env))
             add(pt, &pv->L, ps->beta, rtk_rgb_scale(env, found_weight(scene, ps, ray, NULL)));
         return 0;
     }
@@ -202,53 +119,42 @@ static int bounce(const path *pt, rtk_ctx *ctx, path_vertex *pv, rtk_ray *ray, c
         out->normal = s.ns;
         out->depth = hit->t * rtk_vec3_length(ray->dir);
     }
-    if (s.front_face && !is_black(s.emission))
+    if (s.front_face && !rtk_path_is_black(s.emission))
         add(pt, &pv->L, ps->beta, rtk_rgb_scale(s.emission, found_weight(scene, ps, ray, hit)));
     if (ps->depth >= pt->max_depth)
         return 0;
     rtk_bsdf bsdf;
     rtk_surface_bsdf(scene, hit, &s, &bsdf);
-    unsigned flags = rtk_bsdf_flags(&bsdf);
     if (bsdf.count == 0)
         return 0;
-    vertex v = make_vertex(&s, &bsdf, ray->dir);
-    rtk_rgb c;
-    if ((flags & (RTK_BSDF_DIFFUSE | RTK_BSDF_GLOSSY)) && next_event(ctx, &s, &v, &bsdf, &c, &pv->shadow)) {
-        pv->nee = weighted(pt, ps->beta, c);
-        pv->shadowed = 1;
+    rtk_path_vertex v = rtk_path_vertex_at(s.ng, s.ns, s.front_face, &bsdf, ray->dir);
+    if (rtk_bsdf_flags(&bsdf) & (RTK_BSDF_DIFFUSE | RTK_BSDF_GLOSSY)) {
+        float u_pick = rtk_sample_1d(ctx);
+        rtk_vec2 u = rtk_sample_2d(ctx);
+        rtk_light_incident li;
+        rtk_rgb c;
+        if (rtk_sample_incident_light(scene, s.p, s.ng, u_pick, u, &li) && rtk_path_light(&v, &bsdf, &li, &c)) {
+            pv->nee = rtk_path_weighted(pt, ps->beta, c);
+            pv->shadow = li.shadow;
+            pv->shadowed = 1;
+        }
     }
     float u_lobe = rtk_sample_1d(ctx);
     rtk_vec2 u = rtk_sample_2d(ctx);
     rtk_bsdf_sample_out bs;
-    if (!rtk_bsdf_sample(&bsdf, v.wo, u_lobe, u, &bs) || !(bs.pdf > 0.0f))
+    rtk_vec3 side;
+    float m;
+    if (!rtk_bsdf_sample(&bsdf, v.wo, u_lobe, u, &bs) || !(bs.pdf > 0.0f) ||
+        !rtk_path_scatter(ps, &v, s.p, s.ng, &bs, ray, &side) ||
+        (rtk_path_roulette_due(pt, ps, &m) && !rtk_path_survives(ps, m, rtk_sample_1d(ctx))))
         return 0;
-    rtk_vec3 wi = rtk_frame_to_world(&v.frame, bs.wi);
-    if (!same_side(&v, wi, bs.wi.z))
-        return 0;
-    ps->beta = rtk_rgb_mul(ps->beta, rtk_rgb_scale(bs.f, fabsf(bs.wi.z) / bs.pdf));
-    ps->delta = (bs.flags & RTK_BSDF_DELTA) != 0;
-    ps->bsdf_pdf = bs.pdf;
-    ps->from = s.p;
-    float m = max3(ps->beta);
-    if (!(m > 0.0f))
-        return 0;
-    if (ps->depth + 1 >= pt->rr_depth && m < 1.0f) {
-        if (rtk_sample_1d(ctx) >= m)
-            return 0;
-        ps->beta = rtk_rgb_scale(ps->beta, 1.0f / m);
-    }
-    rtk_vec3 side = rtk_vec3_dot(wi, s.ng) > 0.0f ? s.ng : rtk_vec3_neg(s.ng);
     ray->org = rtk_offset_ray_origin(s.p, side);
-    ray->dir = wi;
-    ray->tmin = 0.0f;
-    ray->tmax = INFINITY;
     return 1;
 }
 
 static void start(path_vertex *pv, const rtk_ray *camera_ray)
 {
-    path_state ps = {rtk_rgb_make(1, 1, 1), 0, 1, 0.0f, camera_ray->org};
-    pv->ps = ps;
+    pv->ps = rtk_path_start(camera_ray->org);
     pv->L = rtk_rgb_make(0, 0, 0);
     pv->shadowed = 0;
 }
@@ -259,7 +165,7 @@ static void path_li(const void *state, rtk_ctx *ctx, const rtk_ray *camera_ray, 
     start(&pv, camera_ray);
     rtk_ray ray = *camera_ray;
     for (int more = 1; more; pv.ps.depth++) {
-        rtk_sample_seek(ctx, (uint32_t)pv.ps.depth * DIMS_PER_BOUNCE);
+        rtk_sample_seek(ctx, (uint32_t)pv.ps.depth * RTK_PATH_DIMS_PER_BOUNCE);
         rtk_hit hit;
         more = bounce(state, ctx, &pv, &ray, rtk_trace(ctx, &ray, &hit) ? &hit : NULL, out);
         if (pv.shadowed && !rtk_occluded(ctx, &pv.shadow))
@@ -291,7 +197,7 @@ static void path_li_batch(const void *state, rtk_ctx *ctx, const rtk_ray *rays, 
         for (uint32_t k = 0; k < live; k++) {
             uint32_t i = who[k];
             rtk_ctx_select(ctx, i);
-            rtk_sample_seek(ctx, depth * DIMS_PER_BOUNCE);
+            rtk_sample_seek(ctx, depth * RTK_PATH_DIMS_PER_BOUNCE);
             rtk_ray r = ray[k];
             int more = bounce(state, ctx, &pv[i], &r, hit[k].prim != RTK_INVALID_ID ? &hit[k] : NULL, &out[i]);
             pv[i].ps.depth++;
@@ -336,6 +242,7 @@ static const rtk_integrator_fns path_fns = {
     .li = path_li,
     .destroy = path_destroy,
     .li_batch = path_li_batch,
+    .device_program = path_device_program,
 };
 
 static const rtk_plugin path_plugin = {

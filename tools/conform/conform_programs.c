@@ -16,6 +16,7 @@ typedef struct cpu_device {
     rtk_program_scene ps;
     void *block; /* the tree view's corners and base colours */
     uint32_t *slot_of;
+    uint64_t lights; /* the stamp of the lights it reads */
 } cpu_device;
 
 static rtk_status cpu_shade(const void *state, rtk_shade_batch *b)
@@ -71,6 +72,7 @@ static rtk_status cpu_device_of(const rtk_scene *scene, cpu_device *d)
     rtk_status st = rtk_device_tree_view(scene, 1, &tree, &d->block);
     if (st != RTK_OK)
         return st;
+    d->lights = tree.lights ? tree.lights->stamp : 0;
     rtk_flat_scene flat;
     rtk_flat_scene_of(&tree, NULL, &flat);
     return rtk_program_scene_of(&tree, &flat, &d->slot_of, &d->ps) == 0 ? RTK_OK : RTK_ERR_NOMEM;
@@ -97,8 +99,10 @@ void rtk_conform_device_program(rtk_conform_runner *r, const rtk_integrator_fns 
     rtk_status st = cpu_device_of(scene, &d);
     const rtk_accelerator_fns *saved_device = scene->device;
     void *saved_state = scene->device_state;
+    const uint64_t saved_lights = scene->device_lights;
     scene->device = &cpu_device_fns;
     scene->device_state = &d;
+    scene->device_lights = d.lights;
     const char *why = st == RTK_OK ? rtk_device_runs(scene, &desc) : "out of memory";
     static const rtk_sampler_type samplers[] = {RTK_SAMPLER_INDEPENDENT, RTK_SAMPLER_STRATIFIED, RTK_SAMPLER_SOBOL};
     static const char *const names[] = {"independent", "stratified", "sobol"};
@@ -127,6 +131,7 @@ void rtk_conform_device_program(rtk_conform_runner *r, const rtk_integrator_fns 
     job->device_program = NULL;
     scene->device = saved_device;
     scene->device_state = saved_state;
+    scene->device_lights = saved_lights;
     free(d.block);
     free(d.slot_of);
 }

@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
-# Here, after a GPU check (run.sh's render step): compares each mesh's ao
-# render through cuda's device program with sah's at the same seed, the
-# noise measured by sah's render at another seed. The GPU's image is
-# within noise when |mean error| <= 3 standard errors of the mean, the
-# standard error being rmse(cpu1, cpu0) / sqrt(pixels) (two independent
-# renders differ by sqrt(2) sigma a pixel; the GPU's shares cpu0's seed,
-# so its error is smaller still; R, G and B of ao are one value, hence
-# pixels, not samples).
+# Here, after a GPU check (run.sh's render step): compares each render
+# through cuda's device program (ao on the meshes, path in the Cornell
+# box) with sah's at the same seed, the noise measured by sah's render at
+# another seed. The GPU's image is within noise when |mean error| <= 3
+# standard errors of the mean, the standard error being rmse(cpu1, cpu0) /
+# sqrt(pixels) (two independent renders differ by sqrt(2) sigma a pixel;
+# the GPU's shares cpu0's seed, so its error is at most that; R, G and B
+# of a pixel come from the same rays, hence pixels, not samples).
 #
 #   tools/gpu-check/compare.sh DIR [RTK]   (DIR: the fetched $OUT; RTK: default build/tools/rtk)
 set -u

@@ -4,7 +4,8 @@
 # (meson install into a staging folder), every shared library its programs,
 # plugins and the tests/cuda programs load, with the loader itself (run.sh
 # starts each program as `ld-linux-x86-64.so.2 --library-path ...`), the
-# four meshes and the showroom from ../shared/data. About 25 MB.
+# Cornell box, the four meshes and the showroom from ../shared/data. About
+# 28 MB.
 #
 #   tools/gpu-check/pack.sh [BUILD_DIR]      (from the checkout's root; default build)
 #
@@ -30,9 +31,11 @@ cp -a "$libdir"/librtk.so* "$b/lib/"
 cp -a "$libdir/rtk" "$b/lib/"
 rm -f "$b/lib/rtk/rtk_image.so" # OpenImageIO's 250 libraries stay behind: nothing here writes an image
 cp "$(find "$stage/dest" -type f -path '*/bin/rtk')" "$b/bin/"
-for t in isect traverse sampler bsdf material lights program; do
+for t in isect traverse sampler bsdf material lights program path_program; do
     cp "$build/tests/cuda/test_${t}_cuda" "$b/tests/"
 done
+mkdir -p "$b/src/scenes"
+cp -r "$root/scenes/cornell" "$b/src/scenes/"
 cp "$data"/meshes/{bunny,armadillo,elephant,dragon}.obj "$b/shared/data/meshes/"
 [ -f "$data/showroom/showroom.obj" ] && cp "$data/showroom/showroom.obj" "$b/shared/data/showroom/"
 # The closure of shared libraries, glibc and the loader included; librtk is ours.

@@ -4,10 +4,14 @@
 # check and benchmark of the cuda plugin in one go:
 #   1. tests/cuda's programs, whose device code runs where a GPU is;
 #   2. `rtk conform cuda`: every accelerator check through the GPU;
-#   3. `rtk render` of ao (its device program on the GPU; 8 rays, 512x512,
-#      16 spp; distance 1 in the showroom, a closed room) on bunny, dragon
-#      and the showroom, with cuda and with sah at 16 threads (seeds 0 and
-#      1): the renders as PFM in $OUT/renders-MESH.tar.gz, for compare.sh;
+#   3. `rtk render` through the device programs on the GPU, with cuda and
+#      with sah at 16 threads (seeds 0 and 1), 512x512 at 16 spp: ao (8
+#      rays; distance 1 in the showroom, a closed room) on bunny, dragon
+#      and the showroom, path (4 bounces) in the Cornell box; the renders
+#      as PFM in $OUT/renders-NAME.tar.gz, for compare.sh. Then path's
+#      frame rate in the box: 64 frames of 1 spp at 512x512, 4 bounces, as
+#      one render of 64 spp (frames/s = 64 / its render time, and 64 / the
+#      device's shade time);
 #   4. `rtk bench` with cuda beside sah (and embree when packed) on the four
 #      meshes and the showroom, at 1 and 16 threads.
 # Logs and CSVs go to $OUT/gpu-check.tar.gz; each step's last lines and the
@@ -38,8 +42,8 @@ nproc | sed 's/^/cpu cores: /' | tee -a "$logs/gpu.txt"
 grep -m1 'model name' /proc/cpuinfo | tee -a "$logs/gpu.txt"
 
 if [[ " $steps " == *" tests "* ]]; then
-    for t in isect sampler bsdf material lights program; do
-        timeout 300 bash -c "$(declare -f run); libpath=$libpath b=$b; run $b/tests/test_${t}_cuda" \
+    for t in isect sampler bsdf material lights program path_program; do
+        timeout 300 bash -c "$(declare -f run); libpath=$libpath b=$b; run $b/tests/test_${t}_cuda $b/src" \
             >"$logs/test_$t.log" 2>&1
         note "tests/cuda $t: exit $? ($(tail -1 "$logs/test_$t.log"))"
     done
@@ -61,28 +65,50 @@ if [[ " $steps " == *" conform "* ]]; then
 fi
 
 if [[ " $steps " == *" render "* ]]; then
-    for m in bunny dragon showroom; do
-        renders=/tmp/gpu-check-renders/$m
+    # render_case NAME CFG_TEXT: NAME rendered with cuda and with sah (seeds 0 and 1).
+    render_case() {
+        local name=$1 renders=/tmp/gpu-check-renders/$1
         mkdir -p "$renders"
+        printf '%s\nfilm = { width = 512; height = 512; spp = 16; };\nsampler = { seed = 0; };\n' "$2" >"$renders/$name.cfg"
+        for way in cuda:cuda:0 cpu0:sah:0 cpu1:sah:1; do
+            IFS=: read -r tag accel seed <<<"$way"
+            timeout 300 bash -c "$(declare -f run); libpath=$libpath b=$b; run $b/bin/rtk render $renders/$name.cfg \
+                --threads 16 --set accelerator.plugin=$accel --set sampler.seed=$seed -o $renders/$name-$tag.pfm" \
+                >"$logs/render_${name}_$tag.txt" 2>&1
+            st=$?
+            echo "---- render $name, $tag"
+            grep -E '^(render|rays|device|mean) ' "$logs/render_${name}_$tag.txt"
+            [ $st -ne 0 ] && tail -3 "$logs/render_${name}_$tag.txt"
+            note "render $name $tag: exit $st"
+        done
+        tar czf "$out/renders-$name.tar.gz" -C "$renders" . 2>/dev/null
+    }
+    for m in bunny dragon showroom; do
         f=$b/shared/data/meshes/$m.obj cam="" distance=inf
         [ $m = showroom ] && f=$b/shared/data/showroom/showroom.obj distance=1.0 &&
             cam='camera = { position = [-2.5, 2.2, -2.5]; look_at = [14.0, 0.5, 10.0]; fov = 60.0; };'
         [ -f "$f" ] || { note "render $m: not packed"; continue; }
-        printf 'scene = "%s";\n%s\nintegrator = { plugin = "ao"; rays = 8; distance = %s; };\nfilm = { width = 512; height = 512; spp = 16; };\nsampler = { seed = 0; };\n' \
-            "$f" "$cam" "$distance" >"$renders/$m.cfg"
-        for way in cuda:cuda:0 cpu0:sah:0 cpu1:sah:1; do
-            IFS=: read -r name accel seed <<<"$way"
-            timeout 300 bash -c "$(declare -f run); libpath=$libpath b=$b; run $b/bin/rtk render $renders/$m.cfg \
-                --threads 16 --set accelerator.plugin=$accel --set sampler.seed=$seed -o $renders/$m-$name.pfm" \
-                >"$logs/render_${m}_$name.txt" 2>&1
-            st=$?
-            echo "---- render $m, $name"
-            grep -E '^(render|rays|device|mean) ' "$logs/render_${m}_$name.txt"
-            [ $st -ne 0 ] && tail -3 "$logs/render_${m}_$name.txt"
-            note "render $m $name: exit $st"
-        done
-        tar czf "$out/renders-$m.tar.gz" -C "$renders" . 2>/dev/null
+        render_case "$m" "$(printf 'scene = "%s";\n%s\nintegrator = { plugin = "ao"; rays = 8; distance = %s; };' \
+            "$f" "$cam" "$distance")"
     done
+    box=$b/src/scenes/cornell/cornell.obj
+    box_cfg=$(printf 'scene = "%s";\ncamera = { position = [0.278, 0.273, -0.8]; look_at = [0.278, 0.273, 0.0]; fov = 39.3076; };\nintegrator = { plugin = "path"; max_depth = 4; };' "$box")
+    if [ -f "$box" ]; then
+        render_case cornell "$box_cfg"
+        printf '%s\nfilm = { width = 512; height = 512; spp = 64; };\n' "$box_cfg" >/tmp/gpu-check-renders/frames.cfg
+        timeout 300 bash -c "$(declare -f run); libpath=$libpath b=$b; run $b/bin/rtk render \
+            /tmp/gpu-check-renders/frames.cfg --threads 16 --set accelerator.plugin=cuda -o /tmp/gpu-check-renders/frames.pfm" \
+            >"$logs/frames.txt" 2>&1
+        st=$?
+        echo "---- path frames, Cornell box 512x512, 4 bounces, 64 x 1 spp"
+        grep -E '^(render|rays|device) ' "$logs/frames.txt"
+        awk '$1 == "render" { r = $2 } $1 == "device" { for (i = 1; i <= NF; i++) if ($i == "shade") s = $(i + 1) + 0 }
+             END { printf "path frames/s (512x512, 1 spp, 4 bounces): %.1f by render time, %.1f by shade time summed over the device lanes (target >= 30)\n",
+                   r > 0 ? 64 / r : 0, s > 0 ? 64 / s : 0 }' "$logs/frames.txt" | tee -a "$logs/frames.txt"
+        note "path frames: exit $st ($(tail -1 "$logs/frames.txt"))"
+    else
+        note "render cornell: not packed"
+    fi
     note "renders in \$OUT/renders-*.tar.gz (tools/gpu-check/compare.sh compares them)"
 fi
 

@@ -19,7 +19,7 @@
 struct rtk_gpu {
     int ordinal;
     rtk_flat_scene scene;   /* device pointers */
-    rtk_program_scene program_scene; /* the same, with slots and normals */
+    rtk_program_scene program_scene; /* the same, with what programs read */
     void **blocks;          /* every device allocation of the trees */
     size_t block_count, block_cap;
     uint64_t tree_bytes, lane_bytes;
@@ -158,6 +158,64 @@ static int put_tree(rtk_gpu *g, const rtk_device_tree *t, rtk_flat_tree *out, ch
     return 0;
 }
 
+/* Typed put: count elements of host (none when NULL). */
+template <typename T>
+static int put_n(rtk_gpu *g, const T *host, size_t count, const T **out, const char *what, char *why, size_t cap)
+{
+    const void *d = nullptr;
+    const int st = put(g, host, sizeof(T) * count, &d, what, why, cap);
+    *out = static_cast<const T *>(d);
+    return st;
+}
+
+/* The lights of tree (its emitters' table over slot_count triangles, the
+ * choice between lights, the environment) and its punctual lights on the
+ * device, for programs that sample them; *out stays NULL when it has none. */
+static int put_lights(rtk_gpu *g, const rtk_device_tree *t, const rtk_lights **out,
+                      const rtk_punctual_light **punctual, char *why, size_t cap)
+{
+    *out = nullptr;
+    *punctual = nullptr;
+    if (!t->lights)
+        return 0;
+    rtk_lights l = *t->lights;
+    const size_t n = l.count;
+    const uint32_t *prims, *insts, *alias, *light_of;
+    const float *area, *pick, *alias_prob, *slot_pick, *slot_cdf;
+    if (put_n(g, l.prims, n, &prims, "emitters", why, cap) || put_n(g, l.insts, n, &insts, "emitters", why, cap) ||
+        put_n(g, l.area, n, &area, "emitter areas", why, cap) || put_n(g, l.pick, n, &pick, "emitter picks", why, cap) ||
+        put_n(g, l.alias_prob, n, &alias_prob, "alias table", why, cap) ||
+        put_n(g, l.alias, n, &alias, "alias table", why, cap) ||
+        put_n(g, n ? l.light_of : nullptr, t->slot_count, &light_of, "emitters of triangles", why, cap) ||
+        put_n(g, l.slot_pick, l.slot_count, &slot_pick, "light choice", why, cap) ||
+        put_n(g, l.slot_count ? l.slot_cdf : nullptr, (size_t)l.slot_count + 1, &slot_cdf, "light choice", why, cap))
+        return -1;
+    l.prims = const_cast<uint32_t *>(prims), l.insts = const_cast<uint32_t *>(insts);
+    l.alias = const_cast<uint32_t *>(alias), l.light_of = const_cast<uint32_t *>(light_of);
+    l.area = const_cast<float *>(area), l.pick = const_cast<float *>(pick);
+    l.alias_prob = const_cast<float *>(alias_prob), l.slot_pick = const_cast<float *>(slot_pick);
+    l.slot_cdf = const_cast<float *>(slot_cdf);
+    l.inst_first = nullptr; /* programs place no instances */
+    if (l.environment) {
+        rtk_environment env = *l.environment;
+        const size_t w = (size_t)env.width, h = (size_t)env.height;
+        const float *rgb, *func, *row_cdf, *col_cdf;
+        const rtk_environment *denv;
+        if (put_n(g, w ? env.rgb : nullptr, 3 * w * h, &rgb, "environment", why, cap) ||
+            put_n(g, w ? env.func : nullptr, w * h, &func, "environment", why, cap) ||
+            put_n(g, w ? env.row_cdf : nullptr, h + 1, &row_cdf, "environment", why, cap) ||
+            put_n(g, w ? env.col_cdf : nullptr, h * (w + 1), &col_cdf, "environment", why, cap))
+            return -1;
+        env.rgb = const_cast<float *>(rgb), env.func = const_cast<float *>(func);
+        env.row_cdf = const_cast<float *>(row_cdf), env.col_cdf = const_cast<float *>(col_cdf);
+        if (put_n(g, &env, 1, &denv, "environment", why, cap))
+            return -1;
+        l.environment = const_cast<rtk_environment *>(denv);
+    }
+    return put_n(g, &l, 1, out, "lights", why, cap) ||
+           put_n(g, t->punctual, t->punctual_count, punctual, "punctual lights", why, cap);
+}
+
 static void free_trees(rtk_gpu *g)
 {
     for (size_t i = 0; i < g->block_count; i++)
@@ -200,7 +258,10 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
              put(g, tree->instances, sizeof(rtk_device_instance) * (size_t)tree->instance_count, &instances,
                  "instances", why, cap);
     std::free(meshes);
-    const void *slots = nullptr, *normals = nullptr, *tri_materials = nullptr, *bases = nullptr, *colors = nullptr;
+    const void *slots = nullptr, *normals = nullptr, *tri_materials = nullptr, *colors = nullptr;
+    const rtk_material *materials = nullptr;
+    const rtk_lights *lights = nullptr;
+    const rtk_punctual_light *punctual = nullptr;
     if (!st && tree->slot_count) {
         uint32_t *slot_of = static_cast<uint32_t *>(std::malloc(sizeof *slot_of * tree->slot_count));
         if (!slot_of)
@@ -211,12 +272,13 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
                  put(g, tree->normals, sizeof(float) * 9 * (size_t)tree->slot_count, &normals, "normals", why, cap) ||
                  put(g, tree->tri_materials, sizeof(uint32_t) * (size_t)tree->slot_count, &tri_materials,
                      "triangle materials", why, cap) ||
-                 put(g, tree->base_colors, sizeof(rtk_rgb) * (size_t)tree->material_count, &bases,
-                     "base colours", why, cap) ||
+                 put_n(g, tree->materials, tree->material_count, &materials, "materials", why, cap) ||
                  put(g, tree->colors, sizeof(float) * 12 * (size_t)tree->slot_count, &colors, "vertex colours", why,
                      cap);
         }
         std::free(slot_of);
+        if (!st)
+            st = put_lights(g, tree, &lights, &punctual, why, cap);
     }
     if (!st)
         st = failed(cudaEventRecord(stop), "cudaEventRecord", why, cap) ||
@@ -241,9 +303,12 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
     g->program_scene.slot_of = static_cast<const uint32_t *>(slots);
     g->program_scene.normals = static_cast<const float *>(normals);
     g->program_scene.tri_materials = static_cast<const uint32_t *>(tri_materials);
-    g->program_scene.base_colors = static_cast<const rtk_rgb *>(bases);
+    g->program_scene.materials = materials;
     g->program_scene.material_count = tree->material_count;
     g->program_scene.colors = static_cast<const float *>(colors);
+    g->program_scene.lights = lights;
+    g->program_scene.punctual = punctual;
+    g->program_scene.punctual_count = tree->punctual_count;
     *seconds = 1e-3 * (double)ms;
     return 0;
 }

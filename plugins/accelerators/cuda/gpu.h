@@ -22,7 +22,8 @@ typedef struct rtk_gpu_lane rtk_gpu_lane;
 int rtk_gpu_open(int ordinal, char *name, size_t name_cap, rtk_gpu **out, char *why, size_t cap);
 /* Copies tree's nodes, leaf order and corners to the device (once), an
  * instanced scene's meshes, top level and placements, and what device
- * programs read (each triangle's slot, the normals). */
+ * programs read (each triangle's slot, the normals, materials, vertex
+ * colours and lights). */
 int rtk_gpu_upload(rtk_gpu *gpu, const rtk_device_tree *tree, double *seconds, char *why, size_t cap);
 /* Device memory the tree and the lanes hold, in bytes. */
 uint64_t rtk_gpu_bytes(const rtk_gpu *gpu);

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The kernel's device accelerators end to end, with testdevice (a device
 # that is the CPU): images through it equal the builder's bit for bit (ao,
-# headlight and path, which trace in batches; an instanced scene; ao's
-# and headlight's device programs, AOVs included, over normals, materials
-# and vertex colours, and where they do not run), the
+# headlight and path, which trace in batches; an instanced scene; the
+# device programs of ao, headlight and path, AOVs included, over normals,
+# materials, vertex colours and every kind of light, and where they do
+# not run), the
 # report's device line, the BVH cache, `rtk bench`'s device table and
 # counts, and every refusal with its message (a wrong builder at its
 # config line, a device that cannot start or take the tree).
@@ -138,6 +139,19 @@ PY
 else
     echo "skip  program, headlight over vertex colours: no python3 to write its glTF"
 fi
+# path's program (ABI 3.7): the box's emitter, then every other kind of
+# light (point, spot, directional, a constant environment), an
+# environment map over glossy, rough and smooth BSDFs, clamping and
+# roulette from the first bounce.
+program_image "program, path in the box" "$cornell/cornell.cfg" --set integrator.max_depth=6
+printf 'scene = "%s/cornell.obj";\ncamera = { position = [0.278, 0.273, -0.8]; look_at = [0.278, 0.273, 0.0]; fov = 39.3076; };\nintegrator = { plugin = "path"; };\nlights = ( { type = "point"; position = [0.28, 0.45, 0.28]; intensity = [0.2, 0.15, 0.1]; },\n  { type = "spot"; position = [0.1, 0.5, 0.1]; direction = [0.3, -1.0, 0.3]; intensity = [0.3, 0.3, 0.4]; inner = 15.0; outer = 30.0; },\n  { type = "directional"; direction = [0.2, -1.0, 0.5]; intensity = [0.5, 0.5, 0.5]; } );\nenvironment = { color = [0.2, 0.3, 0.5]; };\n' \
+    "$cornell" >"$tmp/all-lights.cfg"
+program_image "program, path under every kind of light" "$tmp/all-lights.cfg" --set integrator.max_depth=5 \
+    --set sampler.type=\"stratified\"
+program_image "program, path under an environment map" "$src/scenes/materials/environment.cfg" \
+    --set integrator.max_depth=5 --set integrator.rr_depth=1
+program_image "program, path over GGX, clamped" "$src/scenes/materials/ggx-ramp.cfg" --set integrator.clamp=0.5 \
+    --set sampler.type=\"independent\"
 
 # Where the device runs no program, it traces the integrator's batches, saying why.
 fallback() {
@@ -155,8 +169,8 @@ fallback() {
 dev_ao=("$rtk" render "$tmp/sphere.cfg" "${small[@]}" --set accelerator.plugin=testdevice --set film.output="$tmp/fb.exr")
 fallback "programs = false: batches only" "stays on the CPU (the device does not run this program)" \
     "${dev_ao[@]}" --set accelerator.programs=false
-fallback "path has no device program" "integrator 'path' (with these parameters) has no device program" \
-    "$rtk" render "$cornell/cornell.cfg" "${small[@]}" --set accelerator.plugin=testdevice --set film.output="$tmp/fb.exr"
+fallback "whitted has no device program" "integrator 'whitted' (with these parameters) has no device program" \
+    "$rtk" render "$cornell/cornell-whitted.cfg" "${small[@]}" --set accelerator.plugin=testdevice --set film.output="$tmp/fb.exr"
 printf 'scene = "%s/tests/fuzz/seeds/quad.obj";\ncamera = { position = [0.5, 0.5, 2.0]; look_at = [0.5, 0.5, 0.0]; fov = 40.0; };\nintegrator = { plugin = "headlight"; };\n' \
     "$src" >"$tmp/textured.cfg"
 fallback "textured scenes stay on the CPU" "device programs do not read textures yet" \
