@@ -106,6 +106,14 @@ typedef struct rtk_device_instance {
     uint32_t reserved;    /* 0 */
 } rtk_device_instance;
 
+/* ABI 3.7. What device programs read of a placement besides
+ * rtk_device_instance: where its surfaces go and which side they show. */
+typedef struct rtk_device_frame {
+    double to_world[12]; /* the mesh's space -> world, 3x4 row-major */
+    uint32_t mirrored;   /* 1 when the transform mirrors (negative determinant) */
+    uint32_t reserved;   /* 0 */
+} rtk_device_frame;
+
 /* ABI 3.5. The kernel's tree as a device accelerator receives it (see
  * rtk_accelerator_fns.attach); the arrays stay valid until its destroy.
  * An instanced scene's tree also has a top level over its instances, and
@@ -140,18 +148,20 @@ typedef struct rtk_device_tree {
     const rtk_rgb *base_colors;
     uint32_t material_count;
     const float *colors;
-    /* ABI 3.7, for device programs that sample lights: where the
-     * integrator reads materials, the materials themselves (the kernel's
-     * rtk_material, kernel/scene/scene.h, material_count of them; their
-     * names and texture slots mean nothing on a device); where it samples
-     * lights, the scene's lights as they were when the device took the
-     * tree (the kernel's rtk_lights, kernel/scene/lights.h: light_of has
-     * slot_count entries) and its punctual lights (each NULL, 0 when
-     * absent). */
+    /* ABI 3.7, for device programs: where the integrator reads
+     * materials, the materials themselves (the kernel's rtk_material,
+     * kernel/scene/scene.h, material_count of them; their names and
+     * texture slots mean nothing on a device); where it samples lights,
+     * the scene's lights as they were when the device took the tree (the
+     * kernel's rtk_lights, kernel/scene/lights.h: light_of has slot_count
+     * entries, inst_first instance_count; a placed mesh's own lights give
+     * its light_of alone) and its punctual lights; each instance's frame
+     * (instance_count of them). Each NULL, 0 when absent. */
     const struct rtk_material *materials;
     const struct rtk_lights *lights;
     const struct rtk_punctual_light *punctual;
     uint32_t punctual_count;
+    const rtk_device_frame *frames;
 } rtk_device_tree;
 
 /* ABI 3.5. What a device accelerator did so far, summed over its calls. */

@@ -39,8 +39,9 @@ RTK_EXTERN_C_BEGIN
  * 3.6: device programs (rtk_integrator_fns.device_program,
  * rtk_device_program; rtk_accelerator_fns.shade, rtk_shade_batch;
  * rtk_device_tree.normals; rtk_device_report.samples, shade_seconds).
- * 3.7: device programs that sample lights (rtk_device_tree.materials,
- * lights, punctual, punctual_count). */
+ * 3.7: device programs that sample lights and shade instances
+ * (rtk_device_tree.materials, lights, punctual, punctual_count, frames;
+ * rtk_device_frame). */
 #define RTK_ABI_MAJOR 3
 #define RTK_ABI_MINOR 7
 

@@ -114,7 +114,8 @@ static rtk_device_tree tree_view(const rtk_scene *m, float **corners, rtk_rgb **
     return t;
 }
 
-/* The lights of s for device programs that sample them (none else). */
+/* The lights of s (a scene, or a placed mesh: its emitters' light_of)
+ * for device programs that sample them (none else). */
 static void lights_view(const rtk_scene *s, rtk_device_tree *t)
 {
     if (!(s->needs & RTK_NEED_LIGHTS) || !s->lights)
@@ -174,12 +175,12 @@ static rtk_status device_build(rtk_scene *s, const rtk_plugin *device, const rtk
         return st;
     }
     rtk_build_log_mark(s->build_log, "device: upload", 0, 0);
-    /* One block: the meshes' views, every tree's materials' base colours,
-     * then every tree's corners. */
+    /* One block: the meshes' views, the instances' frames, every tree's
+     * materials' base colours, then every tree's corners. */
     uint64_t triangles = s->triangle_count, materials = s->material_count;
     for (uint32_t i = 0; i < s->mesh_count; i++)
         triangles += s->meshes[i]->triangle_count, materials += s->meshes[i]->material_count;
-    const size_t views = sizeof(rtk_device_tree) * s->mesh_count;
+    const size_t views = sizeof(rtk_device_tree) * s->mesh_count + sizeof(rtk_device_frame) * s->instance_count;
     const size_t bases_size = sizeof(rtk_rgb) * (size_t)materials;
     s->device_data = rtk_alloc(views + bases_size + sizeof(float) * 9 * (size_t)triangles);
     if (!s->device_data) {
@@ -188,17 +189,26 @@ static rtk_status device_build(rtk_scene *s, const rtk_plugin *device, const rtk
                          (unsigned long long)triangles);
     }
     rtk_device_tree *meshes = s->device_data;
+    rtk_device_frame *frames = (rtk_device_frame *)(void *)(meshes + s->mesh_count);
     rtk_rgb *bases = (rtk_rgb *)(void *)((char *)s->device_data + views);
     float *corners = (float *)(void *)((char *)s->device_data + views + bases_size);
     rtk_device_tree tree = tree_view(s, &corners, &bases, threads);
     lights_view(s, &tree);
-    for (uint32_t i = 0; i < s->mesh_count; i++)
+    for (uint32_t i = 0; i < s->mesh_count; i++) {
         meshes[i] = tree_view(s->meshes[i], &corners, &bases, threads);
+        lights_view(s->meshes[i], &meshes[i]);
+    }
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        memcpy(frames[i].to_world, s->instances[i].to_world, sizeof frames[i].to_world);
+        frames[i].mirrored = s->instances[i].mirrored != 0;
+        frames[i].reserved = 0;
+    }
     if (s->instance_count) {
         tree.tlas_nodes = s->tlas_nodes, tree.tlas_node_count = s->tlas_node_count, tree.tlas_depth = s->tlas_depth;
         tree.tlas_order = s->tlas_order;
         tree.instances = s->placements, tree.instance_count = s->instance_count;
         tree.meshes = meshes, tree.mesh_count = s->mesh_count;
+        tree.frames = frames;
     }
     st = f->attach(state, &tree);
     if (st != RTK_OK) {
@@ -257,8 +267,6 @@ const char *rtk_device_runs(const rtk_scene *s, const rtk_device_program *progra
         return "no device accelerator traces this scene";
     if (!shade_fn(s->device))
         return "the device accelerator runs no programs";
-    if (s->instance_count)
-        return "device programs do not shade instances yet";
     if ((s->needs & RTK_NEED_LIGHTS) && s->lights && s->lights->stamp != s->device_lights)
         return "the scene's lights changed after the device took its tree";
     if ((s->needs & RTK_NEED_TEXTURES) && s->textures && s->uvs)

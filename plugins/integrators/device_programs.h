@@ -19,8 +19,8 @@
  * Surfaces: position, normals, the material's factors (base colour times
  * vertex colour, emission, the BSDF of kernel/scene/material_bsdf.h), no
  * textures. Scenes: a device accelerator's (no cut-outs, no single-sided
- * materials), without instances or textures to read (the kernel offers
- * no others: rtk_device_runs).
+ * materials), instances included, without textures to read (the kernel
+ * offers no others: rtk_device_runs).
  *
  * Run on a CPU, a program gives what the integrator's li gives, bit for
  * bit (tests/plugins/device checks it); on a GPU, hits are still the
@@ -65,19 +65,30 @@ typedef struct rtk_program {
     rtk_path_params path;
 } rtk_program;
 
-/* What a program reads: the scene's tree, each triangle's leaf slot (to
- * find its corners), the corners' normals, the materials, vertex colours
- * and lights (rtk_device_tree's) and the default material's colour.
- * Pointers are the device's or the host's alike. */
-typedef struct rtk_program_scene {
-    rtk_flat_scene flat;
-    const uint32_t *slot_of;       /* triangle id -> leaf slot of flat.own */
+/* What a program reads of one tree's triangles (the scene's own or a
+ * placed mesh's): their corners (the flat tree's, in leaf order), each
+ * triangle's leaf slot, the corners' normals, the materials, vertex
+ * colours and which emitter each triangle is (rtk_device_tree's). */
+typedef struct rtk_program_mesh {
+    const float *corners;          /* 9 floats a leaf slot */
+    const uint32_t *slot_of;       /* triangle id -> leaf slot */
     const float *normals;          /* 9 floats a triangle id; NULL: none */
     const uint32_t *tri_materials; /* NULL: materials not read */
     const rtk_material *materials;
     uint32_t material_count;
     const float *colors;           /* 12 floats a triangle id; NULL: none */
-    const rtk_lights *lights;      /* NULL: none sampled */
+    const uint32_t *light_of;      /* triangle id -> its emitter (NULL: none emit) */
+} rtk_program_mesh;
+
+/* What a program reads: the scene's trees, its own triangles' and each
+ * placed mesh's, the instances' frames, the lights and the default
+ * material's colour. Pointers are the device's or the host's alike. */
+typedef struct rtk_program_scene {
+    rtk_flat_scene flat;
+    rtk_program_mesh own;
+    const rtk_program_mesh *meshes;  /* one a placed mesh */
+    const rtk_device_frame *frames;  /* one an instance */
+    const rtk_lights *lights;        /* NULL: none sampled */
     const rtk_punctual_light *punctual;
     uint32_t punctual_count;
     rtk_rgb albedo;
@@ -117,26 +128,57 @@ static inline void rtk_program_slots(const rtk_device_tree *tree, uint32_t *slot
         slot_of[tree->prim_ids[slot]] = slot;
 }
 
+/* The emitter of each triangle of tree (tree->slot_count of them), NULL
+ * when none of them emits. */
+static inline const uint32_t *rtk_program_light_of(const rtk_device_tree *tree)
+{
+    return tree->lights && tree->lights->count && tree->slot_count ? tree->lights->light_of : NULL;
+}
+
+/* What programs read of one tree, its corners and slot_of given (pointers
+ * of the same side as the tree's arrays). */
+static inline rtk_program_mesh rtk_program_mesh_of(const rtk_device_tree *tree, const float *corners,
+                                                   const uint32_t *slot_of)
+{
+    rtk_program_mesh m;
+    memset(&m, 0, sizeof m);
+    m.corners = corners;
+    m.slot_of = slot_of;
+    m.normals = tree->normals;
+    m.tri_materials = tree->tri_materials;
+    m.materials = tree->materials;
+    m.material_count = tree->material_count;
+    m.colors = tree->colors;
+    m.light_of = rtk_program_light_of(tree);
+    return m;
+}
+
 /* What programs read of tree, flat its traversal's view (host pointers):
- * *slot_of made here (NULL when tree has no triangles of its own) [caller
- * frees]; albedo left for each batch. 0, or -1 out of memory. */
-static inline int rtk_program_scene_of(const rtk_device_tree *tree, const rtk_flat_scene *flat, uint32_t **slot_of,
+ * the placed meshes' table and every tree's slots in *block, made here
+ * [caller frees]; albedo left for each batch. 0, or -1 out of memory. */
+static inline int rtk_program_scene_of(const rtk_device_tree *tree, const rtk_flat_scene *flat, void **block,
                                        rtk_program_scene *out)
 {
-    *slot_of = NULL;
-    if (tree->slot_count) {
-        if (!(*slot_of = (uint32_t *)malloc(sizeof **slot_of * tree->slot_count)))
-            return -1;
-        rtk_program_slots(tree, *slot_of);
-    }
+    size_t slots = tree->slot_count;
+    for (uint32_t i = 0; i < tree->mesh_count; i++)
+        slots += tree->meshes[i].slot_count;
+    const size_t table = sizeof(rtk_program_mesh) * tree->mesh_count;
+    if (!(*block = malloc(table + sizeof(uint32_t) * slots + 1)))
+        return -1;
+    rtk_program_mesh *meshes = (rtk_program_mesh *)*block;
+    uint32_t *slot_of = (uint32_t *)(void *)((char *)*block + table);
     memset(out, 0, sizeof *out);
     out->flat = *flat;
-    out->slot_of = *slot_of;
-    out->normals = tree->normals;
-    out->tri_materials = tree->tri_materials;
-    out->materials = tree->materials;
-    out->material_count = tree->material_count;
-    out->colors = tree->colors;
+    rtk_program_slots(tree, slot_of);
+    out->own = rtk_program_mesh_of(tree, flat->own.corners, slot_of);
+    slot_of += tree->slot_count;
+    for (uint32_t i = 0; i < tree->mesh_count; i++) {
+        rtk_program_slots(&tree->meshes[i], slot_of);
+        meshes[i] = rtk_program_mesh_of(&tree->meshes[i], flat->meshes[i].corners, slot_of);
+        slot_of += tree->meshes[i].slot_count;
+    }
+    out->meshes = meshes;
+    out->frames = tree->frames;
     out->lights = tree->lights;
     out->punctual = tree->punctual;
     out->punctual_count = tree->punctual_count;
@@ -174,23 +216,49 @@ RTK_HD static inline int rtk_program_occluded(const rtk_program_scene *s, const 
     return rtk_flat_scene_any(&s->flat, ray);
 }
 
-/* Triangle prim's corners. */
-RTK_HD static inline void rtk_program_corners(const rtk_program_scene *s, uint32_t prim, rtk_vec3 *a, rtk_vec3 *b,
+/* The triangles instance inst places (RTK_INVALID_ID: the scene's own). */
+RTK_HD static inline const rtk_program_mesh *rtk_program_mesh_at(const rtk_program_scene *s, uint32_t inst)
+{
+    return inst == RTK_INVALID_ID ? &s->own : &s->meshes[s->flat.top.instances[inst].mesh];
+}
+
+/* Triangle prim's corners in its tree's space. */
+RTK_HD static inline void rtk_program_corners(const rtk_program_mesh *m, uint32_t prim, rtk_vec3 *a, rtk_vec3 *b,
                                               rtk_vec3 *c)
 {
-    const float *v = s->flat.own.corners + 9 * (size_t)s->slot_of[prim];
+    const float *v = m->corners + 9 * (size_t)m->slot_of[prim];
     *a = rtk_vec3_make(v[0], v[1], v[2]);
     *b = rtk_vec3_make(v[3], v[4], v[5]);
     *c = rtk_vec3_make(v[6], v[7], v[8]);
 }
 
-/* Triangle prim's material, NULL for the default one. */
-RTK_HD static inline const rtk_material *rtk_program_material(const rtk_program_scene *s, uint32_t prim)
+/* p placed by frame f, rounded to float (rtk_instance_triangle's way). */
+RTK_HD static inline rtk_vec3 rtk_program_place(const rtk_device_frame *f, rtk_vec3 p)
 {
-    if (!s->tri_materials || !s->materials)
+    double w[3];
+    rtk_affine_point(f->to_world, p.x, p.y, p.z, w);
+    return rtk_vec3_make((float)w[0], (float)w[1], (float)w[2]);
+}
+
+/* Triangle prim of instance inst (RTK_INVALID_ID: the scene's own) in
+ * world space, as rtk_scene_triangle and rtk_instance_triangle give it. */
+RTK_HD static inline void rtk_program_world_corners(const rtk_program_scene *s, uint32_t inst, uint32_t prim,
+                                                    rtk_vec3 *a, rtk_vec3 *b, rtk_vec3 *c)
+{
+    rtk_program_corners(rtk_program_mesh_at(s, inst), prim, a, b, c);
+    if (inst != RTK_INVALID_ID) {
+        const rtk_device_frame *f = &s->frames[inst];
+        *a = rtk_program_place(f, *a), *b = rtk_program_place(f, *b), *c = rtk_program_place(f, *c);
+    }
+}
+
+/* Triangle prim's material, NULL for the default one. */
+RTK_HD static inline const rtk_material *rtk_program_material(const rtk_program_mesh *m, uint32_t prim)
+{
+    if (!m->tri_materials || !m->materials)
         return NULL;
-    const uint32_t id = s->tri_materials[prim];
-    return id < s->material_count ? &s->materials[id] : NULL;
+    const uint32_t id = m->tri_materials[prim];
+    return id < m->material_count ? &m->materials[id] : NULL;
 }
 
 /* A hit's surface as rtk_surface_at gives it without textures. */
@@ -202,14 +270,16 @@ typedef struct rtk_program_surface {
     const rtk_material *m; /* NULL: the default material */
 } rtk_program_surface;
 
-RTK_HD static inline void rtk_program_surface_at(const rtk_program_scene *s, const rtk_ray *ray, const rtk_hit *hit,
-                                                 rtk_program_surface *out)
+/* The surface of triangle prim of mesh m at barycentrics (u, v), seen
+ * along dir, in m's space. */
+RTK_HD static inline void rtk_program_mesh_surface(const rtk_program_scene *s, const rtk_program_mesh *m, uint32_t prim,
+                                                   float u, float v, rtk_vec3 dir, rtk_program_surface *out)
 {
     rtk_vec3 p0, p1, p2;
-    rtk_program_corners(s, hit->prim, &p0, &p1, &p2);
-    rtk_surface_geometry(p0, p1, p2, s->normals ? s->normals + 9 * (size_t)hit->prim : NULL, hit->u, hit->v, ray->dir,
-                         &out->p, &out->ng, &out->ns, &out->front);
-    out->m = rtk_program_material(s, hit->prim);
+    rtk_program_corners(m, prim, &p0, &p1, &p2);
+    rtk_surface_geometry(p0, p1, p2, m->normals ? m->normals + 9 * (size_t)prim : NULL, u, v, dir, &out->p, &out->ng,
+                         &out->ns, &out->front);
+    out->m = rtk_program_material(m, prim);
     out->base = s->albedo;
     out->emission = rtk_rgb_make(0.0f, 0.0f, 0.0f);
     out->alpha = 1.0f;
@@ -220,13 +290,43 @@ RTK_HD static inline void rtk_program_surface_at(const rtk_program_scene *s, con
         out->alpha = out->m->alpha;
         out->ior = out->m->ior;
     }
-    if (s->tri_materials && s->colors) {
-        const float *colors = s->colors + 12 * (size_t)hit->prim;
+    if (m->tri_materials && m->colors) {
+        const float *colors = m->colors + 12 * (size_t)prim;
         float vc[4];
-        rtk_corner_colors(colors, hit->u, hit->v, vc);
-        out->base = rtk_surface_base_color(out->base, colors, hit->u, hit->v);
+        rtk_corner_colors(colors, u, v, vc);
+        out->base = rtk_surface_base_color(out->base, colors, u, v);
         out->alpha *= vc[3];
     }
+}
+
+/* A normal through frame f: the inverse transpose (to_object's rows as
+ * columns), normalised; rtk_instance_surface's way. */
+RTK_HD static inline rtk_vec3 rtk_program_world_normal(const double *to_object, rtk_vec3 n)
+{
+    double w[3];
+    for (int k = 0; k < 3; k++)
+        w[k] = to_object[k] * n.x + to_object[4 + k] * n.y + to_object[8 + k] * n.z;
+    return rtk_vec3_normalize(rtk_vec3_make((float)w[0], (float)w[1], (float)w[2]));
+}
+
+/* A hit's surface as rtk_surface_at gives it without textures: an
+ * instance's in its mesh's space (the ray's direction taken there), then
+ * placed in the world. */
+RTK_HD static inline void rtk_program_surface_at(const rtk_program_scene *s, const rtk_ray *ray, const rtk_hit *hit,
+                                                 rtk_program_surface *out)
+{
+    if (hit->inst == RTK_INVALID_ID) {
+        rtk_program_mesh_surface(s, &s->own, hit->prim, hit->u, hit->v, ray->dir, out);
+        return;
+    }
+    const rtk_device_instance *in = &s->flat.top.instances[hit->inst];
+    double d[3];
+    rtk_affine_vector(in->to_object, ray->dir.x, ray->dir.y, ray->dir.z, d);
+    rtk_program_mesh_surface(s, &s->meshes[in->mesh], hit->prim, hit->u, hit->v,
+                             rtk_vec3_make((float)d[0], (float)d[1], (float)d[2]), out);
+    out->p = rtk_program_place(&s->frames[hit->inst], out->p);
+    out->ng = rtk_program_world_normal(in->to_object, out->ng);
+    out->ns = rtk_program_world_normal(in->to_object, out->ns);
 }
 
 /* A camera ray's first hit as rtk_trace and rtk_surface_at give it:
@@ -281,15 +381,16 @@ RTK_HD static inline void rtk_program_emitter_corners(const void *ctx, uint32_t 
                                                       rtk_vec3 *c, int *mirrored)
 {
     const rtk_program_scene *s = (const rtk_program_scene *)ctx;
-    rtk_program_corners(s, s->lights->prims[light], a, b, c);
-    *mirrored = 0;
+    const uint32_t inst = s->lights->insts[light];
+    rtk_program_world_corners(s, inst, s->lights->prims[light], a, b, c);
+    *mirrored = inst != RTK_INVALID_ID && s->frames[inst].mirrored;
 }
 
 RTK_HD static inline rtk_rgb rtk_program_emitter_emission(const void *ctx, uint32_t light, float b1, float b2)
 {
     (void)b1, (void)b2;
     const rtk_program_scene *s = (const rtk_program_scene *)ctx;
-    const rtk_material *m = rtk_program_material(s, s->lights->prims[light]);
+    const rtk_material *m = rtk_program_material(rtk_program_mesh_at(s, s->lights->insts[light]), s->lights->prims[light]);
     return m ? m->emission : rtk_rgb_make(0.0f, 0.0f, 0.0f);
 }
 
@@ -315,17 +416,22 @@ RTK_HD static inline float rtk_program_light_pdf(const rtk_program_scene *s, con
         float pick = l->slot_pick[l->slot_count - 1];
         return pick > 0.0f && l->environment ? rtk_env_pdf(l->environment, ray->dir) * pick : 0.0f;
     }
-    if (l->count == 0)
+    const rtk_program_mesh *m = rtk_program_mesh_at(s, hit->inst);
+    if (l->count == 0 || !m->light_of)
         return 0.0f;
-    const uint32_t light = l->light_of[hit->prim];
+    uint32_t light = m->light_of[hit->prim];
     if (light == RTK_INVALID_ID)
         return 0.0f;
+    if (hit->inst != RTK_INVALID_ID)
+        light += l->inst_first[hit->inst];
     const float pdf_area = l->pick[light] / l->area[light];
     if (!(pdf_area > 0.0f))
         return 0.0f;
     rtk_vec3 a, b, c;
-    rtk_program_corners(s, hit->prim, &a, &b, &c);
+    rtk_program_world_corners(s, hit->inst, hit->prim, &a, &b, &c);
     rtk_vec3 n = rtk_vec3_normalize(rtk_vec3_cross(rtk_vec3_sub(b, a), rtk_vec3_sub(c, a)));
+    if (hit->inst != RTK_INVALID_ID && s->frames[hit->inst].mirrored)
+        n = rtk_vec3_neg(n);
     return rtk_emitter_solid_pdf(n, ray, hit->t, pdf_area, l->slot_pick[0]);
 }
 

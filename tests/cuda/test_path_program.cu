@@ -185,7 +185,7 @@ int main(int argc, char **argv)
     rtk_params *bp = nullptr;
     rtk_device_tree tree = rtk_device_tree();
     void *block = nullptr;
-    uint32_t *slot_of = nullptr;
+    void *program_block = nullptr;
     rtk_program_scene ps = rtk_program_scene();
     bool ready = s && rtk_registry_create(&reg) == RTK_OK &&
                  rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "sah", &sah) == RTK_OK &&
@@ -195,7 +195,7 @@ int main(int argc, char **argv)
     if (ready) {
         rtk_flat_scene flat;
         rtk_flat_scene_of(&tree, nullptr, &flat);
-        ready = rtk_program_scene_of(&tree, &flat, &slot_of, &ps) == 0;
+        ready = rtk_program_scene_of(&tree, &flat, &program_block, &ps) == 0;
         ps.albedo = rtk_material_default().base_color;
     }
     check(ready, "the Cornell box with a point, a spot, a directional light and a map, built with sah, as the "
@@ -209,7 +209,7 @@ int main(int argc, char **argv)
         std::printf("skip  path on the GPU: it needs the materials and lights uploaded as the cuda plugin uploads "
                     "them; tools/gpu-check judges its images (within noise)\n");
     free(block);
-    free(slot_of);
+    free(program_block);
     rtk_params_destroy(bp);
     rtk_registry_destroy(reg);
     rtk_scene_free(s);

@@ -107,12 +107,13 @@ bool run_on_gpu(const rtk_program &p, const rtk_program_scene &host, uint32_t sl
     d.flat.own.nodes = upload(host.flat.own.nodes, nodes);
     d.flat.own.prim_ids = upload(host.flat.own.prim_ids, slots);
     d.flat.own.corners = upload(host.flat.own.corners, 9 * (size_t)slots);
-    d.slot_of = upload(host.slot_of, slots);
-    d.normals = upload(host.normals, 9 * (size_t)slots);
+    d.own.corners = d.flat.own.corners;
+    d.own.slot_of = upload(host.own.slot_of, slots);
+    d.own.normals = upload(host.own.normals, 9 * (size_t)slots);
     rtk_ray *dr = upload(rays.data(), rays.size());
     rtk_sample_pos *dp = upload(pos.data(), pos.size());
     rtk_li_result *dout = nullptr;
-    bool ok = d.flat.own.nodes && d.flat.own.prim_ids && d.flat.own.corners && d.slot_of && d.normals && dr && dp &&
+    bool ok = d.flat.own.nodes && d.flat.own.prim_ids && d.flat.own.corners && d.own.slot_of && d.own.normals && dr && dp &&
               cudaMalloc(&dout, rays.size() * sizeof *dout) == cudaSuccess;
     if (ok) {
         const int n = (int)rays.size();
@@ -124,8 +125,8 @@ bool run_on_gpu(const rtk_program &p, const rtk_program_scene &host, uint32_t sl
     cudaFree(const_cast<rtk_bvh_node *>(d.flat.own.nodes));
     cudaFree(const_cast<uint32_t *>(d.flat.own.prim_ids));
     cudaFree(const_cast<float *>(d.flat.own.corners));
-    cudaFree(const_cast<uint32_t *>(d.slot_of));
-    cudaFree(const_cast<float *>(d.normals));
+    cudaFree(const_cast<uint32_t *>(d.own.slot_of));
+    cudaFree(const_cast<float *>(d.own.normals));
     cudaFree(dr), cudaFree(dp), cudaFree(dout);
     return ok;
 }
@@ -146,8 +147,9 @@ void compare(rtk_scene *s, const rtk_integrator_fns *ao, const void *state, rtk_
     rtk_program_scene ps = rtk_program_scene();
     ps.flat.own = {s->nodes, s->prim_ids, corners.data()};
     ps.flat.top.own = 1;
-    ps.slot_of = slot_of.data();
-    ps.normals = s->normals;
+    ps.own.corners = corners.data();
+    ps.own.slot_of = slot_of.data();
+    ps.own.normals = s->normals;
     ps.albedo = rtk_material_default().base_color;
     rtk_device_program desc = rtk_device_program();
     check(ao->device_program(state, &desc) == 1, "ao (rays 6, distance 0.5) describes its device program");

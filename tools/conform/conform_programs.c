@@ -15,7 +15,7 @@
 typedef struct cpu_device {
     rtk_program_scene ps;
     void *block; /* the tree view's corners and base colours */
-    uint32_t *slot_of;
+    void *program_block; /* rtk_program_scene_of's */
     uint64_t lights; /* the stamp of the lights it reads */
 } cpu_device;
 
@@ -75,7 +75,7 @@ static rtk_status cpu_device_of(const rtk_scene *scene, cpu_device *d)
     d->lights = tree.lights ? tree.lights->stamp : 0;
     rtk_flat_scene flat;
     rtk_flat_scene_of(&tree, NULL, &flat);
-    return rtk_program_scene_of(&tree, &flat, &d->slot_of, &d->ps) == 0 ? RTK_OK : RTK_ERR_NOMEM;
+    return rtk_program_scene_of(&tree, &flat, &d->program_block, &d->ps) == 0 ? RTK_OK : RTK_ERR_NOMEM;
 }
 
 void rtk_conform_device_program(rtk_conform_runner *r, const rtk_integrator_fns *f, void *state, rtk_scene *scene,
@@ -133,5 +133,5 @@ void rtk_conform_device_program(rtk_conform_runner *r, const rtk_integrator_fns 
     scene->device_state = saved_state;
     scene->device_lights = saved_lights;
     free(d.block);
-    free(d.slot_of);
+    free(d.program_block);
 }

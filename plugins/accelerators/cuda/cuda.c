@@ -8,7 +8,7 @@
  * if the GPU fails mid-run, a warning names the CUDA error and the rest is
  * traced on the CPU with the same code.
  * It also runs integrators' device programs (plugins/integrators/
- * device_programs.h: ao, headlight), one GPU thread per camera sample,
+ * device_programs.h: ao, headlight, path), one GPU thread per camera sample,
  * which trace and shade whole samples there; likewise on the CPU after a
  * failure.
  *
@@ -43,7 +43,7 @@ typedef struct cuda {
     rtk_flat_scene host;  /* the kernel's arrays: the CPU fallback */
     rtk_flat_tree *host_meshes;
     rtk_program_scene host_program; /* the same for device programs */
-    uint32_t *host_slots;
+    void *host_slots;
     pthread_mutex_t lock; /* pool, report, gpu's byte count, failed */
     lane_pool pool;
     int failed;           /* the GPU failed: every later ray on the CPU */

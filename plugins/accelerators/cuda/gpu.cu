@@ -1,8 +1,11 @@
 /* The cuda plugin's GPU side: the trees in device memory (the kernel's
  * 32-byte binary nodes, leaf order, 36 bytes of corners a slot; for an
- * instanced scene each mesh's, the top level and the placements) and one
- * thread per ray running the kernel's own traversal (device_tree.h, which
- * tests/cuda checks against the kernel bit for bit). Built with
+ * instanced scene each mesh's, the top level and the placements; for
+ * device programs every tree's slots, normals, materials, vertex colours
+ * and emitters, the instances' frames and the lights) and one thread per
+ * ray, or per camera sample of a program, running the kernel's own
+ * traversal (device_tree.h, which tests/cuda checks against the kernel
+ * bit for bit). Built with
  * --fmad=false: CUDA would otherwise contract a * b + c, which the kernel
  * never does, and hits would differ in the last bit. */
 #include "gpu.h"
@@ -195,7 +198,10 @@ static int put_lights(rtk_gpu *g, const rtk_device_tree *t, const rtk_lights **o
     l.area = const_cast<float *>(area), l.pick = const_cast<float *>(pick);
     l.alias_prob = const_cast<float *>(alias_prob), l.slot_pick = const_cast<float *>(slot_pick);
     l.slot_cdf = const_cast<float *>(slot_cdf);
-    l.inst_first = nullptr; /* programs place no instances */
+    const uint32_t *inst_first;
+    if (put_n(g, l.count ? l.inst_first : nullptr, t->instance_count, &inst_first, "emitters of instances", why, cap))
+        return -1;
+    l.inst_first = const_cast<uint32_t *>(inst_first);
     if (l.environment) {
         rtk_environment env = *l.environment;
         const size_t w = (size_t)env.width, h = (size_t)env.height;
@@ -214,6 +220,35 @@ static int put_lights(rtk_gpu *g, const rtk_device_tree *t, const rtk_lights **o
     }
     return put_n(g, &l, 1, out, "lights", why, cap) ||
            put_n(g, t->punctual, t->punctual_count, punctual, "punctual lights", why, cap);
+}
+
+/* What programs read of tree t, whose corners are on the device at
+ * corners: each triangle's slot, normals, materials, vertex colours and
+ * emitters, on the device. */
+static int put_program_mesh(rtk_gpu *g, const rtk_device_tree *t, const float *corners, rtk_program_mesh *out,
+                            char *why, size_t cap)
+{
+    *out = rtk_program_mesh();
+    const size_t n = t->slot_count;
+    if (!n)
+        return 0;
+    uint32_t *slot_of = static_cast<uint32_t *>(std::malloc(sizeof *slot_of * n));
+    if (!slot_of) {
+        std::snprintf(why, cap, "out of memory");
+        return -1;
+    }
+    rtk_program_slots(t, slot_of);
+    rtk_program_mesh m = rtk_program_mesh_of(t, corners, nullptr);
+    const int st = put_n(g, slot_of, n, &m.slot_of, "triangle slots", why, cap) ||
+                   put_n(g, t->normals, 9 * n, &m.normals, "normals", why, cap) ||
+                   put_n(g, t->tri_materials, n, &m.tri_materials, "triangle materials", why, cap) ||
+                   put_n(g, t->materials, t->material_count, &m.materials, "materials", why, cap) ||
+                   put_n(g, t->colors, 12 * n, &m.colors, "vertex colours", why, cap) ||
+                   put_n(g, m.light_of, n, &m.light_of, "emitters of triangles", why, cap);
+    std::free(slot_of);
+    if (!st)
+        *out = m;
+    return st;
 }
 
 static void free_trees(rtk_gpu *g)
@@ -257,29 +292,23 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
                  cap) ||
              put(g, tree->instances, sizeof(rtk_device_instance) * (size_t)tree->instance_count, &instances,
                  "instances", why, cap);
+    /* What device programs read: every tree's triangles, the frames, the lights. */
+    rtk_program_scene ps = rtk_program_scene();
+    rtk_program_mesh *program_meshes = nullptr;
+    if (!st && tree->mesh_count &&
+        !(program_meshes = static_cast<rtk_program_mesh *>(std::calloc(tree->mesh_count, sizeof *program_meshes))))
+        st = -1, std::snprintf(why, cap, "out of memory");
+    if (!st)
+        st = put_program_mesh(g, tree, scene.own.corners, &ps.own, why, cap);
+    for (uint32_t i = 0; i < tree->mesh_count && !st; i++)
+        st = put_program_mesh(g, &tree->meshes[i], meshes[i].corners, &program_meshes[i], why, cap);
+    if (!st)
+        st = put_n(g, program_meshes, tree->mesh_count, &ps.meshes, "mesh table for programs", why, cap) ||
+             put_n(g, tree->frames, tree->frames ? tree->instance_count : 0, &ps.frames, "instance frames", why,
+                   cap) ||
+             put_lights(g, tree, &ps.lights, &ps.punctual, why, cap);
+    std::free(program_meshes);
     std::free(meshes);
-    const void *slots = nullptr, *normals = nullptr, *tri_materials = nullptr, *colors = nullptr;
-    const rtk_material *materials = nullptr;
-    const rtk_lights *lights = nullptr;
-    const rtk_punctual_light *punctual = nullptr;
-    if (!st && tree->slot_count) {
-        uint32_t *slot_of = static_cast<uint32_t *>(std::malloc(sizeof *slot_of * tree->slot_count));
-        if (!slot_of)
-            st = -1, std::snprintf(why, cap, "out of memory");
-        if (!st) {
-            rtk_program_slots(tree, slot_of);
-            st = put(g, slot_of, sizeof *slot_of * (size_t)tree->slot_count, &slots, "triangle slots", why, cap) ||
-                 put(g, tree->normals, sizeof(float) * 9 * (size_t)tree->slot_count, &normals, "normals", why, cap) ||
-                 put(g, tree->tri_materials, sizeof(uint32_t) * (size_t)tree->slot_count, &tri_materials,
-                     "triangle materials", why, cap) ||
-                 put_n(g, tree->materials, tree->material_count, &materials, "materials", why, cap) ||
-                 put(g, tree->colors, sizeof(float) * 12 * (size_t)tree->slot_count, &colors, "vertex colours", why,
-                     cap);
-        }
-        std::free(slot_of);
-        if (!st)
-            st = put_lights(g, tree, &lights, &punctual, why, cap);
-    }
     if (!st)
         st = failed(cudaEventRecord(stop), "cudaEventRecord", why, cap) ||
              failed(cudaEventSynchronize(stop), "cudaEventSynchronize", why, cap);
@@ -299,16 +328,9 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
     scene.top.order = static_cast<const uint32_t *>(order);
     scene.top.instances = static_cast<const rtk_device_instance *>(instances);
     g->scene = scene;
-    g->program_scene.flat = scene;
-    g->program_scene.slot_of = static_cast<const uint32_t *>(slots);
-    g->program_scene.normals = static_cast<const float *>(normals);
-    g->program_scene.tri_materials = static_cast<const uint32_t *>(tri_materials);
-    g->program_scene.materials = materials;
-    g->program_scene.material_count = tree->material_count;
-    g->program_scene.colors = static_cast<const float *>(colors);
-    g->program_scene.lights = lights;
-    g->program_scene.punctual = punctual;
-    g->program_scene.punctual_count = tree->punctual_count;
+    ps.flat = scene;
+    ps.punctual_count = tree->punctual_count;
+    g->program_scene = ps;
     *seconds = 1e-3 * (double)ms;
     return 0;
 }

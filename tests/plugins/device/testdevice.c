@@ -31,7 +31,7 @@ typedef struct testdevice {
     rtk_flat_scene scene;
     rtk_flat_tree *meshes;
     rtk_program_scene program_scene;
-    uint32_t *slot_of;
+    void *program_block; /* rtk_program_scene_of's */
     uint64_t bytes;
     _Atomic uint64_t rays, batches, samples;
     pthread_mutex_t lock;
@@ -81,7 +81,7 @@ static rtk_status testdevice_attach(void *state, const rtk_device_tree *tree)
     if (!d->meshes)
         return rtk_error(RTK_ERR_NOMEM, "testdevice: out of memory");
     rtk_flat_scene_of(tree, d->meshes, &d->scene);
-    if (rtk_program_scene_of(tree, &d->scene, &d->slot_of, &d->program_scene) != 0)
+    if (rtk_program_scene_of(tree, &d->scene, &d->program_block, &d->program_scene) != 0)
         return rtk_error(RTK_ERR_NOMEM, "testdevice: out of memory");
     d->bytes = (uint64_t)tree->node_count * sizeof(rtk_bvh_node) + (uint64_t)tree->slot_count * (4 + 36) +
                (uint64_t)tree->tlas_node_count * sizeof(rtk_bvh_node) +
@@ -158,7 +158,7 @@ static void testdevice_destroy(void *state)
     testdevice *d = state;
     pthread_mutex_destroy(&d->lock);
     free(d->meshes);
-    free(d->slot_of);
+    free(d->program_block);
     free(d);
 }
 
