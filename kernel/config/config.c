@@ -1521,6 +1521,10 @@ static rtk_status check_include(text_check *tc, uint32_t self, const char *shown
                          shown, line, name_len, text + q, INCLUDE_DEPTH_MAX);
     /* libconfig joins every name to the include directory, absolute or not. */
     const char *dir = strcmp(tc->ld->dir, ".") == 0 ? "" : tc->ld->dir;
+    if (text[q + 1] == '/')
+        return rtk_error(RTK_ERR_PARSE, "%s:%u: @include %.*s: an absolute path, which libconfig would read under "
+                         "%s; name the file relative to that folder", shown, line, name_len, text + q,
+                         dir[0] ? dir : "the current folder");
     size_t size = strlen(dir) + (e - q) + 2;
     char *inc = rtk_alloc(size);
     if (!inc)

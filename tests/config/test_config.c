@@ -481,6 +481,9 @@ static void test_string_places(void)
     expect_error(__LINE__, p, NULL, "str_byte.cfg:2", "syntax error at byte 0x01", NULL);
     p = write_file("bad_include.cfg", "scene = \"m.obj\";\n@include inc_end.cfg\n");
     expect_error(__LINE__, p, NULL, "bad_include.cfg:2", "@include needs a file name in double quotes", NULL);
+    p = write_file("abs_include.cfg", "scene = \"m.obj\";\n@include \"/etc/hostname\"\n");
+    expect_error(__LINE__, p, NULL, "abs_include.cfg:2", "@include \"/etc/hostname\": an absolute path, which libconfig",
+                 "name the file relative to that folder");
     /* Floats that start with a point are numbers, not stray characters. */
     p = write_file("point_float.cfg", "scene = \"m.obj\";\nintegrator = { plugin = \"ao\"; distance = .5; };\n"
                                       "camera = { position = [-.5, +.25, 1.]; look_at = [0.0, 0.0, 0.0]; };\n");
