@@ -8,8 +8,10 @@
  * decoded, whichever comes last, never while rendering. Each level halves
  * the one above (odd sizes round down, to 1 at least) by an exact box
  * filter: a texel of the smaller level is the area-weighted mean of the
- * texels it covers, so every level keeps the image's mean. */
+ * texels it covers, so every level keeps the image's mean. The lookups
+ * themselves are texture_sample.h, plain C shared with a device. */
 #include "scene.h"
+#include "texture_sample.h"
 #include "../image/image.h"
 
 #include <math.h>
@@ -251,122 +253,16 @@ float rtk_texture_lod(const rtk_texture *tex, const rtk_uv_footprint *fp)
     return (float)log2(r);
 }
 
-/* Repeat: wraps t (finite) to a texel coordinate in [-0.5, size - 0.5)
- * and splits it into the two neighbouring texel indices and the weight of
- * the second. */
-static void wrap_axis(float t, int size, int *i0, int *i1, float *frac)
-{
-    double w = (double)t - floor((double)t);
-    if (!(w >= 0.0 && w < 1.0)) /* 1 - tiny rounds to 1 */
-        w = 0.0;
-    double x = w * size - 0.5;
-    double fx = floor(x);
-    int a = (int)fx;
-    if (a < 0)
-        a = size - 1;
-    else if (a > size - 1)
-        a = size - 1;
-    int b = a + 1 < size ? a + 1 : 0;
-    *i0 = a;
-    *i1 = b;
-    *frac = (float)(x - fx);
-}
-
-/* t (finite) folded into [0, 1] by clamp or mirrored repeat. */
-static double fold(float t, int wrap)
-{
-    if (wrap == RTK_WRAP_CLAMP)
-        return t < 0.0f ? 0.0 : t > 1.0f ? 1.0 : (double)t;
-    double m = (double)t - 2.0 * floor(0.5 * (double)t);
-    if (!(m >= 0.0 && m < 2.0))
-        m = 0.0;
-    return m > 1.0 ? 2.0 - m : m;
-}
-
-/* The two texels around t along an axis of size texels and the weight of
- * the second. Clamp and mirror both end on the edge texel: past the edge
- * of a mirrored image lies the edge texel again. */
-static void axis_linear(float t, int size, int wrap, int *i0, int *i1, float *frac)
-{
-    if (wrap != RTK_WRAP_CLAMP && wrap != RTK_WRAP_MIRROR) {
-        wrap_axis(t, size, i0, i1, frac);
-        return;
-    }
-    double x = fold(t, wrap) * size - 0.5;
-    double fx = floor(x);
-    int a = (int)fx;
-    *i0 = a < 0 ? 0 : a > size - 1 ? size - 1 : a;
-    *i1 = a + 1 < 0 ? 0 : a + 1 > size - 1 ? size - 1 : a + 1;
-    *frac = (float)(x - fx);
-}
-
-/* The texel containing t along an axis of size texels. */
-static int axis_nearest(float t, int size, int wrap)
-{
-    double w;
-    if (wrap == RTK_WRAP_CLAMP || wrap == RTK_WRAP_MIRROR) {
-        w = fold(t, wrap);
-    } else {
-        w = (double)t - floor((double)t);
-        if (!(w >= 0.0 && w < 1.0))
-            w = 0.0;
-    }
-    int i = (int)floor(w * size);
-    return i < 0 ? 0 : i > size - 1 ? size - 1 : i;
-}
-
-static void bilinear(const rtk_texture_level *l, rtk_tex_wrap wrap, float u, float v, float rgba[4])
-{
-    size_t width = (size_t)l->width;
-    int x0, x1, y0, y1;
-    float fx, fy;
-    axis_linear(u, l->width, wrap.s, &x0, &x1, &fx);
-    axis_linear(v, l->height, wrap.t, &y0, &y1, &fy);
-    const float *t00 = l->rgba + 4 * ((size_t)y0 * width + (size_t)x0);
-    const float *t10 = l->rgba + 4 * ((size_t)y0 * width + (size_t)x1);
-    const float *t01 = l->rgba + 4 * ((size_t)y1 * width + (size_t)x0);
-    const float *t11 = l->rgba + 4 * ((size_t)y1 * width + (size_t)x1);
-    float w00 = (1.0f - fx) * (1.0f - fy), w10 = fx * (1.0f - fy);
-    float w01 = (1.0f - fx) * fy, w11 = fx * fy;
-    for (int c = 0; c < 4; c++)
-        rgba[c] = w00 * t00[c] + w10 * t10[c] + w01 * t01[c] + w11 * t11[c];
-}
-
 void rtk_texture_sample(const rtk_texture *tex, rtk_tex_wrap wrap, float u, float v, float lod, float rgba[4])
 {
     if (!tex || !tex->decoded || tex->missing || !tex->rgba || tex->width <= 0 || tex->height <= 0) {
         rgba[0] = rgba[1] = rgba[2] = rgba[3] = 1.0f;
         return;
     }
-    if (!isfinite(u) || !isfinite(v)) {
-        memcpy(rgba, tex->rgba, 4 * sizeof(float));
-        return;
-    }
-    rtk_texture_level base = {tex->width, tex->height, tex->rgba};
-    if (tex->filter == RTK_TEX_NEAREST) {
-        int x = axis_nearest(u, tex->width, wrap.s), y = axis_nearest(v, tex->height, wrap.t);
-        memcpy(rgba, tex->rgba + 4 * ((size_t)y * (size_t)tex->width + (size_t)x), 4 * sizeof(float));
-        return;
-    }
-    if (tex->filter != RTK_TEX_TRILINEAR || tex->levels < 2 || !(lod > 0.0f)) {
-        bilinear(&base, wrap, u, v, rgba);
-        return;
-    }
-    int last = tex->levels - 1;
-    if (lod >= (float)last) {
-        bilinear(&tex->mip[last], wrap, u, v, rgba);
-        return;
-    }
-    int l = (int)floorf(lod);
-    float f = lod - (float)l, a[4], b[4];
-    bilinear(&tex->mip[l], wrap, u, v, a);
-    if (f == 0.0f) {
-        memcpy(rgba, a, sizeof a);
-        return;
-    }
-    bilinear(&tex->mip[l + 1], wrap, u, v, b);
-    for (int c = 0; c < 4; c++)
-        rgba[c] = (1.0f - f) * a[c] + f * b[c];
+    const rtk_texture_level base = {tex->width, tex->height, tex->rgba};
+    const int pyramid = tex->filter == RTK_TEX_TRILINEAR && tex->levels >= 2 && tex->mip;
+    const rtk_texture_view view = {tex->filter, pyramid ? tex->levels : 1, pyramid ? tex->mip : &base};
+    rtk_texture_view_sample(&view, wrap, u, v, lod, rgba);
 }
 
 void rtk_texture_lookup(const rtk_texture *tex, float u, float v, float rgba[4])

@@ -67,7 +67,7 @@ void rtk_texture_decode(rtk_texture *tex);
 void rtk_texture_decode_within(rtk_texture *tex, struct rtk_scene_files *files);
 /* Sets how tex is filtered: builds its MIP pyramid (if decoded) for
  * trilinear, drops it otherwise. RTK_ERR_NOMEM leaves it bilinear. */
-rtk_status rtk_texture_set_filter(rtk_texture *tex, rtk_texture_filter filter);
+RTK_KERNEL_API rtk_status rtk_texture_set_filter(rtk_texture *tex, rtk_texture_filter filter);
 /* rtk_texture_set_filter on every texture of scene and of its meshes. */
 rtk_status rtk_scene_set_texture_filter(rtk_scene *scene, rtk_texture_filter filter);
 /* The filter a config names ("nearest", "bilinear", "trilinear"); 0 if none. */
@@ -79,10 +79,11 @@ float rtk_texture_lod(const rtk_texture *tex, const rtk_uv_footprint *fp);
 /* The texture at (u, v) with its filter and the given wrap modes, at
  * level of detail lod (read only by trilinear; <= 0 is level 0); white
  * when missing, texel (0, 0) for non-finite (u, v). [any thread] */
-void rtk_texture_sample(const rtk_texture *tex, rtk_tex_wrap wrap, float u, float v, float lod, float rgba[4]);
+RTK_KERNEL_API void rtk_texture_sample(const rtk_texture *tex, rtk_tex_wrap wrap, float u, float v, float lod,
+                                       float rgba[4]);
 /* rtk_texture_sample at level 0 with repeat wrapping. [any thread] */
 void rtk_texture_lookup(const rtk_texture *tex, float u, float v, float rgba[4]);
-void rtk_texture_free(rtk_texture *tex);
+RTK_KERNEL_API void rtk_texture_free(rtk_texture *tex);
 
 RTK_EXTERN_C_END
 

@@ -31,7 +31,7 @@ cp -a "$libdir"/librtk.so* "$b/lib/"
 cp -a "$libdir/rtk" "$b/lib/"
 rm -f "$b/lib/rtk/rtk_image.so" # OpenImageIO's 250 libraries stay behind: nothing here writes an image
 cp "$(find "$stage/dest" -type f -path '*/bin/rtk')" "$b/bin/"
-for t in isect traverse sampler bsdf material lights program path_program; do
+for t in isect traverse sampler bsdf material texture lights program path_program; do
     cp "$build/tests/cuda/test_${t}_cuda" "$b/tests/"
 done
 mkdir -p "$b/src/scenes"

@@ -42,7 +42,7 @@ nproc | sed 's/^/cpu cores: /' | tee -a "$logs/gpu.txt"
 grep -m1 'model name' /proc/cpuinfo | tee -a "$logs/gpu.txt"
 
 if [[ " $steps " == *" tests "* ]]; then
-    for t in isect sampler bsdf material lights program path_program; do
+    for t in isect sampler bsdf material texture lights program path_program; do
         timeout 300 bash -c "$(declare -f run); libpath=$libpath b=$b; run $b/tests/test_${t}_cuda $b/src" \
             >"$logs/test_$t.log" 2>&1
         note "tests/cuda $t: exit $? ($(tail -1 "$logs/test_$t.log"))"
@@ -84,7 +84,7 @@ if [[ " $steps " == *" render "* ]]; then
         tar czf "$out/renders-$name.tar.gz" -C "$renders" . 2>/dev/null
     }
     for m in bunny dragon showroom; do
-        f=$b/shared/data/meshes/$m.obj cam="" distance=inf
+        f=$b/shared/data/meshes/$m.obj cam="" distance='"inf"'
         [ $m = showroom ] && f=$b/shared/data/showroom/showroom.obj distance=1.0 &&
             cam='camera = { position = [-2.5, 2.2, -2.5]; look_at = [14.0, 0.5, 10.0]; fov = 60.0; };'
         [ -f "$f" ] || { note "render $m: not packed"; continue; }
@@ -104,7 +104,7 @@ if [[ " $steps " == *" render "* ]]; then
         grep -E '^(render|rays|device) ' "$logs/frames.txt"
         awk '$1 == "render" { r = $2 } $1 == "device" { for (i = 1; i <= NF; i++) if ($i == "shade") s = $(i + 1) + 0 }
              END { printf "path frames/s (512x512, 1 spp, 4 bounces): %.1f by render time, %.1f by shade time summed over the device lanes (target >= 30)\n",
-                   r > 0 ? 64 / r : 0, s > 0 ? 64 / s : 0 }' "$logs/frames.txt" | tee -a "$logs/frames.txt"
+                   (r > 0 ? 64 / r : 0), (s > 0 ? 64 / s : 0) }' "$logs/frames.txt" | tee -a "$logs/frames.txt"
         note "path frames: exit $st ($(tail -1 "$logs/frames.txt"))"
     else
         note "render cornell: not packed"
