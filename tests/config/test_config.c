@@ -52,7 +52,9 @@ static const char *write_file(const char *name, const char *text)
 }
 
 /* Loads path and expects it to fail with every string after opts in the
- * message (NULL-terminated). */
+ * message (NULL-terminated: the compiler checks it). */
+static void expect_error(int line, const char *path, const rtk_config_options *opts, ...)
+    __attribute__((sentinel));
 static void expect_error(int line, const char *path, const rtk_config_options *opts, ...)
 {
     rtk_config *cfg = (rtk_config *)1;
@@ -483,7 +485,7 @@ static void test_string_places(void)
     expect_error(__LINE__, p, NULL, "bad_include.cfg:2", "@include needs a file name in double quotes", NULL);
     p = write_file("abs_include.cfg", "scene = \"m.obj\";\n@include \"/etc/hostname\"\n");
     expect_error(__LINE__, p, NULL, "abs_include.cfg:2", "@include \"/etc/hostname\": an absolute path, which libconfig",
-                 "name the file relative to that folder");
+                 "name the file relative to that folder", NULL);
     /* Floats that start with a point are numbers, not stray characters. */
     p = write_file("point_float.cfg", "scene = \"m.obj\";\nintegrator = { plugin = \"ao\"; distance = .5; };\n"
                                       "camera = { position = [-.5, +.25, 1.]; look_at = [0.0, 0.0, 0.0]; };\n");
