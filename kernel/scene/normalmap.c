@@ -61,33 +61,7 @@ int rtk_apply_normal_map(const rtk_scene *s, const rtk_material *m, uint32_t pri
         t[2 * k] = c.x, t[2 * k + 1] = c.y;
     }
     rtk_vec2 uv = rtk_tex_map_uv(s, &m->normal_uv, prim, u, v);
-    rtk_vec3 p0 = corner(s, prim, 0);
-    rtk_vec3 e1 = rtk_vec3_sub(corner(s, prim, 1), p0), e2 = rtk_vec3_sub(corner(s, prim, 2), p0);
-    float du1 = t[2] - t[0], dv1 = t[3] - t[1], du2 = t[4] - t[0], dv2 = t[5] - t[1];
-    float det = du1 * dv2 - du2 * dv1;
-    if (!(fabsf(det) > 0.0f) || !isfinite(det))
-        return 0; /* no uv parametrisation on this triangle */
-    float r = 1.0f / det;
-    rtk_vec3 tangent = rtk_vec3_scale(rtk_vec3_sub(rtk_vec3_scale(e1, dv2), rtk_vec3_scale(e2, dv1)), r);
-    /* -dp/dv: towards the top of the image. */
-    rtk_vec3 bitangent = rtk_vec3_scale(rtk_vec3_sub(rtk_vec3_scale(e1, du2), rtk_vec3_scale(e2, du1)), r);
-    rtk_vec3 n = *ns;
-    tangent = rtk_vec3_sub(tangent, rtk_vec3_scale(n, rtk_vec3_dot(n, tangent)));
-    float tl = rtk_vec3_length(tangent);
-    if (!(tl > 0.0f) || !isfinite(tl))
-        return 0;
-    tangent = rtk_vec3_scale(tangent, 1.0f / tl);
-    /* Handedness from the uv mapping (mirrored uvs flip it). */
-    float hand = rtk_vec3_dot(rtk_vec3_cross(n, tangent), bitangent) < 0.0f ? -1.0f : 1.0f;
-    bitangent = rtk_vec3_scale(rtk_vec3_cross(n, tangent), hand);
     float texel[4];
     rtk_texture_lookup(tex, uv.x, uv.y, texel);
-    float x = 2.0f * texel[0] - 1.0f, y = 2.0f * texel[1] - 1.0f, z = 2.0f * texel[2] - 1.0f;
-    rtk_vec3 bent = rtk_vec3_add(rtk_vec3_add(rtk_vec3_scale(tangent, x), rtk_vec3_scale(bitangent, y)),
-                                 rtk_vec3_scale(n, z));
-    float bl = rtk_vec3_length(bent);
-    if (!(bl > 0.0f) || !isfinite(bl))
-        return 0;
-    *ns = rtk_vec3_scale(bent, 1.0f / bl);
-    return 1;
+    return rtk_bend_normal(corner(s, prim, 0), corner(s, prim, 1), corner(s, prim, 2), t, texel, ns);
 }

@@ -251,13 +251,7 @@ rtk_vec2 rtk_tex_map_uv(const rtk_scene *s, const rtk_tex_map *map, uint32_t pri
     const float *uvs = map_set(s, map);
     if (!uvs)
         return (rtk_vec2){0.0f, 0.0f};
-    const float *t = uvs + 6 * (size_t)prim;
-    float w = 1.0f - u - v;
-    float tu = w * t[0] + u * t[2] + v * t[4], tv = w * t[1] + u * t[3] + v * t[5];
-    if (!map->transformed)
-        return (rtk_vec2){tu, tv};
-    const float *m = map->m;
-    return (rtk_vec2){m[0] * tu + m[1] * tv + m[2], m[3] * tu + m[4] * tv + m[5]};
+    return rtk_corner_uv(uvs + 6 * (size_t)prim, map->transformed, map->m, u, v);
 }
 
 void rtk_vertex_color(const rtk_scene *s, uint32_t prim, float u, float v, float rgba[4])

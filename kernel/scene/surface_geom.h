@@ -1,7 +1,8 @@
 /* A hit's position, normals and base colour (before textures) from its
- * triangle, barycentrics and material, in plain C that nvcc compiles too
- * (RTK_HD): scene.c's rtk_surface_at and device programs
- * (plugins/integrators/device_programs.h) share it, so both see the same
+ * triangle, barycentrics and material, its texture coordinates and its
+ * normal bent by a normal map, in plain C that nvcc compiles too (RTK_HD):
+ * scene.c's rtk_surface_at, normalmap.c and device programs
+ * (plugins/integrators/device_programs.h) share it, so all see the same
  * surface. */
 #ifndef RTK_KERNEL_SURFACE_GEOM_H
 #define RTK_KERNEL_SURFACE_GEOM_H
@@ -54,6 +55,55 @@ RTK_HD static inline rtk_rgb rtk_surface_base_color(rtk_rgb base, const float *c
     float vc[4];
     rtk_corner_colors(colors, u, v, vc);
     return rtk_rgb_mul(base, rtk_rgb_make(vc[0], vc[1], vc[2]));
+}
+
+/* Texture coordinates at (u, v) of a triangle whose corners' (u, v) pairs
+ * are t (6 floats), then through the 2x3 transform m when transformed
+ * (KHR_texture_transform): rtk_tex_map_uv. */
+RTK_HD static inline rtk_vec2 rtk_corner_uv(const float *t, int transformed, const float *m, float u, float v)
+{
+    float w = 1.0f - u - v;
+    float tu = w * t[0] + u * t[2] + v * t[4], tv = w * t[1] + u * t[3] + v * t[5];
+    rtk_vec2 r;
+    r.x = transformed ? m[0] * tu + m[1] * tv + m[2] : tu;
+    r.y = transformed ? m[3] * tu + m[4] * tv + m[5] : tv;
+    return r;
+}
+
+/* Shading normal *ns bent by a tangent-space normal map's texel (what
+ * normalmap.c documents): the tangent frame from the triangle's corners
+ * p0, p1, p2 and their texture coordinates in the map's own mapping (t, 6
+ * floats), made orthonormal around *ns. 0 when the triangle has no uv
+ * parametrisation or the bent normal is degenerate (*ns unchanged). */
+RTK_HD static inline int rtk_bend_normal(rtk_vec3 p0, rtk_vec3 p1, rtk_vec3 p2, const float *t, const float *texel,
+                                         rtk_vec3 *ns)
+{
+    rtk_vec3 e1 = rtk_vec3_sub(p1, p0), e2 = rtk_vec3_sub(p2, p0);
+    float du1 = t[2] - t[0], dv1 = t[3] - t[1], du2 = t[4] - t[0], dv2 = t[5] - t[1];
+    float det = du1 * dv2 - du2 * dv1;
+    if (!(fabsf(det) > 0.0f) || !isfinite(det))
+        return 0;
+    float r = 1.0f / det;
+    rtk_vec3 tangent = rtk_vec3_scale(rtk_vec3_sub(rtk_vec3_scale(e1, dv2), rtk_vec3_scale(e2, dv1)), r);
+    /* -dp/dv: towards the top of the image. */
+    rtk_vec3 bitangent = rtk_vec3_scale(rtk_vec3_sub(rtk_vec3_scale(e1, du2), rtk_vec3_scale(e2, du1)), r);
+    rtk_vec3 n = *ns;
+    tangent = rtk_vec3_sub(tangent, rtk_vec3_scale(n, rtk_vec3_dot(n, tangent)));
+    float tl = rtk_vec3_length(tangent);
+    if (!(tl > 0.0f) || !isfinite(tl))
+        return 0;
+    tangent = rtk_vec3_scale(tangent, 1.0f / tl);
+    /* Handedness from the uv mapping (mirrored uvs flip it). */
+    float hand = rtk_vec3_dot(rtk_vec3_cross(n, tangent), bitangent) < 0.0f ? -1.0f : 1.0f;
+    bitangent = rtk_vec3_scale(rtk_vec3_cross(n, tangent), hand);
+    float x = 2.0f * texel[0] - 1.0f, y = 2.0f * texel[1] - 1.0f, z = 2.0f * texel[2] - 1.0f;
+    rtk_vec3 bent = rtk_vec3_add(rtk_vec3_add(rtk_vec3_scale(tangent, x), rtk_vec3_scale(bitangent, y)),
+                                 rtk_vec3_scale(n, z));
+    float bl = rtk_vec3_length(bent);
+    if (!(bl > 0.0f) || !isfinite(bl))
+        return 0;
+    *ns = rtk_vec3_scale(bent, 1.0f / bl);
+    return 1;
 }
 
 #endif
