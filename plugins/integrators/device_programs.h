@@ -121,7 +121,7 @@ static inline rtk_program rtk_program_of(const rtk_device_program *d)
 }
 
 /* The leaf slot of every triangle of tree (slot_of has tree->slot_count
- * entries), for rtk_program_scene.slot_of. */
+ * entries), for rtk_program_mesh.slot_of. */
 static inline void rtk_program_slots(const rtk_device_tree *tree, uint32_t *slot_of)
 {
     for (uint32_t slot = 0; slot < tree->slot_count; slot++)
