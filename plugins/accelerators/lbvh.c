@@ -658,10 +658,12 @@ static void run_moves(build *b)
         while (atomic_load(&b->moved) < mv->after)
             PAUSE();
         memmove(nodes + mv->dst, nodes + mv->src, sizeof *nodes * mv->len);
-        atomic_store_explicit(&b->move_done[k], 1, memory_order_release);
-        /* Moves done in a row from the first: advance the count. */
+        /* Moves done in a row from the first: advance the count. Sequentially
+         * consistent, as sah.c's gap_member: release and acquire would let this
+         * store and another member's advance past k - 1 miss each other. */
+        atomic_store(&b->move_done[k], 1);
         uint32_t p = atomic_load(&b->moved);
-        while (p < b->move_count && atomic_load_explicit(&b->move_done[p], memory_order_acquire))
+        while (p < b->move_count && atomic_load(&b->move_done[p]))
             if (atomic_compare_exchange_weak(&b->moved, &p, p + 1))
                 p++;
     }

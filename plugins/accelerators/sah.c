@@ -999,9 +999,12 @@ static void gap_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
                 sched_yield();
         }
         move_segment(j->a, j->segs, j->n, &j->segs[k]);
-        atomic_store_explicit(&j->done[k], 1, memory_order_release);
+        /* Sequentially consistent: this store and another member's advance past
+         * k - 1 must each see the other (store then load on both sides), or
+         * moved stops short of k and every member waiting on it spins forever. */
+        atomic_store(&j->done[k], 1);
         uint32_t p = atomic_load(&j->moved);
-        while (p < j->n && atomic_load_explicit(&j->done[p], memory_order_acquire))
+        while (p < j->n && atomic_load(&j->done[p]))
             if (atomic_compare_exchange_weak(&j->moved, &p, p + 1))
                 p++;
     }
