@@ -20,11 +20,18 @@ typedef struct rtk_flat_tree {
 } rtk_flat_tree;
 
 /* The leaf test of slab.h on slot's flat corners (no alpha: device
- * accelerators take no scene with cut-outs). */
+ * accelerators take no scene with cut-outs); on a GPU the corners come
+ * through the read-only cache. */
 RTK_HD static inline int rtk_flat_leaf(const void *ctx, uint32_t slot, const rtk_ray *ray, float *t, float *u,
                                        float *v)
 {
     const float *c = ((const rtk_flat_tree *)ctx)->corners + 9 * (size_t)slot;
+#ifdef __CUDA_ARCH__
+    float k[9];
+    for (int i = 0; i < 9; i++)
+        k[i] = __ldg(c + i);
+    c = k;
+#endif
     const rtk_vec3 a = {c[0], c[1], c[2]}, b = {c[3], c[4], c[5]}, d = {c[6], c[7], c[8]};
     return rtk_isect_triangle(ray, a, b, d, t, u, v);
 }

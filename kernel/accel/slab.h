@@ -36,6 +36,23 @@ RTK_HD static inline void rtk_slab_prepare(const rtk_ray *r, rtk_slab_ray *p)
     }
 }
 
+/* Node i of a tree. On a GPU two 16-byte loads through the read-only
+ * cache (device trees are cudaMalloc'ed: nodes 32-byte aligned); the same
+ * bits either way. */
+RTK_HD static inline rtk_bvh_node rtk_slab_node(const rtk_bvh_node *nodes, uint32_t i)
+{
+#ifdef __CUDA_ARCH__
+    const float4 *q = (const float4 *)(nodes + i);
+    const float4 a = __ldg(q), b = __ldg(q + 1);
+    rtk_bvh_node n;
+    n.lower[0] = a.x, n.lower[1] = a.y, n.lower[2] = a.z, n.offset = __float_as_uint(a.w);
+    n.upper[0] = b.x, n.upper[1] = b.y, n.upper[2] = b.z, n.count = __float_as_uint(b.w);
+    return n;
+#else
+    return nodes[i];
+#endif
+}
+
 /* 1 + 2 gamma(3): each slab distance carries three roundings (subtract,
  * reciprocal, multiply); Ize 2013 widens the far distance by this much. */
 static const float rtk_slab_slack = 1.0f + 2.0f * (3.0f * 0.5f * FLT_EPSILON) / (1.0f - 3.0f * 0.5f * FLT_EPSILON);
@@ -64,52 +81,52 @@ RTK_HD static inline float rtk_slab_entry(const rtk_bvh_node *n, const rtk_slab_
 }
 
 /* One step of the ordered descent at inner node n of the tree nodes: the
- * children whose boxes the ray enters within [tmin, tmax], the nearer into
- * *node and the farther pushed on stack when both; 0 when it enters
- * neither (the caller pops next). */
-static RTK_HD_INLINE int rtk_slab_descend(const rtk_bvh_node *nodes,
-                                                                   const rtk_bvh_node *n, const rtk_slab_ray *p,
-                                                                   float tmin, float tmax, uint32_t *stack,
-                                                                   int *top, uint32_t *node)
+ * children whose boxes the ray enters within [tmin, tmax], the nearer
+ * into *next (which may be n) and the farther's index pushed on stack
+ * when both; 0 when it enters neither (the caller pops next). */
+static RTK_HD_INLINE int rtk_slab_descend(const rtk_bvh_node *nodes, const rtk_bvh_node *n,
+                                          const rtk_slab_ray *p, float tmin, float tmax, uint32_t *stack,
+                                          int *top, rtk_bvh_node *next)
 {
-    uint32_t c0 = n->offset, c1 = n->offset + 1;
-    float t0 = rtk_slab_entry(&nodes[c0], p, tmin, tmax);
-    float t1 = rtk_slab_entry(&nodes[c1], p, tmin, tmax);
+    uint32_t i0 = n->offset, i1 = n->offset + 1;
+    rtk_bvh_node c0 = rtk_slab_node(nodes, i0), c1 = rtk_slab_node(nodes, i1);
+    float t0 = rtk_slab_entry(&c0, p, tmin, tmax);
+    float t1 = rtk_slab_entry(&c1, p, tmin, tmax);
     if (t0 != INFINITY && t1 != INFINITY) {
         if (t1 < t0) {
-            uint32_t tmp = c0;
-            c0 = c1;
-            c1 = tmp;
+            stack[(*top)++] = i0;
+            *next = c1;
+        } else {
+            stack[(*top)++] = i1;
+            *next = c0;
         }
-        stack[(*top)++] = c1;
-        *node = c0;
         return 1;
     }
     if (t0 != INFINITY) {
-        *node = c0;
+        *next = c0;
         return 1;
     }
     if (t1 != INFINITY) {
-        *node = c1;
+        *next = c1;
         return 1;
     }
     return 0;
 }
 
 /* Occlusion's unordered walk: pops stack until a node whose box the
- * ray enters within [tmin, tmax] and returns it, or NULL when the stack
- * runs empty. */
-static RTK_HD_INLINE const rtk_bvh_node *rtk_slab_pop(const rtk_bvh_node *nodes,
-                                                                               const rtk_slab_ray *p, float tmin,
-                                                                               float tmax, const uint32_t *stack,
-                                                                               int *top)
+ * ray enters within [tmin, tmax] and returns 1 with it in *out, or 0 when
+ * the stack runs empty. */
+static RTK_HD_INLINE int rtk_slab_pop(const rtk_bvh_node *nodes, const rtk_slab_ray *p, float tmin, float tmax,
+                                      const uint32_t *stack, int *top, rtk_bvh_node *out)
 {
     while (*top > 0) {
-        const rtk_bvh_node *n = &nodes[stack[--*top]];
-        if (rtk_slab_entry(n, p, tmin, tmax) != INFINITY)
-            return n;
+        rtk_bvh_node n = rtk_slab_node(nodes, stack[--*top]);
+        if (rtk_slab_entry(&n, p, tmin, tmax) != INFINITY) {
+            *out = n;
+            return 1;
+        }
     }
-    return NULL;
+    return 0;
 }
 
 /* A leaf's triangle test: 1 when the ray hits the triangle in leaf slot
@@ -131,16 +148,15 @@ static RTK_HD_INLINE int rtk_slab_closest(const rtk_bvh_node *nodes, const uint3
     rtk_slab_prepare(&ray, &p);
     uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
     int top = 0;
-    uint32_t node = 0;
-    if (rtk_slab_entry(&nodes[0], &p, ray.tmin, ray.tmax) == INFINITY)
+    rtk_bvh_node n = rtk_slab_node(nodes, 0);
+    if (rtk_slab_entry(&n, &p, ray.tmin, ray.tmax) == INFINITY)
         return 0;
     for (;;) {
-        const rtk_bvh_node *n = &nodes[node];
-        if (n->count > 0) {
+        if (n.count > 0) {
             if (work)
-                work->triangles += n->count;
-            for (uint32_t i = 0; i < n->count; i++) {
-                uint32_t slot = n->offset + i;
+                work->triangles += n.count;
+            for (uint32_t i = 0; i < n.count; i++) {
+                uint32_t slot = n.offset + i;
                 float t, u, v;
                 if (!leaf(ctx, slot, &ray, &t, &u, &v))
                     continue;
@@ -153,18 +169,21 @@ static RTK_HD_INLINE int rtk_slab_closest(const rtk_bvh_node *nodes, const uint3
         } else {
             if (work)
                 work->nodes++;
-            if (rtk_slab_descend(nodes, n, &p, ray.tmin, ray.tmax, stack, &top, &node))
+            if (rtk_slab_descend(nodes, &n, &p, ray.tmin, ray.tmax, stack, &top, &n))
                 continue;
         }
         if (top == 0)
             break;
-        node = stack[--top];
+        n = rtk_slab_node(nodes, stack[--top]);
     }
     return hit->prim != RTK_INVALID_ID;
 }
 
 /* Any hit of ray on the binary tree nodes: 1 as soon as a leaf's
- * triangle counts. Counts into work when not NULL. */
+ * triangle counts. The closest hit's ordered descent, the nearer child
+ * first: its boxes do not shrink, so it reaches the leaves the unordered
+ * walk reaches, and it tests each box once, at its parent. Counts into
+ * work when not NULL. */
 static RTK_HD_INLINE int rtk_slab_any(const rtk_bvh_node *nodes, rtk_slab_leaf_fn leaf, const void *ctx,
                                       const rtk_ray *ray, rtk_trace_work *work)
 {
@@ -172,24 +191,28 @@ static RTK_HD_INLINE int rtk_slab_any(const rtk_bvh_node *nodes, rtk_slab_leaf_f
     rtk_slab_prepare(ray, &p);
     uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
     int top = 0;
-    stack[top++] = 0;
-    for (const rtk_bvh_node *n; (n = rtk_slab_pop(nodes, &p, ray->tmin, ray->tmax, stack, &top));) {
-        if (n->count > 0) {
-            for (uint32_t i = 0; i < n->count; i++) {
+    rtk_bvh_node n = rtk_slab_node(nodes, 0);
+    if (rtk_slab_entry(&n, &p, ray->tmin, ray->tmax) == INFINITY)
+        return 0;
+    for (;;) {
+        if (n.count > 0) {
+            for (uint32_t i = 0; i < n.count; i++) {
                 float t, u, v;
                 if (work)
                     work->triangles++;
-                if (leaf(ctx, n->offset + i, ray, &t, &u, &v))
+                if (leaf(ctx, n.offset + i, ray, &t, &u, &v))
                     return 1;
             }
         } else {
             if (work)
                 work->nodes++;
-            stack[top++] = n->offset + 1;
-            stack[top++] = n->offset;
+            if (rtk_slab_descend(nodes, &n, &p, ray->tmin, ray->tmax, stack, &top, &n))
+                continue;
         }
+        if (top == 0)
+            return 0;
+        n = rtk_slab_node(nodes, stack[--top]);
     }
-    return 0;
 }
 
 #endif

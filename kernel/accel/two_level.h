@@ -112,20 +112,19 @@ static RTK_HD_INLINE int rtk_two_level_closest(const rtk_two_level *tl, rtk_mesh
     rtk_slab_prepare(&r, &p);
     uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
     int top = 0;
-    uint32_t node = 0;
-    if (rtk_slab_entry(&tl->tlas[0], &p, r.tmin, r.tmax) == INFINITY)
+    rtk_bvh_node n = rtk_slab_node(tl->tlas, 0);
+    if (rtk_slab_entry(&n, &p, r.tmin, r.tmax) == INFINITY)
         return hit->prim != RTK_INVALID_ID;
     for (;;) {
-        const rtk_bvh_node *n = &tl->tlas[node];
         if (work)
             work->nodes++;
-        if (n->count > 0) {
-            for (uint32_t i = 0; i < n->count; i++) {
-                uint32_t id = tl->order[n->offset + i];
+        if (n.count > 0) {
+            for (uint32_t i = 0; i < n.count; i++) {
+                uint32_t id = tl->order[n.offset + i];
                 const rtk_device_instance *in = &tl->instances[id];
                 rtk_ray lr;
                 /* A leaf may hold several instances: each box first. */
-                if ((n->count > 1 && rtk_slab_entry(&in->box, &p, r.tmin, r.tmax) == INFINITY) ||
+                if ((n.count > 1 && rtk_slab_entry(&in->box, &p, r.tmin, r.tmax) == INFINITY) ||
                     !rtk_local_ray(in->to_object, &r, &lr))
                     continue;
                 rtk_hit h;
@@ -138,12 +137,12 @@ static RTK_HD_INLINE int rtk_two_level_closest(const rtk_two_level *tl, rtk_mesh
                     r.tmax = h.t;
                 }
             }
-        } else if (rtk_slab_descend(tl->tlas, n, &p, r.tmin, r.tmax, stack, &top, &node)) {
+        } else if (rtk_slab_descend(tl->tlas, &n, &p, r.tmin, r.tmax, stack, &top, &n)) {
             continue;
         }
         if (top == 0)
             break;
-        node = stack[--top];
+        n = rtk_slab_node(tl->tlas, stack[--top]);
     }
     return hit->prim != RTK_INVALID_ID;
 }
@@ -169,18 +168,18 @@ static RTK_HD_INLINE int rtk_two_level_any(const rtk_two_level *tl, rtk_mesh_any
     uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
     int top = 0;
     stack[top++] = 0;
-    for (const rtk_bvh_node *n; (n = rtk_slab_pop(tl->tlas, &p, ray->tmin, ray->tmax, stack, &top));) {
+    for (rtk_bvh_node n; rtk_slab_pop(tl->tlas, &p, ray->tmin, ray->tmax, stack, &top, &n);) {
         if (work)
             work->nodes++;
-        if (n->count == 0) {
-            stack[top++] = n->offset + 1;
-            stack[top++] = n->offset;
+        if (n.count == 0) {
+            stack[top++] = n.offset + 1;
+            stack[top++] = n.offset;
             continue;
         }
-        for (uint32_t i = 0; i < n->count; i++) {
-            const rtk_device_instance *in = &tl->instances[tl->order[n->offset + i]];
+        for (uint32_t i = 0; i < n.count; i++) {
+            const rtk_device_instance *in = &tl->instances[tl->order[n.offset + i]];
             rtk_ray lr;
-            if ((n->count > 1 && rtk_slab_entry(&in->box, &p, ray->tmin, ray->tmax) == INFINITY) ||
+            if ((n.count > 1 && rtk_slab_entry(&in->box, &p, ray->tmin, ray->tmax) == INFINITY) ||
                 !rtk_local_ray(in->to_object, ray, &lr))
                 continue;
             int found = mesh_any(ctx, in->mesh, &lr, work ? &w : NULL);
