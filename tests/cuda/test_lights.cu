@@ -248,9 +248,10 @@ __global__ void light_kernel(rtk_environment env, const rtk_punctual_light *ligh
         run_shared(&env, lights, &in[i], &out[i]);
 }
 
+/* Within 1e-3 relative; equal values too (a directional light's distance is inf on both sides). */
 bool close(float a, float b)
 {
-    return std::fabs(a - b) <= 1e-3f * std::fmax(std::fabs(a), std::fabs(b)) + 1e-6f;
+    return a == b || std::fabs(a - b) <= 1e-3f * std::fmax(std::fabs(a), std::fabs(b)) + 1e-6f;
 }
 
 void compare_device(const rtk_environment *env, const rtk_scene *s, rng *g)
