@@ -28,10 +28,10 @@
  * run of filled slots (a dense subtree, a children pair above them), and
  * closing the gaps moves only those runs. Closed, the slots hold the
  * children pairs in depth-first order, left first: a build on one thread
- * fills them in that order from the root and has no gaps to close. On
- * threads the root is binned by all of them (its bins do not depend on
- * how its primitives are divided) and split by the calling thread, a
- * thread without a subtree spins a while for the next before it sleeps,
+ * fills them in that order from the root and has no gaps to close. The
+ * root is binned and partitioned by a team (its bins do not depend on how
+ * its primitives are divided, its partition goes by fixed chunks, on one
+ * thread too), a thread without a subtree spins a while for the next before it sleeps,
  * and the runs are moved on the threads, each once the runs whose slots
  * it overwrites have been read.
  */
@@ -133,7 +133,7 @@ typedef struct job {
     vbox geom, cent;
     uint32_t slot, begin, end, region, depth;
     uint32_t dense;    /* 1: below a node under SAH_SPAWN_MIN primitives */
-    uint32_t presplit; /* 1: its split is build.root_split (the root, binned on threads) */
+    uint32_t presplit; /* 1: its split is build.root_split (the root, binned by a team) */
 } job;
 
 /* Jobs shared between workers; pending counts queued and running ones. */
@@ -175,6 +175,9 @@ typedef struct build {
     uint32_t dense_end; /* one thread: the slots the tree fills, [0, dense_end) */
     queue *q;         /* NULL when building on one thread */
     split root_split; /* the root's, when its job says presplit */
+    uint32_t root_mid; /* presplit and root_parted: the root's first right slot */
+    int root_parted;   /* 1: the root's refs are partitioned (root_sides: its children's bounds) */
+    job root_sides[2];
 } build;
 
 static rtk_status sah_create(const rtk_params *params, void **state)
@@ -462,6 +465,29 @@ static inline __attribute__((always_inline)) uint32_t lomuto(ref *refs, uint32_t
 }
 #endif
 
+/* Moves the refs in [begin, end) whose doubled centroid on axis k falls
+ * in a bin below at (bins_of(c) < at exactly when !((c - clo) * scl >=
+ * at), NaN included: one lane of the same float operations) to the
+ * front, in their order; returns the first slot of the others. */
+static uint32_t partition_range(ref *refs, uint32_t begin, uint32_t end, int k, float clo, float scl, float at)
+{
+#if defined(__SSE2__)
+    return k == 0 ? lomuto(refs, begin, end, 0, clo, scl, at)
+         : k == 1 ? lomuto(refs, begin, end, 1, clo, scl, at)
+                  : lomuto(refs, begin, end, 2, clo, scl, at);
+#else
+    /* Lomuto without branches: [begin, mid) is left, [mid, i) right. */
+    uint32_t mid = begin;
+    for (uint32_t i = begin; i < end; i++) {
+        ref x = refs[i];
+        refs[i] = refs[mid];
+        refs[mid] = x;
+        mid += !((x.lo[k] + x.hi[k] - clo) * scl >= at);
+    }
+    return mid;
+#endif
+}
+
 /* Moves the primitives of bins below s.at to the front, as find_binned
  * binned them; fills both children's bounds. Returns the first slot of
  * the right side. */
@@ -472,27 +498,8 @@ static uint32_t partition_binned(const build *b, const job *j, const split *s, j
     float lo[4], sc[4];
     v4_store(lo, j->cent.lo);
     v4_store(sc, scale);
-    /* bins_of(c) < at exactly when !((c - lo) * scale >= at), NaN included:
-     * one lane of the same float operations. */
     const int k = s->axis;
-    const float clo = lo[k], scl = sc[k], at = (float)s->at;
-    ref *refs = b->refs;
-#if defined(__SSE2__)
-    uint32_t mid = k == 0 ? lomuto(refs, j->begin, j->end, 0, clo, scl, at)
-                 : k == 1 ? lomuto(refs, j->begin, j->end, 1, clo, scl, at)
-                          : lomuto(refs, j->begin, j->end, 2, clo, scl, at);
-#else
-#define SAH_LEFT(rf) (!(((rf).lo[k] + (rf).hi[k] - clo) * scl >= at))
-    /* Lomuto without branches: [begin, mid) is left, [mid, i) right. */
-    uint32_t mid = j->begin;
-    for (uint32_t i = j->begin; i < j->end; i++) {
-        ref x = refs[i];
-        refs[i] = refs[mid];
-        refs[mid] = x;
-        mid += SAH_LEFT(x);
-    }
-#undef SAH_LEFT
-#endif
+    const uint32_t mid = partition_range(b->refs, j->begin, j->end, k, lo[k], sc[k], (float)s->at);
     bounds_of_refs(b, j->begin, mid, l);
     bounds_of_refs(b, mid, j->end, r);
     return mid;
@@ -779,6 +786,10 @@ static uint32_t build_subtree(const build *b, const job *root, int root_only)
             partition_sweep(b, &j, &s);
         } else if (count <= SAH_SMALL) {
             mid = partition_small(b, &j, &s, &l, r);
+        } else if (j.presplit && b->root_parted) {
+            mid = b->root_mid;
+            l.geom = b->root_sides[0].geom, l.cent = b->root_sides[0].cent;
+            r->geom = b->root_sides[1].geom, r->cent = b->root_sides[1].cent;
         } else {
             mid = partition_binned(b, &j, &s, &l, r);
         }
@@ -880,37 +891,170 @@ static void bin_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
              r->parts[index]);
 }
 
-/* Bins the root on the build's threads (the others would wait for its
- * split: a twentieth of a one-thread build of the bunny) and keeps its
- * split in b->root_split; the same split as find_binned (bin_refs).
- * Out of memory, it leaves the root to be binned as any node. */
-static void presplit_root(build *b, job *root, uint32_t threads)
+/* The root's partition by a team, in place and the same for any number of
+ * members: each chunk of SAH_PART_CHUNK refs is partitioned as
+ * partition_range does, then the right refs left of the split and the
+ * left refs right of it are swapped pairwise, in slot order. */
+#define SAH_PART_CHUNK 8192u
+
+typedef struct root_parting {
+    build *b;
+    const job *root;
+    uint32_t *lefts; /* per chunk: its left refs */
+    job *sides;      /* per member: bounds of its chunks' left [2i] and right [2i + 1] refs */
+    int k;
+    float clo, scl, at;
+} root_parting;
+
+/* Chunk c's misplaced refs once every chunk is partitioned: its right
+ * refs before slot split (right_of 0) or its left refs from split on
+ * (right_of 1), a run of slots from *first; returns how many. */
+static uint32_t misplaced(const root_parting *r, uint32_t c, uint32_t split, int right_of, uint32_t *first)
+{
+    const uint32_t cs = r->root->begin + c * SAH_PART_CHUNK;
+    const uint32_t ce = r->root->end - cs < SAH_PART_CHUNK ? r->root->end : cs + SAH_PART_CHUNK;
+    const uint32_t cm = cs + r->lefts[c];
+    const uint32_t from = right_of ? (cs > split ? cs : split) : cm;
+    const uint32_t to = right_of ? cm : (ce < split ? ce : split);
+    *first = from;
+    return to > from ? to - from : 0;
+}
+
+/* The slot of the k-th misplaced ref of one side, its chunk in *c and the
+ * end of that chunk's run in *run_end. */
+static uint32_t misplaced_at(const root_parting *r, uint32_t chunks, uint32_t split, int right_of, uint32_t k,
+                             uint32_t *c, uint32_t *run_end)
+{
+    for (*c = 0; *c < chunks; (*c)++) {
+        uint32_t first, len = misplaced(r, *c, split, right_of, &first);
+        if (k < len) {
+            *run_end = first + len;
+            return first + k;
+        }
+        k -= len;
+    }
+    *run_end = 0;
+    return 0;
+}
+
+/* The next misplaced ref of one side after slot at, moving on to the next
+ * chunk's run at the end of the current one. */
+static uint32_t misplaced_next(const root_parting *r, uint32_t chunks, uint32_t split, int right_of, uint32_t at,
+                               uint32_t *c, uint32_t *run_end)
+{
+    if (++at < *run_end)
+        return at;
+    while (++*c < chunks) {
+        uint32_t first, len = misplaced(r, *c, split, right_of, &first);
+        if (len) {
+            *run_end = first + len;
+            return first;
+        }
+    }
+    return at;
+}
+
+static void part_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
+{
+    const root_parting *r = ctx;
+    ref *refs = r->b->refs;
+    const uint32_t begin = r->root->begin, end = r->root->end;
+    const uint32_t chunks = (end - begin + SAH_PART_CHUNK - 1) / SAH_PART_CHUNK;
+    job *l = &r->sides[2 * index], *rt = &r->sides[2 * index + 1];
+    box_empty(&l->geom), box_empty(&l->cent), box_empty(&rt->geom), box_empty(&rt->cent);
+    for (uint32_t c = (uint32_t)((uint64_t)chunks * index / size); c < (uint64_t)chunks * (index + 1) / size; c++) {
+        const uint32_t cs = begin + c * SAH_PART_CHUNK, ce = end - cs < SAH_PART_CHUNK ? end : cs + SAH_PART_CHUNK;
+        const uint32_t cm = partition_range(refs, cs, ce, r->k, r->clo, r->scl, r->at);
+        r->lefts[c] = cm - cs;
+        for (uint32_t i = cs; i < ce; i++)
+            ref_grow(i < cm ? l : rt, &refs[i]);
+    }
+    rtk_team_sync(team);
+    uint32_t split = begin, swaps = 0;
+    for (uint32_t c = 0; c < chunks; c++)
+        split += r->lefts[c];
+    for (uint32_t c = 0, first; c < chunks; c++)
+        swaps += misplaced(r, c, split, 0, &first);
+    const uint32_t k0 = (uint32_t)((uint64_t)swaps * index / size), k1 = (uint32_t)((uint64_t)swaps * (index + 1) / size);
+    if (k0 == k1)
+        return;
+    uint32_t ca, cb, a_end, b_end;
+    uint32_t a = misplaced_at(r, chunks, split, 0, k0, &ca, &a_end);
+    uint32_t bs = misplaced_at(r, chunks, split, 1, k0, &cb, &b_end);
+    for (uint32_t k = k0; k < k1; k++) {
+        const ref x = refs[a];
+        refs[a] = refs[bs];
+        refs[bs] = x;
+        if (k + 1 < k1) {
+            a = misplaced_next(r, chunks, split, 0, a, &ca, &a_end);
+            bs = misplaced_next(r, chunks, split, 1, bs, &cb, &b_end);
+        }
+    }
+}
+
+/* Bins the root on a team of up to threads (the same split as
+ * find_binned: its bins do not depend on how its primitives are divided)
+ * into b->root_split, and when it splits, partitions it into
+ * b->root_mid and b->root_sides (on any thread count, so the tree does
+ * not depend on it; the others would wait for the root, a twentieth of a
+ * one-thread build of the bunny and an eighth of a 16-thread build of
+ * the showroom). Out of memory, it leaves the root to be split as any node. */
+static void split_root(build *b, job *root, uint32_t threads)
 {
     binning(*parts)[2] = malloc(sizeof *parts * threads);
     if (!parts)
         return;
-    root_binning r = {b, root, parts};
-    const uint32_t size = rtk_team_run(threads, bin_member, &r);
+    rtk_build_phase(b->a, "sah: root bins", threads > 1);
+    root_binning rb = {b, root, parts};
+    uint32_t size = rtk_team_run(threads, bin_member, &rb);
     const uint32_t nb = node_bins(b->opt, root->end - root->begin);
     for (uint32_t t = 1; t < size; t++)
         binning_merge(&parts[0][0], &parts[t][0], nb);
     best_binned(b, root, &parts[0][0], &b->root_split);
     free(parts);
     root->presplit = 1;
+    const uint32_t chunks = (root->end - root->begin + SAH_PART_CHUNK - 1) / SAH_PART_CHUNK;
+    uint32_t *lefts = b->root_split.axis >= 0 ? malloc(sizeof *lefts * chunks) : NULL;
+    job *sides = lefts ? malloc(sizeof *sides * 2 * threads) : NULL;
+    if (sides) {
+        v4 scale, last;
+        bin_setup(b->opt, root, &scale, &last);
+        float lo[4], sc[4];
+        v4_store(lo, root->cent.lo);
+        v4_store(sc, scale);
+        const int k = b->root_split.axis;
+        root_parting rp = {b, root, lefts, sides, k, lo[k], sc[k], (float)b->root_split.at};
+        rtk_build_phase(b->a, "sah: root partition", threads > 1);
+        size = rtk_team_run(threads, part_member, &rp);
+        job *l = &b->root_sides[0], *r = &b->root_sides[1];
+        *l = sides[0], *r = sides[1];
+        for (uint32_t t = 1; t < size; t++) {
+            box_grow(&l->geom, sides[2 * t].geom.lo, sides[2 * t].geom.hi);
+            box_grow(&l->cent, sides[2 * t].cent.lo, sides[2 * t].cent.hi);
+            box_grow(&r->geom, sides[2 * t + 1].geom.lo, sides[2 * t + 1].geom.hi);
+            box_grow(&r->cent, sides[2 * t + 1].cent.lo, sides[2 * t + 1].cent.hi);
+        }
+        uint32_t mid = root->begin;
+        for (uint32_t c = 0; c < chunks; c++)
+            mid += lefts[c];
+        b->root_mid = mid;
+        b->root_parted = 1;
+    }
+    free(lefts), free(sides);
 }
 
 /* Builds from root on the build's threads (the caller's included). */
 static rtk_status run_build(build *b, job *root)
 {
     const uint32_t threads = build_threads(b->a), n = b->a->prim_count;
+    /* A root of at least SAH_SPAWN_MIN primitives (never a leaf) is split
+     * by a team, on one thread too. */
+    if (!b->opt->sweep && n >= SAH_SPAWN_MIN && root->depth < SAH_HALVING_DEPTH)
+        split_root(b, root, threads > 1 ? threads : 1);
     if (threads <= 1) {
         rtk_build_phase(b->a, "sah: tree", 0);
         b->dense_end = build_subtree(b, root, 0);
         return RTK_OK;
-    }
-    if (!b->opt->sweep && n > SAH_SMALL && root->depth < SAH_HALVING_DEPTH) {
-        rtk_build_phase(b->a, "sah: root bins", 1);
-        presplit_root(b, root, threads);
     }
     queue q;
     /* Queued jobs cover disjoint ranges of at least SAH_SPAWN_MIN. */
@@ -922,9 +1066,9 @@ static rtk_status run_build(build *b, job *root)
     atomic_init(&q.count, 0u);
     atomic_init(&q.pending, 0u);
     b->q = &q;
-    /* The root is split here, on one thread (its children queued as any
-     * job's would be: the tree is the same), so that the phases show it;
-     * the splits just below it still run on fewer threads than the team. */
+    /* The root's node is written and its children queued here, on one
+     * thread (as any job's would be: the tree is the same); the splits
+     * just below it still run on fewer threads than the team. */
     rtk_build_phase(b->a, "sah: root split", 0);
     build_subtree(b, root, 1);
     rtk_build_phase(b->a, "sah: subtrees", 1);
