@@ -150,9 +150,9 @@ typedef struct rtk_device_tree {
     const float *colors;
     /* ABI 3.7, for device programs: where the integrator reads
      * materials, the materials themselves (the kernel's rtk_material,
-     * kernel/scene/scene.h, material_count of them; their names and
-     * texture slots mean nothing on a device); where it samples lights,
-     * the scene's lights as they were when the device took the tree (the
+     * kernel/scene/scene.h, material_count of them; their names mean
+     * nothing on a device, their texture slots index textures below);
+     * where it samples lights, the scene's lights as they were when the device took the tree (the
      * kernel's rtk_lights, kernel/scene/lights.h: light_of has slot_count
      * entries, inst_first instance_count; a placed mesh's own lights give
      * its light_of alone) and its punctual lights; each instance's frame
@@ -162,6 +162,17 @@ typedef struct rtk_device_tree {
     const struct rtk_punctual_light *punctual;
     uint32_t punctual_count;
     const rtk_device_frame *frames;
+    /* ABI 3.8, for device programs that read textures (where the
+     * integrator reads them and the scene has texture coordinates): 6
+     * floats a triangle id, its corners' texture coordinates (uvs1: the
+     * second set, NULL when absent), and the textures that the materials'
+     * slots index (the kernel's rtk_device_texture,
+     * kernel/scene/texture_sample.h, texture_count of them). NULL, 0
+     * otherwise. */
+    const float *uvs;
+    const float *uvs1;
+    const struct rtk_device_texture *textures;
+    uint32_t texture_count;
 } rtk_device_tree;
 
 /* ABI 3.5. What a device accelerator did so far, summed over its calls. */

@@ -41,9 +41,11 @@ RTK_EXTERN_C_BEGIN
  * rtk_device_tree.normals; rtk_device_report.samples, shade_seconds).
  * 3.7: device programs that sample lights and shade instances
  * (rtk_device_tree.materials, lights, punctual, punctual_count, frames;
- * rtk_device_frame). */
+ * rtk_device_frame).
+ * 3.8: device programs that read textures (rtk_device_tree.uvs, uvs1,
+ * textures, texture_count). */
 #define RTK_ABI_MAJOR 3
-#define RTK_ABI_MINOR 7
+#define RTK_ABI_MINOR 8
 
 /* Name of the one symbol a plugin exports. */
 #define RTK_PLUGIN_ENTRY_NAME "rtk_plugin_entry"

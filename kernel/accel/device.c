@@ -3,6 +3,7 @@
  * accelerator that traces batches on another processor (the cuda plugin).
  * Single rays stay with the kernel's traversal of the same tree. */
 #include "accel.h"
+#include "../scene/texture_sample.h"
 
 #include <pthread.h>
 #include <stddef.h>
@@ -86,31 +87,93 @@ static int reads_materials(const rtk_scene *m)
     return m->tri_material && (m->needs & (RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS));
 }
 
-/* One tree's view for the device, its corners gathered at *corners and
- * its materials' base colours at *bases. */
-static rtk_device_tree tree_view(const rtk_scene *m, float **corners, rtk_rgb **bases, uint32_t threads)
+/* Whether m's hits read its textures (as rtk_surface_at does). */
+static int reads_textures(const rtk_scene *m)
 {
-    corner_job job = {m, *corners};
+    return reads_materials(m) && (m->needs & RTK_NEED_TEXTURES) && m->uvs && m->textures && m->texture_count;
+}
+
+/* Where tree views put what they gather, each pointer moved past it. */
+typedef struct view_space {
+    float *corners;
+    rtk_rgb *bases;
+    rtk_device_texture *textures;
+} view_space;
+
+/* Bytes of the space the views of s and its meshes take. */
+static size_t view_bytes(const rtk_scene *s)
+{
+    uint64_t triangles = s->triangle_count, materials = s->material_count, textures = s->texture_count;
+    for (uint32_t i = 0; i < s->mesh_count; i++) {
+        triangles += s->meshes[i]->triangle_count, materials += s->meshes[i]->material_count;
+        textures += s->meshes[i]->texture_count;
+    }
+    return sizeof(rtk_device_texture) * (size_t)textures + sizeof(rtk_rgb) * (size_t)materials +
+           sizeof(float) * 9 * (size_t)triangles;
+}
+
+/* The space at block, view_bytes of it: textures first (they hold
+ * pointers), then base colours, then corners. */
+static view_space space_at(void *block, const rtk_scene *s)
+{
+    uint64_t textures = s->texture_count, materials = s->material_count;
+    for (uint32_t i = 0; i < s->mesh_count; i++)
+        textures += s->meshes[i]->texture_count, materials += s->meshes[i]->material_count;
+    view_space v;
+    v.textures = block;
+    v.bases = (rtk_rgb *)(void *)(v.textures + textures);
+    v.corners = (float *)(void *)(v.bases + materials);
+    return v;
+}
+
+/* Texture t as device programs read it. */
+static rtk_device_texture device_texture(const rtk_texture *t)
+{
+    rtk_device_texture d;
+    memset(&d, 0, sizeof d);
+    d.filter = (int32_t)t->filter;
+    d.decoded = t->decoded != 0;
+    if (t->decoded && !t->missing && t->rgba && t->width > 0 && t->height > 0) {
+        d.width = t->width, d.height = t->height, d.rgba = t->rgba;
+        d.has_alpha = t->has_alpha != 0;
+        d.normal_map = t->normal_map_checked > 0;
+    }
+    return d;
+}
+
+/* One tree's view for the device, what it gathers (corners, base colours,
+ * textures) taken from *space. */
+static rtk_device_tree tree_view(const rtk_scene *m, view_space *space, uint32_t threads)
+{
+    corner_job job = {m, space->corners};
     rtk_parallel_ranges(m->triangle_count, threads ? threads : 1, 65536, gather_corners, &job);
     rtk_device_tree t;
     memset(&t, 0, sizeof t);
     t.size = sizeof t;
     if (m->node_count) {
         t.nodes = m->nodes, t.node_count = m->node_count, t.depth = m->bvh_depth;
-        t.prim_ids = m->prim_ids, t.corners = *corners, t.slot_count = m->triangle_count;
+        t.prim_ids = m->prim_ids, t.corners = space->corners, t.slot_count = m->triangle_count;
         t.normals = m->normals;
         if (reads_materials(m)) {
             for (uint32_t i = 0; i < m->material_count; i++)
-                (*bases)[i] = m->materials[i].base_color;
+                space->bases[i] = m->materials[i].base_color;
             t.tri_materials = m->tri_material;
             t.materials = m->materials;
-            t.base_colors = *bases;
+            t.base_colors = space->bases;
             t.material_count = m->material_count;
             t.colors = m->colors;
         }
+        if (reads_textures(m)) {
+            for (uint32_t i = 0; i < m->texture_count; i++)
+                space->textures[i] = device_texture(&m->textures[i]);
+            t.uvs = m->uvs, t.uvs1 = m->uvs1;
+            t.textures = space->textures;
+            t.texture_count = m->texture_count;
+        }
     }
-    *corners += 9 * (size_t)m->triangle_count;
-    *bases += m->material_count;
+    space->corners += 9 * (size_t)m->triangle_count;
+    space->bases += m->material_count;
+    space->textures += m->texture_count;
     return t;
 }
 
@@ -127,13 +190,11 @@ static void lights_view(const rtk_scene *s, rtk_device_tree *t)
 
 rtk_status rtk_device_tree_view(const rtk_scene *s, uint32_t threads, rtk_device_tree *out, void **block)
 {
-    const size_t bases_size = sizeof(rtk_rgb) * (size_t)s->material_count;
-    *block = rtk_alloc(bases_size + sizeof(float) * 9 * (size_t)s->triangle_count + 1);
+    *block = rtk_alloc(view_bytes(s) + 1);
     if (!*block)
         return rtk_error(RTK_ERR_NOMEM, "out of memory for the device's copy of %u triangles", s->triangle_count);
-    rtk_rgb *bases = *block;
-    float *corners = (float *)(void *)((char *)*block + bases_size);
-    *out = tree_view(s, &corners, &bases, threads);
+    view_space space = space_at(*block, s);
+    *out = tree_view(s, &space, threads);
     lights_view(s, out);
     return RTK_OK;
 }
@@ -175,14 +236,13 @@ static rtk_status device_build(rtk_scene *s, const rtk_plugin *device, const rtk
         return st;
     }
     rtk_build_log_mark(s->build_log, "device: upload", 0, 0);
-    /* One block: the meshes' views, the instances' frames, every tree's
-     * materials' base colours, then every tree's corners. */
-    uint64_t triangles = s->triangle_count, materials = s->material_count;
+    /* One block: the meshes' views, the instances' frames, then every
+     * tree's textures, materials' base colours and corners. */
+    uint64_t triangles = s->triangle_count;
     for (uint32_t i = 0; i < s->mesh_count; i++)
-        triangles += s->meshes[i]->triangle_count, materials += s->meshes[i]->material_count;
+        triangles += s->meshes[i]->triangle_count;
     const size_t views = sizeof(rtk_device_tree) * s->mesh_count + sizeof(rtk_device_frame) * s->instance_count;
-    const size_t bases_size = sizeof(rtk_rgb) * (size_t)materials;
-    s->device_data = rtk_alloc(views + bases_size + sizeof(float) * 9 * (size_t)triangles);
+    s->device_data = rtk_alloc(views + view_bytes(s));
     if (!s->device_data) {
         f->destroy(state);
         return rtk_error(RTK_ERR_NOMEM, "%s: out of memory for the device's copy of %llu triangles", where,
@@ -190,12 +250,11 @@ static rtk_status device_build(rtk_scene *s, const rtk_plugin *device, const rtk
     }
     rtk_device_tree *meshes = s->device_data;
     rtk_device_frame *frames = (rtk_device_frame *)(void *)(meshes + s->mesh_count);
-    rtk_rgb *bases = (rtk_rgb *)(void *)((char *)s->device_data + views);
-    float *corners = (float *)(void *)((char *)s->device_data + views + bases_size);
-    rtk_device_tree tree = tree_view(s, &corners, &bases, threads);
+    view_space space = space_at((char *)s->device_data + views, s);
+    rtk_device_tree tree = tree_view(s, &space, threads);
     lights_view(s, &tree);
     for (uint32_t i = 0; i < s->mesh_count; i++) {
-        meshes[i] = tree_view(s->meshes[i], &corners, &bases, threads);
+        meshes[i] = tree_view(s->meshes[i], &space, threads);
         lights_view(s->meshes[i], &meshes[i]);
     }
     for (uint32_t i = 0; i < s->instance_count; i++) {
@@ -261,6 +320,19 @@ static rtk_status (*shade_fn(const rtk_accelerator_fns *f))(const void *, rtk_sh
     return f->size >= offsetof(rtk_accelerator_fns, shade) + sizeof f->shade ? f->shade : NULL;
 }
 
+/* Some texture that s's or a placed mesh's hits read is filtered
+ * trilinearly. */
+static int reads_trilinear(const rtk_scene *s)
+{
+    for (uint32_t i = 0; i <= s->mesh_count; i++) {
+        const rtk_scene *m = i < s->mesh_count ? s->meshes[i] : s;
+        for (uint32_t t = 0; reads_textures(m) && t < m->texture_count; t++)
+            if (m->textures[t].decoded && m->textures[t].filter == RTK_TEX_TRILINEAR)
+                return 1;
+    }
+    return 0;
+}
+
 const char *rtk_device_runs(const rtk_scene *s, const rtk_device_program *program)
 {
     if (!s->device)
@@ -269,8 +341,9 @@ const char *rtk_device_runs(const rtk_scene *s, const rtk_device_program *progra
         return "the device accelerator runs no programs";
     if ((s->needs & RTK_NEED_LIGHTS) && s->lights && s->lights->stamp != s->device_lights)
         return "the scene's lights changed after the device took its tree";
-    if ((s->needs & RTK_NEED_TEXTURES) && s->textures && s->uvs)
-        return "device programs do not read textures yet";
+    if (reads_trilinear(s))
+        return "textures.filter = \"trilinear\" reads each pixel's footprint, which device programs do not "
+               "carry (\"bilinear\" or \"nearest\" run on the device)";
     rtk_shade_batch probe;
     memset(&probe, 0, sizeof probe);
     probe.size = sizeof probe;

@@ -17,10 +17,12 @@
  *                params[2] clamp (>= 0), all lights (emitters, punctual,
  *                environment) as rtk_sample_incident_light samples them.
  * Surfaces: position, normals, the material's factors (base colour times
- * vertex colour, emission, the BSDF of kernel/scene/material_bsdf.h), no
- * textures. Scenes: a device accelerator's (no cut-outs, no single-sided
- * materials), instances included, without textures to read (the kernel
- * offers no others: rtk_device_runs).
+ * vertex colour, emission, the BSDF of kernel/scene/material_bsdf.h) and
+ * its textures (base colour, alpha, emission, normal map and the BSDF's
+ * factor maps, read at level 0 through kernel/scene/texture_sample.h).
+ * Scenes: a device accelerator's (no cut-outs, no single-sided
+ * materials), instances included, with no trilinear textures to read (the
+ * kernel offers no others: rtk_device_runs).
  *
  * Run on a CPU, a program gives what the integrator's li gives, bit for
  * bit (tests/plugins/device checks it); on a GPU, hits are still the
@@ -40,6 +42,7 @@
 #include "scene/light_sample.h"
 #include "scene/material_bsdf.h"
 #include "scene/surface_geom.h"
+#include "scene/texture_sample.h"
 
 #include <rtk/integrator.h>
 
@@ -68,7 +71,8 @@ typedef struct rtk_program {
 /* What a program reads of one tree's triangles (the scene's own or a
  * placed mesh's): their corners (the flat tree's, in leaf order), each
  * triangle's leaf slot, the corners' normals, the materials, vertex
- * colours and which emitter each triangle is (rtk_device_tree's). */
+ * colours, which emitter each triangle is, texture coordinates and
+ * textures (rtk_device_tree's). */
 typedef struct rtk_program_mesh {
     const float *corners;          /* 9 floats a leaf slot */
     const uint32_t *slot_of;       /* triangle id -> leaf slot */
@@ -78,6 +82,9 @@ typedef struct rtk_program_mesh {
     uint32_t material_count;
     const float *colors;           /* 12 floats a triangle id; NULL: none */
     const uint32_t *light_of;      /* triangle id -> its emitter (NULL: none emit) */
+    const float *uvs, *uvs1;       /* 6 floats a triangle id; uvs NULL: no textures read */
+    const rtk_device_texture *textures;
+    uint32_t texture_count;
 } rtk_program_mesh;
 
 /* What a program reads: the scene's trees, its own triangles' and each
@@ -150,6 +157,11 @@ static inline rtk_program_mesh rtk_program_mesh_of(const rtk_device_tree *tree, 
     m.material_count = tree->material_count;
     m.colors = tree->colors;
     m.light_of = rtk_program_light_of(tree);
+    if (tree->textures && tree->uvs) {
+        m.uvs = tree->uvs, m.uvs1 = tree->uvs1;
+        m.textures = tree->textures;
+        m.texture_count = tree->texture_count;
+    }
     return m;
 }
 
@@ -261,14 +273,123 @@ RTK_HD static inline const rtk_material *rtk_program_material(const rtk_program_
     return id < m->material_count ? &m->materials[id] : NULL;
 }
 
-/* A hit's surface as rtk_surface_at gives it without textures. */
+/* A hit's surface as rtk_surface_at gives it (with textures read at
+ * level 0), and where its factor maps are read. */
 typedef struct rtk_program_surface {
     rtk_vec3 p, ng, ns;
     int front;
     rtk_rgb base, emission;
     float alpha, ior;
-    const rtk_material *m; /* NULL: the default material */
+    const rtk_material *m;        /* NULL: the default material */
+    const rtk_program_mesh *mesh; /* the hit triangle's tree */
+    uint32_t prim;
+    float u, v;
 } rtk_program_surface;
+
+/* Texture tex of mesh m as a material's slot reads it (scene.c's usable):
+ * NULL when m reads no textures, or tex is none or was never decoded. */
+RTK_HD static inline const rtk_device_texture *rtk_program_texture(const rtk_program_mesh *m, int tex)
+{
+    return m->uvs && tex >= 0 && (uint32_t)tex < m->texture_count && m->textures[tex].decoded ? &m->textures[tex]
+                                                                                             : NULL;
+}
+
+/* rtk_tex_map_uv: map's texture coordinates on triangle prim of m at (u, v). */
+RTK_HD static inline rtk_vec2 rtk_program_uv(const rtk_program_mesh *m, const rtk_tex_map *map, uint32_t prim, float u,
+                                             float v)
+{
+    const float *uvs = map->set == 1 && m->uvs1 ? m->uvs1 : m->uvs;
+    return rtk_corner_uv(uvs + 6 * (size_t)prim, map->transformed, map->m, u, v);
+}
+
+/* Texture t through wrap and map at (u, v) of triangle prim of m, at level 0. */
+RTK_HD static inline void rtk_program_lookup(const rtk_program_mesh *m, const rtk_device_texture *t, rtk_tex_wrap wrap,
+                                             const rtk_tex_map *map, uint32_t prim, float u, float v, float texel[4])
+{
+    rtk_vec2 uv = rtk_program_uv(m, map, prim, u, v);
+    rtk_device_texture_sample(t, wrap, uv.x, uv.y, texel);
+}
+
+/* Whether two slots read the same texels: the same wrap and uv map. */
+RTK_HD static inline int rtk_program_same_use(rtk_tex_wrap a, rtk_tex_wrap b, const rtk_tex_map *ma,
+                                              const rtk_tex_map *mb)
+{
+    int same = a.s == b.s && a.t == b.t && ma->set == mb->set && ma->transformed == mb->transformed;
+    for (int k = 0; k < 6; k++)
+        same = same && ma->m[k] == mb->m[k];
+    return same;
+}
+
+/* rtk_apply_normal_map on triangle prim of m (material mat) at (u, v):
+ * bends *ns (on the authored side) by the normal map; 1 when it did. */
+RTK_HD static inline int rtk_program_normal_map(const rtk_program_mesh *m, const rtk_material *mat, uint32_t prim,
+                                                float u, float v, rtk_vec3 *ns)
+{
+    if (!m->uvs || mat->normal_tex < 0 || (uint32_t)mat->normal_tex >= m->texture_count)
+        return 0;
+    const rtk_device_texture *tex = &m->textures[mat->normal_tex];
+    if (!tex->normal_map)
+        return 0;
+    float t[6];
+    for (int k = 0; k < 3; k++) {
+        rtk_vec2 c = rtk_program_uv(m, &mat->normal_uv, prim, k == 1 ? 1.0f : 0.0f, k == 2 ? 1.0f : 0.0f);
+        t[2 * k] = c.x, t[2 * k + 1] = c.y;
+    }
+    const rtk_tex_wrap repeat = {RTK_WRAP_REPEAT, RTK_WRAP_REPEAT};
+    float texel[4];
+    rtk_program_lookup(m, tex, repeat, &mat->normal_uv, prim, u, v, texel);
+    rtk_vec3 p0, p1, p2;
+    rtk_program_corners(m, prim, &p0, &p1, &p2);
+    return rtk_bend_normal(p0, p1, p2, t, texel, ns);
+}
+
+/* The textures of material mat on out (scene.c's surface): base colour,
+ * alpha, emission, then the normal map. */
+RTK_HD static inline void rtk_program_textures(const rtk_program_mesh *m, const rtk_material *mat, uint32_t prim,
+                                               float u, float v, rtk_program_surface *out)
+{
+    float texel[4];
+    int alpha_done = 0;
+    const rtk_device_texture *t = rtk_program_texture(m, mat->base_tex);
+    if (t) {
+        rtk_program_lookup(m, t, mat->base_wrap, &mat->base_uv, prim, u, v, texel);
+        out->base = rtk_rgb_mul(out->base, rtk_rgb_make(texel[0], texel[1], texel[2]));
+        if (mat->alpha_tex == mat->base_tex &&
+            rtk_program_same_use(mat->alpha_wrap, mat->base_wrap, &mat->alpha_uv, &mat->base_uv)) {
+            out->alpha *= texel[3];
+            alpha_done = 1;
+        }
+    }
+    if (!alpha_done && (t = rtk_program_texture(m, mat->alpha_tex))) {
+        rtk_program_lookup(m, t, mat->alpha_wrap, &mat->alpha_uv, prim, u, v, texel);
+        out->alpha *= mat->alpha_tex == mat->base_tex || t->has_alpha ? texel[3] : texel[0];
+    }
+    if ((t = rtk_program_texture(m, mat->emission_tex))) {
+        rtk_program_lookup(m, t, mat->emission_wrap, &mat->emission_uv, prim, u, v, texel);
+        out->emission = rtk_rgb_mul(out->emission, rtk_rgb_make(texel[0], texel[1], texel[2]));
+    }
+    rtk_vec3 n = out->front ? out->ns : rtk_vec3_neg(out->ns);
+    if (rtk_program_normal_map(m, mat, prim, u, v, &n)) {
+        if (!out->front)
+            n = rtk_vec3_neg(n);
+        if (rtk_vec3_dot(n, out->ng) > 0.0f)
+            out->ns = n;
+    }
+}
+
+/* material_bsdf.h's map reader over a program surface (material.c's
+ * read_map): factor map k of m at the surface's hit, at level 0. */
+RTK_HD static inline int rtk_program_read_map(const void *ctx, const rtk_material *m, rtk_material_map k,
+                                              float texel[4])
+{
+    const rtk_program_surface *sf = (const rtk_program_surface *)ctx;
+    const rtk_tex_slot *slot = &m->maps[k];
+    const rtk_device_texture *t = rtk_program_texture(sf->mesh, slot->tex);
+    if (!t)
+        return 0;
+    rtk_program_lookup(sf->mesh, t, slot->wrap, &slot->uv, sf->prim, sf->u, sf->v, texel);
+    return 1;
+}
 
 /* The surface of triangle prim of mesh m at barycentrics (u, v), seen
  * along dir, in m's space. */
@@ -280,6 +401,9 @@ RTK_HD static inline void rtk_program_mesh_surface(const rtk_program_scene *s, c
     rtk_surface_geometry(p0, p1, p2, m->normals ? m->normals + 9 * (size_t)prim : NULL, u, v, dir, &out->p, &out->ng,
                          &out->ns, &out->front);
     out->m = rtk_program_material(m, prim);
+    out->mesh = m;
+    out->prim = prim;
+    out->u = u, out->v = v;
     out->base = s->albedo;
     out->emission = rtk_rgb_make(0.0f, 0.0f, 0.0f);
     out->alpha = 1.0f;
@@ -297,6 +421,8 @@ RTK_HD static inline void rtk_program_mesh_surface(const rtk_program_scene *s, c
         out->base = rtk_surface_base_color(out->base, colors, u, v);
         out->alpha *= vc[3];
     }
+    if (out->m && m->uvs)
+        rtk_program_textures(m, out->m, prim, u, v, out);
 }
 
 /* A normal through frame f: the inverse transpose (to_object's rows as
@@ -309,7 +435,7 @@ RTK_HD static inline rtk_vec3 rtk_program_world_normal(const double *to_object, 
     return rtk_vec3_normalize(rtk_vec3_make((float)w[0], (float)w[1], (float)w[2]));
 }
 
-/* A hit's surface as rtk_surface_at gives it without textures: an
+/* A hit's surface as rtk_surface_at gives it: an
  * instance's in its mesh's space (the ray's direction taken there), then
  * placed in the world. */
 RTK_HD static inline void rtk_program_surface_at(const rtk_program_scene *s, const rtk_ray *ray, const rtk_hit *hit,
@@ -376,7 +502,7 @@ RTK_HD static inline void rtk_program_headlight(const rtk_program *p, const rtk_
 }
 
 /* rtk_emitter_fns over a program scene: an emitter's corners and its
- * material's emission (no instances, no textures). */
+ * material's emission times its emission texture (lights.c's). */
 RTK_HD static inline void rtk_program_emitter_corners(const void *ctx, uint32_t light, rtk_vec3 *a, rtk_vec3 *b,
                                                       rtk_vec3 *c, int *mirrored)
 {
@@ -388,10 +514,19 @@ RTK_HD static inline void rtk_program_emitter_corners(const void *ctx, uint32_t 
 
 RTK_HD static inline rtk_rgb rtk_program_emitter_emission(const void *ctx, uint32_t light, float b1, float b2)
 {
-    (void)b1, (void)b2;
     const rtk_program_scene *s = (const rtk_program_scene *)ctx;
-    const rtk_material *m = rtk_program_material(rtk_program_mesh_at(s, s->lights->insts[light]), s->lights->prims[light]);
-    return m ? m->emission : rtk_rgb_make(0.0f, 0.0f, 0.0f);
+    const rtk_program_mesh *mesh = rtk_program_mesh_at(s, s->lights->insts[light]);
+    const uint32_t prim = s->lights->prims[light];
+    const rtk_material *m = rtk_program_material(mesh, prim);
+    if (!m)
+        return rtk_rgb_make(0.0f, 0.0f, 0.0f);
+    const rtk_device_texture *t = rtk_program_texture(mesh, m->emission_tex);
+    if (!t)
+        return m->emission;
+    const rtk_tex_wrap repeat = {RTK_WRAP_REPEAT, RTK_WRAP_REPEAT};
+    float texel[4];
+    rtk_program_lookup(mesh, t, repeat, &m->emission_uv, prim, b1, b2, texel);
+    return rtk_rgb_mul(m->emission, rtk_rgb_make(texel[0], texel[1], texel[2]));
 }
 
 /* rtk_sample_incident_light. */
@@ -478,7 +613,7 @@ RTK_HD static inline void rtk_program_path(const rtk_program *p, const rtk_progr
         if (ps.depth >= pt->max_depth)
             break;
         rtk_bsdf bsdf;
-        rtk_material_bsdf(sf.m, sf.base, sf.alpha, sf.ior, rtk_no_maps, NULL, &bsdf);
+        rtk_material_bsdf(sf.m, sf.base, sf.alpha, sf.ior, rtk_program_read_map, &sf, &bsdf);
         if (bsdf.count == 0)
             break;
         rtk_path_vertex v = rtk_path_vertex_at(sf.ng, sf.ns, sf.front, &bsdf, ray.dir);

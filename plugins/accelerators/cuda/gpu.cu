@@ -1,9 +1,10 @@
 /* The cuda plugin's GPU side: the trees in device memory (the kernel's
  * 32-byte binary nodes, leaf order, 36 bytes of corners a slot; for an
  * instanced scene each mesh's, the top level and the placements; for
- * device programs every tree's slots, normals, materials, vertex colours
- * and emitters, the instances' frames and the lights) and one thread per
- * ray, or per camera sample of a program, running the kernel's own
+ * device programs every tree's slots, normals, materials, vertex colours,
+ * emitters, texture coordinates and textures, the instances' frames and
+ * the lights) and one thread per ray, or per camera sample of a program,
+ * running the kernel's own
  * traversal (device_tree.h, which tests/cuda checks against the kernel
  * bit for bit). Built with
  * --fmad=false: CUDA would otherwise contract a * b + c, which the kernel
@@ -222,9 +223,32 @@ static int put_lights(rtk_gpu *g, const rtk_device_tree *t, const rtk_lights **o
            put_n(g, t->punctual, t->punctual_count, punctual, "punctual lights", why, cap);
 }
 
+/* The textures of tree t on the device, their texels each a block of
+ * its own: *out NULL when t reads none. */
+static int put_textures(rtk_gpu *g, const rtk_device_tree *t, const rtk_device_texture **out, char *why, size_t cap)
+{
+    *out = nullptr;
+    if (!t->textures || !t->texture_count)
+        return 0;
+    rtk_device_texture *d = static_cast<rtk_device_texture *>(std::malloc(sizeof *d * t->texture_count));
+    if (!d) {
+        std::snprintf(why, cap, "out of memory");
+        return -1;
+    }
+    int st = 0;
+    for (uint32_t i = 0; i < t->texture_count && !st; i++) {
+        d[i] = t->textures[i];
+        const size_t texels = d[i].rgba ? 4 * (size_t)d[i].width * (size_t)d[i].height : 0;
+        st = put_n(g, d[i].rgba, texels, &d[i].rgba, "texture", why, cap);
+    }
+    st = st || put_n(g, static_cast<const rtk_device_texture *>(d), t->texture_count, out, "textures", why, cap);
+    std::free(d);
+    return st;
+}
+
 /* What programs read of tree t, whose corners are on the device at
- * corners: each triangle's slot, normals, materials, vertex colours and
- * emitters, on the device. */
+ * corners: each triangle's slot, normals, materials, vertex colours,
+ * emitters, texture coordinates and textures, on the device. */
 static int put_program_mesh(rtk_gpu *g, const rtk_device_tree *t, const float *corners, rtk_program_mesh *out,
                             char *why, size_t cap)
 {
@@ -244,7 +268,10 @@ static int put_program_mesh(rtk_gpu *g, const rtk_device_tree *t, const float *c
                    put_n(g, t->tri_materials, n, &m.tri_materials, "triangle materials", why, cap) ||
                    put_n(g, t->materials, t->material_count, &m.materials, "materials", why, cap) ||
                    put_n(g, t->colors, 12 * n, &m.colors, "vertex colours", why, cap) ||
-                   put_n(g, m.light_of, n, &m.light_of, "emitters of triangles", why, cap);
+                   put_n(g, m.light_of, n, &m.light_of, "emitters of triangles", why, cap) ||
+                   put_n(g, m.uvs, 6 * n, &m.uvs, "texture coordinates", why, cap) ||
+                   put_n(g, m.uvs1, 6 * n, &m.uvs1, "texture coordinates", why, cap) ||
+                   put_textures(g, t, &m.textures, why, cap);
     std::free(slot_of);
     if (!st)
         *out = m;
