@@ -3,8 +3,8 @@
 # that is the CPU): images through it equal the builder's bit for bit (ao,
 # headlight and path, which trace in batches; an instanced scene; the
 # device programs of ao, headlight and path, AOVs included, over normals,
-# materials, vertex colours, instances and every kind of light, and where
-# they do not run), the
+# materials, vertex colours, instances, every kind of light and textures,
+# and where they do not run), the
 # report's device line, the BVH cache, `rtk bench`'s device table and
 # counts, and every refusal with its message (a wrong builder at its
 # config line, a device that cannot start or take the tree).
@@ -164,8 +164,9 @@ program_image "program, path over instances and their emitters" "$tmp/instanced-
 # metalness come from repeating images, a ball with a clamped colour map,
 # a bent normal over corner normals and an MTL shininess map, under a lamp
 # whose emission is an image (path samples it); bilinear and nearest
-# filtering; the textured scene placed twice; the second uv set and
-# KHR_texture_transform of Khronos's samples where ../shared/data has them.
+# filtering; the textured scene placed twice; the second uv set (an
+# emission map) and KHR_texture_transform of Khronos's samples where
+# ../shared/data has them.
 # (images written by python3, which meson itself needs)
 python3 - "$tmp" <<'PY'
 import math, sys
@@ -248,7 +249,7 @@ fi
 samples=$src/../shared/data/gltf-samples
 for model in MultiUVTest TextureTransformTest; do
     if [ ! -f "$samples/$model/glTF/$model.gltf" ]; then
-        echo "skip  program, headlight over $model: no $samples/$model (../shared/data absent)"
+        echo "skip  program, path over $model: no $samples/$model (../shared/data absent)"
         continue
     fi
     cp -r "$samples/$model/glTF" "$tmp/$model"
@@ -259,8 +260,9 @@ for m in doc["materials"]:
     m["doubleSided"] = True
 json.dump(doc, open(sys.argv[1], "w"))
 PY
-    printf 'scene = "%s/%s/%s.gltf";\nintegrator = { plugin = "headlight"; };\n' "$tmp" "$model" "$model" >"$tmp/$model.cfg"
-    program_image "program, headlight over $model (a double-sided copy)" "$tmp/$model.cfg"
+    printf 'scene = "%s/%s/%s.gltf";\nintegrator = { plugin = "path"; max_depth = 2; };\n' "$tmp" "$model" "$model" \
+        >"$tmp/$model.cfg"
+    program_image "program, path over $model (a double-sided copy)" "$tmp/$model.cfg"
 done
 
 # Where the device runs no program, it traces the integrator's batches, saying why.
