@@ -2,7 +2,8 @@
  * as the cuda plugin compiles it, against the path plugin's own li (built
  * by the C compiler, through the kernel's rtk_trace, rtk_surface_at and
  * rtk_sample_incident_light): in the Cornell box lit by its ceiling, a
- * point, a spot and a directional light and an environment map, over the
+ * point, a spot and a directional light and an environment map, and in
+ * tests/scenes/textured (every surface textured), over the
  * scene as the kernel hands it to a device (rtk_device_tree_view), for
  * the same camera rays and sample streams, under each sampler and two
  * settings (the defaults; max_depth 4, rr_depth 1, clamp 2), the host
@@ -99,20 +100,45 @@ std::vector<rtk_ray> camera_rays(int n, rng *g)
     return rays;
 }
 
+/* tests/scenes/textured/textured.obj as path needs it: every surface
+ * reads textures (colour, normal, roughness, metalness, shininess and
+ * emission maps). */
+rtk_scene *textured(const char *root)
+{
+    const uint32_t needs = RTK_NEED_NORMALS | RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS;
+    const std::string path = std::string(root) + "/tests/scenes/textured/textured.obj";
+    rtk_scene *s = nullptr;
+    return rtk_scene_load(path.c_str(), needs, &s) == RTK_OK ? s : nullptr;
+}
+
+/* From around textured.cfg's camera towards points on the floor and the
+ * ball; one in eight past the floor's side. */
+std::vector<rtk_ray> textured_rays(int n, rng *g)
+{
+    std::vector<rtk_ray> rays(n);
+    for (int i = 0; i < n; i++) {
+        const rtk_vec3 org = rtk_vec3_make(g->next(-0.3f, 0.3f), g->next(1.2f, 1.8f), g->next(-2.4f, -2.0f));
+        const float x = i % 8 == 7 ? g->next(1.1f, 1.6f) : g->next(-0.9f, 0.9f);
+        const rtk_vec3 at = rtk_vec3_make(x, g->next(0.0f, 0.3f), g->next(-0.9f, 0.9f));
+        rays[i] = {org, 0.0f, rtk_vec3_sub(at, org), INFINITY};
+    }
+    return rays;
+}
+
 bool same_bits(const rtk_li_result &a, const rtk_li_result &b)
 {
     return std::memcmp(&a, &b, sizeof a) == 0;
 }
 
 void compare(rtk_scene *s, const rtk_program_scene &ps, const rtk_program &p, const rtk_integrator_fns *path,
-             const void *state, rtk_sampler_type type, const char *name, const char *setting, rng *g)
+             const void *state, rtk_sampler_type type, const char *name, const char *setting,
+             const std::vector<rtk_ray> &rays)
 {
-    const int n = 3000;
+    const int n = (int)rays.size();
     rtk_ctx ctx;
     std::memset(&ctx, 0, sizeof ctx);
     ctx.scene = s;
     rtk_ctx_set_sampler(&ctx, type, 7, 16);
-    const std::vector<rtk_ray> rays = camera_rays(n, g);
     int differ = 0, count_differ = 0, hits = 0, lit = 0;
     for (int i = 0; i < n; i++) {
         rtk_ctx_start_sample(&ctx, (uint64_t)i / 16, (uint64_t)i % 16);
@@ -131,7 +157,7 @@ void compare(rtk_scene *s, const rtk_program_scene &ps, const rtk_program &p, co
     char what[320];
     std::snprintf(what, sizeof what, "%s, %s: nvcc's host program equals path's li on %d samples (%d hit, %d lit): "
                   "%d differ, %d count other rays", setting, name, n, hits, lit, differ, count_differ);
-    check(differ == 0 && count_differ == 0 && hits > n / 2 && hits < n && lit > n / 2, what);
+    check(differ == 0 && count_differ == 0 && hits > n / 2 && hits < n && lit > n / 4, what);
 }
 
 /* The three samplers under one setting of path's parameters (set: name,
@@ -139,7 +165,7 @@ void compare(rtk_scene *s, const rtk_program_scene &ps, const rtk_program &p, co
  * rr_depth, clamp. */
 void compare_setting(rtk_scene *s, const rtk_program_scene &ps, const rtk_plugin *plugin,
                      const std::vector<std::pair<const char *, const char *>> &set, int max_depth, int rr_depth,
-                     float clamp, const char *setting, rng *g)
+                     float clamp, const char *setting, const std::vector<rtk_ray> &rays)
 {
     const rtk_integrator_fns *fns = static_cast<const rtk_integrator_fns *>(plugin->functions);
     rtk_params *ip = rtk_params_defaults(plugin);
@@ -158,9 +184,9 @@ void compare_setting(rtk_scene *s, const rtk_program_scene &ps, const rtk_plugin
             p.path.clamp == clamp;
     check(ready, what);
     if (ready) {
-        compare(s, ps, p, fns, state, RTK_SAMPLER_INDEPENDENT, "independent", setting, g);
-        compare(s, ps, p, fns, state, RTK_SAMPLER_STRATIFIED, "stratified", setting, g);
-        compare(s, ps, p, fns, state, RTK_SAMPLER_SOBOL, "sobol", setting, g);
+        compare(s, ps, p, fns, state, RTK_SAMPLER_INDEPENDENT, "independent", setting, rays);
+        compare(s, ps, p, fns, state, RTK_SAMPLER_STRATIFIED, "stratified", setting, rays);
+        compare(s, ps, p, fns, state, RTK_SAMPLER_SOBOL, "sobol", setting, rays);
     }
     if (state)
         fns->destroy(state);
@@ -201,10 +227,31 @@ int main(int argc, char **argv)
     check(ready, "the Cornell box with a point, a spot, a directional light and a map, built with sah, as the "
                  "kernel hands it to a device");
     if (ready) {
-        compare_setting(s, ps, path, {}, 8, 3, 0.0f, "defaults", &g);
+        compare_setting(s, ps, path, {}, 8, 3, 0.0f, "defaults", camera_rays(3000, &g));
         compare_setting(s, ps, path, {{"max_depth", "4"}, {"rr_depth", "1"}, {"clamp", "2"}}, 4, 1, 2.0f,
-                        "max_depth 4, rr_depth 1, clamp 2", &g);
+                        "max_depth 4, rr_depth 1, clamp 2", camera_rays(3000, &g));
     }
+    /* The textured scene through the same steps. */
+    rtk_scene *t = ready ? textured(argv[1]) : nullptr;
+    rtk_device_tree ttree = rtk_device_tree();
+    void *tblock = nullptr, *tprogram_block = nullptr;
+    rtk_program_scene tps = rtk_program_scene();
+    bool tready = t && rtk_bvh_build(t, sah, bp, 1) == RTK_OK && rtk_device_tree_view(t, 1, &ttree, &tblock) == RTK_OK &&
+                  ttree.textures && ttree.texture_count == 6 && ttree.uvs;
+    if (tready) {
+        rtk_flat_scene flat;
+        rtk_flat_scene_of(&ttree, nullptr, &flat);
+        tready = rtk_program_scene_of(&ttree, &flat, &tprogram_block, &tps) == 0;
+        tps.albedo = rtk_material_default().base_color;
+    }
+    check(tready, "tests/scenes/textured, built with sah, as the kernel hands it to a device: its 6 textures and "
+                  "texture coordinates");
+    if (tready)
+        compare_setting(t, tps, path, {{"max_depth", "4"}}, 4, 3, 0.0f, "textured, max_depth 4",
+                        textured_rays(3000, &g));
+    free(tblock);
+    free(tprogram_block);
+    rtk_scene_free(t);
     if (gpu)
         std::printf("skip  path on the GPU: it needs the materials and lights uploaded as the cuda plugin uploads "
                     "them; tools/gpu-check judges its images (within noise)\n");

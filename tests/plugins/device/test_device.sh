@@ -160,89 +160,29 @@ for i in headlight path; do
 done
 program_image "program, headlight over instances" "$tmp/instanced-headlight.cfg"
 program_image "program, path over instances and their emitters" "$tmp/instanced-path.cfg" --set integrator.max_depth=4
-# Textures (ABI 3.8): a floor whose colour, normal map, roughness and
-# metalness come from repeating images, a ball with a clamped colour map,
-# a bent normal over corner normals and an MTL shininess map, under a lamp
-# whose emission is an image (path samples it); bilinear and nearest
-# filtering; the textured scene placed twice; the second uv set (an
-# emission map) and KHR_texture_transform of Khronos's samples where
-# ../shared/data has them.
-# (images written by python3, which meson itself needs)
-python3 - "$tmp" <<'PY'
-import math, sys
-d = sys.argv[1]
-def ppm(name, n, f):
-    px = bytearray()
-    for y in range(n):
-        for x in range(n):
-            px += bytes(max(0, min(255, int(255 * c + 0.5))) for c in f(x / n, y / n))
-    open(f"{d}/{name}", "wb").write(b"P6 %d %d 255\n" % (n, n) + px)
-ppm("checker.ppm", 16, lambda u, v: (0.9, 0.3, 0.2) if (int(4 * u) + int(4 * v)) % 2 else (0.2, 0.5, 0.9))
-ppm("bumps.ppm", 16, lambda u, v: (0.5 + 0.35 * math.sin(6.28 * u), 0.5 + 0.35 * math.cos(6.28 * v), 0.85))
-ppm("rough.ppm", 8, lambda u, v: (u, 0.1 + 0.8 * v, 0.5))
-ppm("metal.ppm", 8, lambda u, v: ((1.0,) * 3 if u > 0.5 else (0.0,) * 3))
-ppm("shiny.ppm", 8, lambda u, v: (v,) * 3)
-ppm("stripes.ppm", 8, lambda u, v: (1.0, 0.8, 0.5) if int(4 * u) % 2 else (0.3, 0.4, 1.0))
-o = ["mtllib textured.mtl", "v -1 0 -1", "v 1 0 -1", "v 1 0 1", "v -1 0 1",
-     "vt 0 0", "vt 3 0", "vt 3 3", "vt 0 3", "vn 0 1 0", "usemtl floor",
-     "f 1/1/1 3/3/1 2/2/1", "f 1/1/1 4/4/1 3/3/1",
-     "v -0.4 1.2 -0.4", "v 0.4 1.2 -0.4", "v 0.4 1.2 0.4", "v -0.4 1.2 0.4",
-     "vt 0 0", "vt 1 0", "vt 1 1", "vt 0 1", "vn 0 -1 0", "usemtl lamp",
-     "f 5/5/2 6/6/2 7/7/2", "f 5/5/2 7/7/2 8/8/2"]
-nu, nv, base = 16, 8, 9
-for j in range(nv + 1):
-    for i in range(nu + 1):
-        t, p = math.pi * j / nv, 2 * math.pi * i / nu
-        x, y, z = math.sin(t) * math.cos(p), math.cos(t), math.sin(t) * math.sin(p)
-        o += [f"v {0.35 * x:.6f} {0.35 * y + 0.4:.6f} {0.35 * z:.6f}", f"vt {1.4 * i / nu - 0.2:.6f} {j / nv:.6f}",
-              f"vn {x:.6f} {y:.6f} {z:.6f}"]
-o.append("usemtl ball")
-k = lambda i, j: base + j * (nu + 1) + i
-for j in range(nv):
-    for i in range(nu):
-        a, b, c, e = k(i, j), k(i + 1, j), k(i, j + 1), k(i + 1, j + 1)
-        vt = lambda q: q - 4  # the ball's vt and vn follow the floor's 4 and the lamp's 4 (vn: 2)
-        o.append(f"f {a}/{vt(a)}/{a - 6} {c}/{vt(c)}/{c - 6} {b}/{vt(b)}/{b - 6}")
-        o.append(f"f {b}/{vt(b)}/{b - 6} {c}/{vt(c)}/{c - 6} {e}/{vt(e)}/{e - 6}")
-open(f"{d}/textured.obj", "w").write("\n".join(o) + "\n")
-open(f"{d}/textured.mtl", "w").write("""newmtl floor
-Kd 1 1 1
-Pr 1
-Pm 1
-map_Kd checker.ppm
-norm bumps.ppm
-map_Pr rough.ppm
-map_Pm metal.ppm
-newmtl ball
-Kd 0.9 0.9 0.9
-Ks 0.3 0.3 0.3
-Ns 60
-illum 2
-map_Kd -clamp on checker.ppm
-map_Ns shiny.ppm
-norm bumps.ppm
-newmtl lamp
-Kd 0 0 0
-Ke 3 3 3
-map_Ke stripes.ppm
-""")
-PY
+# Textures (ABI 3.8): tests/scenes/textured (a floor whose colour, normal
+# map, roughness and metalness are repeating images, a ball with a clamped
+# colour map, a normal map over corner normals and a shininess map, a lamp
+# whose emission is an image, which path samples); bilinear and nearest
+# filtering; the scene placed twice; the second uv set (an emission map)
+# and KHR_texture_transform of Khronos's samples where ../shared/data has
+# them.
 tex=$tmp/textured
-printf 'scene = "%s.obj";\ncamera = { position = [0.0, 1.5, -2.2]; look_at = [0.0, 0.3, 0.0]; fov = 50.0; };\nintegrator = { plugin = "headlight"; };\n' \
-    "$tex" >"$tex-headlight.cfg"
+textured=$src/tests/scenes/textured/textured.obj
+sed "s|^scene = .*|scene = \"$textured\";|" "$src/tests/scenes/textured/textured.cfg" >"$tex-headlight.cfg"
 sed 's/^integrator = .*/integrator = { plugin = "ao"; rays = 4; distance = 0.5; albedo = true; };/' "$tex-headlight.cfg" \
     >"$tex-ao.cfg"
 sed 's/^integrator = .*/integrator = { plugin = "path"; max_depth = 4; };/' "$tex-headlight.cfg" >"$tex-path.cfg"
-printf 'scene = "%s.obj";\ninstances = ( { file = "%s.obj"; translate = [0.9, 0.0, 0.6]; scale = [0.5, 0.5, 0.5]; },\n  { file = "%s.obj"; translate = [-0.8, 0.0, 0.5]; rotate = [0.0, 1.0, 0.0, 40.0]; scale = [-0.4, 0.4, 0.4]; } );\ncamera = { position = [0.0, 1.5, -2.2]; look_at = [0.0, 0.3, 0.0]; fov = 60.0; };\nintegrator = { plugin = "path"; max_depth = 3; };\n' \
-    "$tex" "$tex" "$tex" >"$tex-instanced.cfg"
-if [ -s "$tex.obj" ]; then
+printf 'scene = "%s";\ninstances = ( { file = "%s"; translate = [0.9, 0.0, 0.6]; scale = [0.5, 0.5, 0.5]; },\n  { file = "%s"; translate = [-0.8, 0.0, 0.5]; rotate = [0.0, 1.0, 0.0, 40.0]; scale = [-0.4, 0.4, 0.4]; } );\ncamera = { position = [0.0, 1.5, -2.2]; look_at = [0.0, 0.3, 0.0]; fov = 60.0; };\nintegrator = { plugin = "path"; max_depth = 3; };\n' \
+    "$textured" "$textured" "$textured" >"$tex-instanced.cfg"
+if [ -s "$textured" ]; then
     program_image "program, headlight over textures and normal maps" "$tex-headlight.cfg"
     program_image "program, headlight over nearest textures" "$tex-headlight.cfg" --set textures.filter=\"nearest\"
     program_image "program, ao albedo over textures" "$tex-ao.cfg" --set sampler.type=\"stratified\"
     program_image "program, path over texture maps and a textured lamp" "$tex-path.cfg" --set sampler.type=\"sobol\"
     program_image "program, path over placed textured meshes" "$tex-instanced.cfg"
 else
-    bad "textured scene: python3 wrote no files"
+    bad "no $textured"
 fi
 # Khronos's samples are single-sided, which device accelerators refuse: a
 # double-sided copy of each (the glTF's folder copied to $tmp) is traced.
