@@ -1,7 +1,8 @@
 /* A material's BSDF at a hit (the mapping include/rtk/bsdf.h and README
  * document), in plain C that nvcc compiles too (RTK_HD): material.c's
- * rtk_surface_bsdf reads the factor textures through its map reader, and
- * a device without textures passes rtk_no_maps, so both map alike. */
+ * rtk_surface_bsdf reads the factor textures through its map reader,
+ * device programs through theirs (plugins/integrators/device_programs.h),
+ * so both map alike. */
 #ifndef RTK_KERNEL_MATERIAL_BSDF_H
 #define RTK_KERNEL_MATERIAL_BSDF_H
 
@@ -15,7 +16,7 @@
 /* The texel of m's factor map k at the hit: 0 when there is none. */
 typedef int (*rtk_map_read_fn)(const void *ctx, const rtk_material *m, rtk_material_map k, float texel[4]);
 
-/* The reader of a hit without textures. */
+/* The reader of a hit that reads no textures. */
 RTK_HD static inline int rtk_no_maps(const void *ctx, const rtk_material *m, rtk_material_map k, float texel[4])
 {
     (void)ctx, (void)m, (void)k, (void)texel;
