@@ -31,11 +31,13 @@ cp -a "$libdir"/librtk.so* "$b/lib/"
 cp -a "$libdir/rtk" "$b/lib/"
 rm -f "$b/lib/rtk/rtk_image.so" # OpenImageIO's 250 libraries stay behind: nothing here writes an image
 cp "$(find "$stage/dest" -type f -path '*/bin/rtk')" "$b/bin/"
-for t in isect traverse sampler bsdf material texture lights program path_program; do
+for t in isect traverse sampler bsdf material texture lights program path_program textured_program; do
     cp "$build/tests/cuda/test_${t}_cuda" "$b/tests/"
 done
 mkdir -p "$b/src/scenes"
 cp -r "$root/scenes/cornell" "$b/src/scenes/"
+mkdir -p "$b/src/tests/scenes"
+cp -r "$root/tests/scenes/textured" "$b/src/tests/scenes/"
 cp "$data"/meshes/{bunny,armadillo,elephant,dragon}.obj "$b/shared/data/meshes/"
 [ -f "$data/showroom/showroom.obj" ] && cp "$data/showroom/showroom.obj" "$b/shared/data/showroom/"
 # The closure of shared libraries, glibc and the loader included; librtk is ours.

@@ -64,7 +64,7 @@ nproc | sed 's/^/cpu cores: /' | tee -a "$logs/gpu.txt"
 grep -m1 'model name' /proc/cpuinfo | tee -a "$logs/gpu.txt"
 
 if [[ " $steps " == *" tests "* ]]; then
-    for t in isect sampler bsdf material texture lights program path_program; do
+    for t in isect sampler bsdf material texture lights program path_program textured_program; do
         trun 60 "$logs/test_$t.log" "$b/tests/test_${t}_cuda" "$b/src"
         note "tests/cuda $t: exit $? ($(tail -1 "$logs/test_$t.log"))"
     done

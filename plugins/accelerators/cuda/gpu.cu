@@ -45,7 +45,7 @@ struct rtk_gpu_lane {
 namespace {
 
 /* 0 when call succeeded, else -1 with "what: CUDA's message" in why. */
-int failed(cudaError_t err, const char *what, char *why, size_t cap)
+int cuda_failed(cudaError_t err, const char *what, char *why, size_t cap)
 {
     if (err == cudaSuccess)
         return 0;
@@ -99,8 +99,8 @@ int rtk_gpu_open(int ordinal, char *name, size_t name_cap, rtk_gpu **out, char *
         return -1;
     }
     cudaDeviceProp prop;
-    if (failed(cudaSetDevice(ordinal), "cudaSetDevice", why, cap) ||
-        failed(cudaGetDeviceProperties(&prop, ordinal), "cudaGetDeviceProperties", why, cap))
+    if (cuda_failed(cudaSetDevice(ordinal), "cudaSetDevice", why, cap) ||
+        cuda_failed(cudaGetDeviceProperties(&prop, ordinal), "cudaGetDeviceProperties", why, cap))
         return -1;
     if (prop.major < 9) {
         std::snprintf(why, cap, "device %d (%s) has compute capability %d.%d; this build's code is for 9.0 (Hopper) "
@@ -137,12 +137,12 @@ static int put(rtk_gpu *g, const void *host, size_t bytes, const void **out, con
     void *d = nullptr;
     char call[128];
     std::snprintf(call, sizeof call, "cudaMalloc (%s)", what);
-    if (failed(cudaMalloc(&d, bytes), call, why, cap))
+    if (cuda_failed(cudaMalloc(&d, bytes), call, why, cap))
         return -1;
     g->blocks[g->block_count++] = d;
     g->tree_bytes += bytes;
     std::snprintf(call, sizeof call, "cudaMemcpy (%s)", what);
-    if (failed(cudaMemcpy(d, host, bytes, cudaMemcpyHostToDevice), call, why, cap))
+    if (cuda_failed(cudaMemcpy(d, host, bytes, cudaMemcpyHostToDevice), call, why, cap))
         return -1;
     *out = d;
     return 0;
@@ -293,16 +293,16 @@ static void free_trees(rtk_gpu *g)
 int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, char *why, size_t cap)
 {
     cudaEvent_t start, stop;
-    if (failed(cudaSetDevice(g->ordinal), "cudaSetDevice", why, cap) ||
-        failed(cudaEventCreate(&start), "cudaEventCreate", why, cap))
+    if (cuda_failed(cudaSetDevice(g->ordinal), "cudaSetDevice", why, cap) ||
+        cuda_failed(cudaEventCreate(&start), "cudaEventCreate", why, cap))
         return -1;
-    if (failed(cudaEventCreate(&stop), "cudaEventCreate", why, cap)) {
+    if (cuda_failed(cudaEventCreate(&stop), "cudaEventCreate", why, cap)) {
         cudaEventDestroy(start);
         return -1;
     }
     rtk_flat_scene scene = rtk_flat_scene();
     rtk_flat_tree *meshes = nullptr;
-    int st = failed(cudaEventRecord(start), "cudaEventRecord", why, cap) || put_tree(g, tree, &scene.own, why, cap);
+    int st = cuda_failed(cudaEventRecord(start), "cudaEventRecord", why, cap) || put_tree(g, tree, &scene.own, why, cap);
     if (!st && tree->mesh_count) {
         meshes = static_cast<rtk_flat_tree *>(std::calloc(tree->mesh_count, sizeof *meshes));
         if (!meshes)
@@ -337,11 +337,11 @@ int rtk_gpu_upload(rtk_gpu *g, const rtk_device_tree *tree, double *seconds, cha
     std::free(program_meshes);
     std::free(meshes);
     if (!st)
-        st = failed(cudaEventRecord(stop), "cudaEventRecord", why, cap) ||
-             failed(cudaEventSynchronize(stop), "cudaEventSynchronize", why, cap);
+        st = cuda_failed(cudaEventRecord(stop), "cudaEventRecord", why, cap) ||
+             cuda_failed(cudaEventSynchronize(stop), "cudaEventSynchronize", why, cap);
     float ms = 0.0f;
     if (!st)
-        st = failed(cudaEventElapsedTime(&ms, start, stop), "cudaEventElapsedTime", why, cap) ? -1 : 0;
+        st = cuda_failed(cudaEventElapsedTime(&ms, start, stop), "cudaEventElapsedTime", why, cap) ? -1 : 0;
     cudaEventDestroy(start);
     cudaEventDestroy(stop);
     if (st) {
@@ -381,7 +381,7 @@ static int lane_seconds(const rtk_gpu_lane *l, double seconds[3], char *why, siz
 {
     for (int k = 0; k < 3; k++) {
         float ms = 0.0f;
-        if (failed(cudaEventElapsedTime(&ms, l->marks[k], l->marks[k + 1]), "cudaEventElapsedTime", why, cap))
+        if (cuda_failed(cudaEventElapsedTime(&ms, l->marks[k], l->marks[k + 1]), "cudaEventElapsedTime", why, cap))
             return -1;
         seconds[k] = 1e-3 * (double)ms;
     }
@@ -429,19 +429,19 @@ int rtk_gpu_lane_open(rtk_gpu *g, uint32_t capacity, rtk_gpu_lane **out, char *w
         std::snprintf(why, cap, "out of memory");
         return -1;
     }
-    int st = failed(cudaSetDevice(g->ordinal), "cudaSetDevice", why, cap) ||
-             failed(cudaStreamCreateWithFlags(&l->stream, cudaStreamNonBlocking), "cudaStreamCreate", why, cap);
+    int st = cuda_failed(cudaSetDevice(g->ordinal), "cudaSetDevice", why, cap) ||
+             cuda_failed(cudaStreamCreateWithFlags(&l->stream, cudaStreamNonBlocking), "cudaStreamCreate", why, cap);
     for (int k = 0; k < 4 && !st; k++)
-        st = failed(cudaEventCreate(&l->marks[k]), "cudaEventCreate", why, cap);
+        st = cuda_failed(cudaEventCreate(&l->marks[k]), "cudaEventCreate", why, cap);
     if (!st)
-        st = failed(cudaMalloc(&l->rays, sizeof(rtk_ray) * (size_t)capacity), "cudaMalloc (rays)", why, cap) ||
-             failed(cudaMalloc(&l->hits, sizeof(rtk_hit) * (size_t)capacity), "cudaMalloc (hits)", why, cap) ||
-             failed(cudaMalloc(&l->occluded, capacity), "cudaMalloc (occlusion)", why, cap) ||
-             failed(cudaMallocHost(&l->host_rays, sizeof(rtk_ray) * (size_t)capacity), "cudaMallocHost (rays)", why,
+        st = cuda_failed(cudaMalloc(&l->rays, sizeof(rtk_ray) * (size_t)capacity), "cudaMalloc (rays)", why, cap) ||
+             cuda_failed(cudaMalloc(&l->hits, sizeof(rtk_hit) * (size_t)capacity), "cudaMalloc (hits)", why, cap) ||
+             cuda_failed(cudaMalloc(&l->occluded, capacity), "cudaMalloc (occlusion)", why, cap) ||
+             cuda_failed(cudaMallocHost(&l->host_rays, sizeof(rtk_ray) * (size_t)capacity), "cudaMallocHost (rays)", why,
                     cap) ||
-             failed(cudaMallocHost(&l->host_hits, sizeof(rtk_hit) * (size_t)capacity), "cudaMallocHost (hits)", why,
+             cuda_failed(cudaMallocHost(&l->host_hits, sizeof(rtk_hit) * (size_t)capacity), "cudaMallocHost (hits)", why,
                     cap) ||
-             failed(cudaMallocHost(&l->host_occluded, capacity), "cudaMallocHost (occlusion)", why, cap);
+             cuda_failed(cudaMallocHost(&l->host_occluded, capacity), "cudaMallocHost (occlusion)", why, cap);
     if (st) {
         rtk_gpu_lane_close(g, l);
         return -1;
@@ -463,26 +463,26 @@ int rtk_gpu_trace(rtk_gpu *g, rtk_gpu_lane *l, const rtk_ray *rays, uint32_t cou
     }
     std::memcpy(l->host_rays, rays, sizeof(rtk_ray) * (size_t)count);
     const unsigned blocks = (count + block_threads - 1) / block_threads;
-    int st = failed(cudaSetDevice(g->ordinal), "cudaSetDevice", why, cap) ||
-             failed(cudaEventRecord(l->marks[0], l->stream), "cudaEventRecord", why, cap) ||
-             failed(cudaMemcpyAsync(l->rays, l->host_rays, sizeof(rtk_ray) * (size_t)count, cudaMemcpyHostToDevice,
+    int st = cuda_failed(cudaSetDevice(g->ordinal), "cudaSetDevice", why, cap) ||
+             cuda_failed(cudaEventRecord(l->marks[0], l->stream), "cudaEventRecord", why, cap) ||
+             cuda_failed(cudaMemcpyAsync(l->rays, l->host_rays, sizeof(rtk_ray) * (size_t)count, cudaMemcpyHostToDevice,
                                     l->stream),
                     "cudaMemcpyAsync (rays)", why, cap) ||
-             failed(cudaEventRecord(l->marks[1], l->stream), "cudaEventRecord", why, cap);
+             cuda_failed(cudaEventRecord(l->marks[1], l->stream), "cudaEventRecord", why, cap);
     if (st)
         return -1;
     if (hits)
         closest_kernel<<<blocks, block_threads, 0, l->stream>>>(g->scene, l->rays, count, l->hits);
     else
         any_kernel<<<blocks, block_threads, 0, l->stream>>>(g->scene, l->rays, count, l->occluded);
-    st = failed(cudaGetLastError(), hits ? "closest_kernel launch" : "any_kernel launch", why, cap) ||
-         failed(cudaEventRecord(l->marks[2], l->stream), "cudaEventRecord", why, cap) ||
-         failed(hits ? cudaMemcpyAsync(l->host_hits, l->hits, sizeof(rtk_hit) * (size_t)count, cudaMemcpyDeviceToHost,
+    st = cuda_failed(cudaGetLastError(), hits ? "closest_kernel launch" : "any_kernel launch", why, cap) ||
+         cuda_failed(cudaEventRecord(l->marks[2], l->stream), "cudaEventRecord", why, cap) ||
+         cuda_failed(hits ? cudaMemcpyAsync(l->host_hits, l->hits, sizeof(rtk_hit) * (size_t)count, cudaMemcpyDeviceToHost,
                                        l->stream)
                      : cudaMemcpyAsync(l->host_occluded, l->occluded, count, cudaMemcpyDeviceToHost, l->stream),
                 "cudaMemcpyAsync (results)", why, cap) ||
-         failed(cudaEventRecord(l->marks[3], l->stream), "cudaEventRecord", why, cap) ||
-         failed(cudaStreamSynchronize(l->stream), hits ? "closest_kernel" : "any_kernel", why, cap);
+         cuda_failed(cudaEventRecord(l->marks[3], l->stream), "cudaEventRecord", why, cap) ||
+         cuda_failed(cudaStreamSynchronize(l->stream), hits ? "closest_kernel" : "any_kernel", why, cap);
     if (st)
         return -1;
     if (lane_seconds(l, seconds, why, cap))
@@ -500,14 +500,14 @@ static int program_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
     if (l->counts)
         return 0;
     const size_t n = l->capacity;
-    int st = failed(cudaMalloc(&l->pos, sizeof(rtk_sample_pos) * n), "cudaMalloc (sample streams)", why, cap) ||
-             failed(cudaMalloc(&l->out, sizeof(rtk_li_result) * n), "cudaMalloc (results)", why, cap) ||
-             failed(cudaMallocHost(&l->host_pos, sizeof(rtk_sample_pos) * n), "cudaMallocHost (sample streams)", why,
+    int st = cuda_failed(cudaMalloc(&l->pos, sizeof(rtk_sample_pos) * n), "cudaMalloc (sample streams)", why, cap) ||
+             cuda_failed(cudaMalloc(&l->out, sizeof(rtk_li_result) * n), "cudaMalloc (results)", why, cap) ||
+             cuda_failed(cudaMallocHost(&l->host_pos, sizeof(rtk_sample_pos) * n), "cudaMallocHost (sample streams)", why,
                     cap) ||
-             failed(cudaMallocHost(&l->host_out, sizeof(rtk_li_result) * n), "cudaMallocHost (results)", why, cap) ||
-             failed(cudaMallocHost(&l->host_counts, sizeof(rtk_program_count) * n), "cudaMallocHost (ray counts)",
+             cuda_failed(cudaMallocHost(&l->host_out, sizeof(rtk_li_result) * n), "cudaMallocHost (results)", why, cap) ||
+             cuda_failed(cudaMallocHost(&l->host_counts, sizeof(rtk_program_count) * n), "cudaMallocHost (ray counts)",
                     why, cap) ||
-             failed(cudaMalloc(&l->counts, sizeof(rtk_program_count) * n), "cudaMalloc (ray counts)", why, cap);
+             cuda_failed(cudaMalloc(&l->counts, sizeof(rtk_program_count) * n), "cudaMalloc (ray counts)", why, cap);
     if (st)
         return -1; /* what was made is freed with the lane */
     g->lane_bytes += program_bytes(l->capacity);
@@ -524,35 +524,35 @@ int rtk_gpu_shade(rtk_gpu *g, rtk_gpu_lane *l, const rtk_program *p, rtk_rgb alb
         std::snprintf(why, cap, "a batch of %u samples on a lane of %u", count, l->capacity);
         return -1;
     }
-    if (failed(cudaSetDevice(g->ordinal), "cudaSetDevice", why, cap) || program_buffers(g, l, why, cap))
+    if (cuda_failed(cudaSetDevice(g->ordinal), "cudaSetDevice", why, cap) || program_buffers(g, l, why, cap))
         return -1;
     std::memcpy(l->host_rays, rays, sizeof(rtk_ray) * (size_t)count);
     std::memcpy(l->host_pos, pos, sizeof(rtk_sample_pos) * (size_t)count);
     rtk_program_scene scene = g->program_scene;
     scene.albedo = albedo;
     const unsigned blocks = (count + block_threads - 1) / block_threads;
-    int st = failed(cudaEventRecord(l->marks[0], l->stream), "cudaEventRecord", why, cap) ||
-             failed(cudaMemcpyAsync(l->rays, l->host_rays, sizeof(rtk_ray) * (size_t)count, cudaMemcpyHostToDevice,
+    int st = cuda_failed(cudaEventRecord(l->marks[0], l->stream), "cudaEventRecord", why, cap) ||
+             cuda_failed(cudaMemcpyAsync(l->rays, l->host_rays, sizeof(rtk_ray) * (size_t)count, cudaMemcpyHostToDevice,
                                     l->stream),
                     "cudaMemcpyAsync (rays)", why, cap) ||
-             failed(cudaMemcpyAsync(l->pos, l->host_pos, sizeof(rtk_sample_pos) * (size_t)count,
+             cuda_failed(cudaMemcpyAsync(l->pos, l->host_pos, sizeof(rtk_sample_pos) * (size_t)count,
                                     cudaMemcpyHostToDevice, l->stream),
                     "cudaMemcpyAsync (sample streams)", why, cap) ||
-             failed(cudaEventRecord(l->marks[1], l->stream), "cudaEventRecord", why, cap);
+             cuda_failed(cudaEventRecord(l->marks[1], l->stream), "cudaEventRecord", why, cap);
     if (st)
         return -1;
     program_kernel<<<blocks, block_threads, 0, l->stream>>>(*p, scene, *gen, l->rays, l->pos, count, l->out,
                                                              l->counts);
-    st = failed(cudaGetLastError(), "program_kernel launch", why, cap) ||
-         failed(cudaEventRecord(l->marks[2], l->stream), "cudaEventRecord", why, cap) ||
-         failed(cudaMemcpyAsync(l->host_out, l->out, sizeof(rtk_li_result) * (size_t)count, cudaMemcpyDeviceToHost,
+    st = cuda_failed(cudaGetLastError(), "program_kernel launch", why, cap) ||
+         cuda_failed(cudaEventRecord(l->marks[2], l->stream), "cudaEventRecord", why, cap) ||
+         cuda_failed(cudaMemcpyAsync(l->host_out, l->out, sizeof(rtk_li_result) * (size_t)count, cudaMemcpyDeviceToHost,
                                 l->stream),
                 "cudaMemcpyAsync (results)", why, cap) ||
-         failed(cudaMemcpyAsync(l->host_counts, l->counts, sizeof(rtk_program_count) * (size_t)count,
+         cuda_failed(cudaMemcpyAsync(l->host_counts, l->counts, sizeof(rtk_program_count) * (size_t)count,
                                 cudaMemcpyDeviceToHost, l->stream),
                 "cudaMemcpyAsync (ray counts)", why, cap) ||
-         failed(cudaEventRecord(l->marks[3], l->stream), "cudaEventRecord", why, cap) ||
-         failed(cudaStreamSynchronize(l->stream), "program_kernel", why, cap);
+         cuda_failed(cudaEventRecord(l->marks[3], l->stream), "cudaEventRecord", why, cap) ||
+         cuda_failed(cudaStreamSynchronize(l->stream), "program_kernel", why, cap);
     if (st)
         return -1;
     if (lane_seconds(l, seconds, why, cap))

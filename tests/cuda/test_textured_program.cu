@@ -1,0 +1,208 @@
+/* The "headlight" device program over textures, through the cuda plugin's
+ * own upload and launch (plugins/accelerators/cuda/gpu.cu, compiled in):
+ * tests/scenes/textured (a repeating colour map and a normal map on the
+ * floor, a clamped colour map and a normal map over corner normals on the
+ * ball) with its textures' texels made here, so that no image decoder is
+ * needed (the GPU check's bundle carries none). nvcc's host build of the
+ * program gives headlight's li bit for bit; on a GPU, the program run by
+ * rtk_gpu_shade over rtk_gpu_upload's copy of the scene gives the host's
+ * results bit for bit too (headlight draws nothing, so no cosf or sinf
+ * can part them). Without a GPU the device code is compiled (for sm_90)
+ * but not run, and the test says so.
+ *
+ *   test_textured_program_cuda SOURCE_ROOT */
+#include "../../plugins/accelerators/cuda/gpu.cu"
+#include "render/render.h"
+#include "scene/scene.h"
+#include "scene/texture.h"
+
+#include <rtk/host.h>
+
+#include "cuda_test.h"
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+namespace {
+
+/* Texture t's texels replaced by a 16 x 16 pattern of its own (a normal
+ * map's leaning around +z, a colour map's two hues), as if decoded. */
+bool fill_texture(rtk_texture *t, int seed)
+{
+    const int n = 16;
+    float *rgba = static_cast<float *>(std::malloc(sizeof(float) * 4 * n * n));
+    if (!rgba)
+        return false;
+    const bool normal = t->name && std::strstr(t->name, "bumps");
+    for (int y = 0; y < n; y++)
+        for (int x = 0; x < n; x++) {
+            float *p = rgba + 4 * (y * n + x);
+            const float u = (x + 0.5f) / n, v = (y + 0.5f) / n;
+            if (normal) {
+                p[0] = 0.5f + 0.35f * std::sin(6.2831853f * u), p[1] = 0.5f + 0.35f * std::cos(6.2831853f * v);
+                p[2] = 0.85f;
+            } else {
+                const bool odd = ((x / 4 + y / 4 + seed) & 1) != 0;
+                p[0] = odd ? 0.9f : 0.2f, p[1] = odd ? 0.3f : 0.5f + 0.02f * seed, p[2] = odd ? 0.2f : 0.9f;
+            }
+            p[3] = 1.0f;
+        }
+    for (int l = 1; l < t->levels; l++)
+        std::free(t->mip[l].rgba);
+    std::free(t->mip);
+    std::free(t->rgba);
+    t->mip = nullptr, t->levels = 0;
+    t->rgba = rgba, t->width = t->height = n;
+    t->decoded = 1, t->missing = 0, t->has_alpha = 0;
+    t->normal_map_checked = normal ? 1 : 0;
+    t->filter = RTK_TEX_BILINEAR;
+    return true;
+}
+
+/* From around textured.cfg's camera towards the floor and the ball; one
+ * in eight past the floor's side. */
+std::vector<rtk_ray> camera_rays(int n, rng *g)
+{
+    std::vector<rtk_ray> rays(n);
+    for (int i = 0; i < n; i++) {
+        const rtk_vec3 org = rtk_vec3_make(g->next(-0.3f, 0.3f), g->next(1.2f, 1.8f), g->next(-2.4f, -2.0f));
+        const float x = i % 8 == 7 ? g->next(1.1f, 1.6f) : g->next(-0.9f, 0.9f);
+        const rtk_vec3 at = rtk_vec3_make(x, g->next(0.0f, 0.3f), g->next(-0.9f, 0.9f));
+        rays[i] = {org, 0.0f, rtk_vec3_sub(at, org), INFINITY};
+    }
+    return rays;
+}
+
+bool same_bits(const rtk_li_result &a, const rtk_li_result &b)
+{
+    return std::memcmp(&a, &b, sizeof a) == 0;
+}
+
+/* The program on the GPU through gpu.cu; false (saying why) when CUDA failed. */
+bool run_on_gpu(const rtk_device_tree &tree, const rtk_program &p, rtk_rgb albedo, const rtk_sample_gen &gen,
+                const std::vector<rtk_ray> &rays, const std::vector<rtk_sample_pos> &pos,
+                std::vector<rtk_li_result> &out)
+{
+    char name[128], why[512] = "";
+    rtk_gpu *gpu = nullptr;
+    rtk_gpu_lane *lane = nullptr;
+    double seconds = 0.0, steps[3];
+    uint64_t counts[2] = {0, 0};
+    out.resize(rays.size());
+    const uint32_t n = (uint32_t)rays.size();
+    const bool ok = rtk_gpu_open(0, name, sizeof name, &gpu, why, sizeof why) == 0 &&
+                    rtk_gpu_upload(gpu, &tree, &seconds, why, sizeof why) == 0 &&
+                    rtk_gpu_lane_open(gpu, n, &lane, why, sizeof why) == 0 &&
+                    rtk_gpu_shade(gpu, lane, &p, albedo, &gen, rays.data(), pos.data(), n, out.data(), counts, steps,
+                                  why, sizeof why) == 0;
+    if (!ok)
+        std::printf("      CUDA: %s\n", why);
+    if (lane)
+        rtk_gpu_lane_close(gpu, lane);
+    if (gpu)
+        rtk_gpu_close(gpu);
+    return ok;
+}
+
+} // namespace
+
+int main(int argc, char **argv)
+{
+    if (argc != 2) {
+        std::fprintf(stderr, "usage: %s SOURCE_ROOT\n", argv[0]);
+        return 2;
+    }
+    cudaError_t e;
+    const bool gpu = gpu_present(&e);
+    /* Quiet: without an image decoder (the GPU check's bundle) every
+     * texture warns that it is missing before fill_texture makes it. */
+    rtk_log_set_level(RTK_LOG_ERROR);
+    const std::string path = std::string(argv[1]) + "/tests/scenes/textured/textured.obj";
+    rtk_scene *s = nullptr;
+    bool ready = rtk_scene_load(path.c_str(), RTK_NEED_NORMALS | RTK_NEED_MATERIALS | RTK_NEED_TEXTURES, &s) == RTK_OK;
+    rtk_log_set_level(RTK_LOG_WARN);
+    for (uint32_t i = 0; ready && i < s->texture_count; i++)
+        ready = fill_texture(&s->textures[i], (int)i);
+    rtk_registry *reg = nullptr;
+    const rtk_plugin *sah = nullptr, *headlight = nullptr;
+    rtk_params *bp = nullptr, *ip = nullptr;
+    void *state = nullptr;
+    rtk_device_tree tree = rtk_device_tree();
+    void *block = nullptr, *program_block = nullptr;
+    rtk_program_scene ps = rtk_program_scene();
+    ready = ready && s->texture_count == 6 && rtk_registry_create(&reg) == RTK_OK &&
+            rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "sah", &sah) == RTK_OK &&
+            rtk_registry_find(reg, RTK_KIND_INTEGRATOR, "headlight", &headlight) == RTK_OK &&
+            (bp = rtk_params_defaults(sah)) != nullptr && rtk_bvh_build(s, sah, bp, 1) == RTK_OK &&
+            (ip = rtk_params_defaults(headlight)) != nullptr && rtk_params_set_text(ip, "ambient", "0.1") == RTK_OK &&
+            rtk_device_tree_view(s, 1, &tree, &block) == RTK_OK && tree.textures && tree.texture_count == 6;
+    const rtk_integrator_fns *fns = ready ? static_cast<const rtk_integrator_fns *>(headlight->functions) : nullptr;
+    ready = ready && fns->create(ip, &state) == RTK_OK;
+    if (ready) {
+        rtk_flat_scene flat;
+        rtk_flat_scene_of(&tree, nullptr, &flat);
+        ready = rtk_program_scene_of(&tree, &flat, &program_block, &ps) == 0;
+        ps.albedo = rtk_material_default().base_color;
+    }
+    check(ready, "tests/scenes/textured with its 6 textures made in memory, built with sah, as the kernel hands it "
+                 "to a device; headlight with ambient 0.1");
+    rtk_device_program desc = rtk_device_program();
+    const rtk_program p = ready && fns->device_program(state, &desc) == 1 ? rtk_program_of(&desc) : rtk_program();
+    check(p.kind == RTK_PROGRAM_HEADLIGHT && p.ambient == 0.1f, "headlight describes program headlight, ambient 0.1");
+    if (ready && p.kind == RTK_PROGRAM_HEADLIGHT) {
+        const int n = 4000;
+        rng g = {0x9e3779b97f4a7c15ull};
+        rtk_ctx ctx;
+        std::memset(&ctx, 0, sizeof ctx);
+        ctx.scene = s;
+        rtk_ctx_set_sampler(&ctx, RTK_SAMPLER_INDEPENDENT, 7, 16);
+        const std::vector<rtk_ray> rays = camera_rays(n, &g);
+        std::vector<rtk_sample_pos> pos(n);
+        std::vector<rtk_li_result> got(n);
+        int differ = 0, hits = 0, bent = 0;
+        for (int i = 0; i < n; i++) {
+            rtk_ctx_start_sample(&ctx, (uint64_t)i / 16, (uint64_t)i % 16);
+            pos[i] = ctx.pos;
+            rtk_li_result want = rtk_li_result();
+            want.depth = INFINITY;
+            fns->li(state, &ctx, &rays[i], &want);
+            rtk_program_count c;
+            rtk_program_run(&p, &ps, &ctx.gen, &pos[i], &rays[i], &got[i], &c);
+            differ += !same_bits(want, got[i]);
+            hits += std::isfinite(want.depth);
+            /* The floor's geometric normal is +y: a normal map bent it. */
+            bent += std::isfinite(want.depth) && want.normal.y < 0.999f && std::fabs(want.normal.y) > 0.0f;
+        }
+        char what[256];
+        std::snprintf(what, sizeof what, "nvcc's host program equals headlight's li on %d samples (%d hit, %d with "
+                      "bent or curved normals): %d differ", n, hits, bent, differ);
+        check(differ == 0 && hits > n / 2 && hits < n && bent > n / 4, what);
+        if (gpu) {
+            std::vector<rtk_li_result> dev;
+            if (!run_on_gpu(tree, p, ps.albedo, ctx.gen, rays, pos, dev)) {
+                check(false, "the program ran on the GPU through gpu.cu");
+            } else {
+                int gpu_differ = 0;
+                for (int i = 0; i < n; i++)
+                    gpu_differ += !same_bits(dev[i], got[i]);
+                std::snprintf(what, sizeof what, "on the GPU, through gpu.cu's upload of the textures: %d of %d "
+                              "samples differ from the host's (want 0)", gpu_differ, n);
+                check(gpu_differ == 0, what);
+            }
+        }
+    }
+    if (state)
+        fns->destroy(state);
+    free(block);
+    free(program_block);
+    rtk_params_destroy(bp);
+    rtk_params_destroy(ip);
+    rtk_registry_destroy(reg);
+    rtk_scene_free(s);
+    return finish(gpu, e);
+}
