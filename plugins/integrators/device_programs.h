@@ -577,94 +577,178 @@ RTK_HD static inline rtk_rgb rtk_program_environment(const rtk_program_scene *s,
     return l && l->environment ? rtk_env_radiance(l->environment, dir) : rtk_rgb_make(0.0f, 0.0f, 0.0f);
 }
 
+/* One camera sample's path between the steps of path's bounce: the ray
+ * it extends next, and the shadow ray its last vertex left pending. */
+typedef struct rtk_path_walk {
+    rtk_path_state ps;
+    rtk_rgb L;
+    rtk_ray ray;        /* extended next, while more */
+    rtk_sample_pos pos; /* the sample's stream */
+    rtk_ray shadow;     /* tested next, when shadowed */
+    rtk_rgb nee;        /* what the shadow ray adds when nothing blocks it */
+    int shadowed, more;
+} rtk_path_walk;
+
+/* The walk of camera ray camera, drawing from pos. */
+RTK_HD static inline void rtk_path_walk_start(rtk_path_walk *w, const rtk_ray *camera, rtk_sample_pos pos)
+{
+    w->ps = rtk_path_start(camera->org);
+    w->L = rtk_rgb_make(0.0f, 0.0f, 0.0f);
+    w->ray = *camera;
+    w->pos = pos;
+    w->nee = w->L;
+    w->shadowed = 0;
+    w->more = 1;
+}
+
+/* One vertex of path's li: w's ray found hit (NULL: it left the scene).
+ * Adds what it found, leaves the vertex's shadow ray pending (shadowed)
+ * and the next ray (more; the depth counted on). */
+RTK_HD static inline void rtk_path_walk_shade(const rtk_program *p, const rtk_program_scene *s,
+                                              const rtk_sample_gen *g, rtk_path_walk *w, const rtk_hit *hit,
+                                              rtk_li_result *out)
+{
+    const rtk_path_params *pt = &p->path;
+    rtk_path_state *ps = &w->ps;
+    w->shadowed = w->more = 0;
+    rtk_sample_seek_pos(g, &w->pos, (uint32_t)ps->depth * RTK_PATH_DIMS_PER_BOUNCE);
+    if (!hit) {
+        rtk_rgb env = rtk_program_environment(s, w->ray.dir);
+        if (!rtk_path_is_black(env)) {
+            float wt = ps->delta ? 1.0f : rtk_path_found_weight(ps, rtk_program_light_pdf(s, &w->ray, NULL));
+            w->L = rtk_rgb_add(w->L, rtk_path_weighted(pt, ps->beta, rtk_rgb_scale(env, wt)));
+        }
+        return;
+    }
+    rtk_program_surface sf;
+    rtk_program_surface_at(s, &w->ray, hit, &sf);
+    if (ps->depth == 0) {
+        out->albedo = sf.base;
+        out->normal = sf.ns;
+        out->depth = hit->t * rtk_vec3_length(w->ray.dir);
+    }
+    if (sf.front && !rtk_path_is_black(sf.emission)) {
+        float wt = ps->delta ? 1.0f : rtk_path_found_weight(ps, rtk_program_light_pdf(s, &w->ray, hit));
+        w->L = rtk_rgb_add(w->L, rtk_path_weighted(pt, ps->beta, rtk_rgb_scale(sf.emission, wt)));
+    }
+    if (ps->depth >= pt->max_depth)
+        return;
+    rtk_bsdf bsdf;
+    rtk_material_bsdf(sf.m, sf.base, sf.alpha, sf.ior, rtk_program_read_map, &sf, &bsdf);
+    if (bsdf.count == 0)
+        return;
+    rtk_path_vertex v = rtk_path_vertex_at(sf.ng, sf.ns, sf.front, &bsdf, w->ray.dir);
+    if (rtk_lobes_flags(&bsdf) & (RTK_BSDF_DIFFUSE | RTK_BSDF_GLOSSY)) {
+        float u_pick = rtk_sample_next_1d(g, &w->pos);
+        rtk_vec2 u = rtk_sample_next_2d(g, &w->pos);
+        rtk_light_incident li;
+        rtk_rgb c;
+        if (rtk_program_sample_light(s, sf.p, sf.ng, u_pick, u, &li) && rtk_path_light(&v, &bsdf, &li, &c)) {
+            w->nee = rtk_path_weighted(pt, ps->beta, c);
+            w->shadow = li.shadow;
+            w->shadowed = 1;
+        }
+    }
+    float u_lobe = rtk_sample_next_1d(g, &w->pos);
+    rtk_vec2 u = rtk_sample_next_2d(g, &w->pos);
+    rtk_bsdf_sample_out bs;
+    rtk_vec3 side;
+    float m;
+    w->more = rtk_lobes_sample(&bsdf, v.wo, u_lobe, u, &bs) && bs.pdf > 0.0f &&
+              rtk_path_scatter(ps, &v, sf.p, sf.ng, &bs, &w->ray, &side) &&
+              !(rtk_path_roulette_due(pt, ps, &m) && !rtk_path_survives(ps, m, rtk_sample_next_1d(g, &w->pos)));
+    if (w->more) {
+        w->ray.org = rtk_offset_point(sf.p, side);
+        ps->depth++;
+    }
+}
+
+/* The pending shadow ray of w was blocked (occluded 1) or not. */
+RTK_HD static inline void rtk_path_walk_shadow(rtk_path_walk *w, int occluded)
+{
+    if (!occluded)
+        w->L = rtk_rgb_add(w->L, w->nee);
+    w->shadowed = 0;
+}
+
 /* path's li (plugins/integrators/path.c) for camera ray camera, drawing
- * from pos: its bounces in li's order, each shadow ray traced after the
- * bounce that made it. */
+ * from pos, as one loop (a megakernel's): each vertex's hit, its shading,
+ * then its shadow ray. A wavefront runs the same three steps on many
+ * walks at once. */
 RTK_HD static inline void rtk_program_path(const rtk_program *p, const rtk_program_scene *s, const rtk_sample_gen *g,
                                            rtk_sample_pos pos, const rtk_ray *camera, rtk_li_result *out,
                                            rtk_program_count *count)
 {
-    const rtk_path_params *pt = &p->path;
-    rtk_path_state ps = rtk_path_start(camera->org);
-    rtk_rgb L = rtk_rgb_make(0.0f, 0.0f, 0.0f);
-    rtk_ray ray = *camera;
-    for (;; ps.depth++) {
-        rtk_sample_seek_pos(g, &pos, (uint32_t)ps.depth * RTK_PATH_DIMS_PER_BOUNCE);
+    rtk_path_walk w;
+    rtk_path_walk_start(&w, camera, pos);
+    while (w.more) {
         rtk_hit hit;
-        if (!rtk_program_trace(s, &ray, count, &hit)) {
-            rtk_rgb env = rtk_program_environment(s, ray.dir);
-            if (!rtk_path_is_black(env)) {
-                float w = ps.delta ? 1.0f : rtk_path_found_weight(&ps, rtk_program_light_pdf(s, &ray, NULL));
-                L = rtk_rgb_add(L, rtk_path_weighted(pt, ps.beta, rtk_rgb_scale(env, w)));
-            }
-            break;
-        }
-        rtk_program_surface sf;
-        rtk_program_surface_at(s, &ray, &hit, &sf);
-        if (ps.depth == 0) {
-            out->albedo = sf.base;
-            out->normal = sf.ns;
-            out->depth = hit.t * rtk_vec3_length(ray.dir);
-        }
-        if (sf.front && !rtk_path_is_black(sf.emission)) {
-            float w = ps.delta ? 1.0f : rtk_path_found_weight(&ps, rtk_program_light_pdf(s, &ray, &hit));
-            L = rtk_rgb_add(L, rtk_path_weighted(pt, ps.beta, rtk_rgb_scale(sf.emission, w)));
-        }
-        if (ps.depth >= pt->max_depth)
-            break;
-        rtk_bsdf bsdf;
-        rtk_material_bsdf(sf.m, sf.base, sf.alpha, sf.ior, rtk_program_read_map, &sf, &bsdf);
-        if (bsdf.count == 0)
-            break;
-        rtk_path_vertex v = rtk_path_vertex_at(sf.ng, sf.ns, sf.front, &bsdf, ray.dir);
-        int shadowed = 0;
-        rtk_rgb nee = rtk_rgb_make(0.0f, 0.0f, 0.0f);
-        rtk_ray shadow;
-        if (rtk_lobes_flags(&bsdf) & (RTK_BSDF_DIFFUSE | RTK_BSDF_GLOSSY)) {
-            float u_pick = rtk_sample_next_1d(g, &pos);
-            rtk_vec2 u = rtk_sample_next_2d(g, &pos);
-            rtk_light_incident li;
-            rtk_rgb c;
-            if (rtk_program_sample_light(s, sf.p, sf.ng, u_pick, u, &li) && rtk_path_light(&v, &bsdf, &li, &c)) {
-                nee = rtk_path_weighted(pt, ps.beta, c);
-                shadow = li.shadow;
-                shadowed = 1;
-            }
-        }
-        float u_lobe = rtk_sample_next_1d(g, &pos);
-        rtk_vec2 u = rtk_sample_next_2d(g, &pos);
-        rtk_bsdf_sample_out bs;
-        rtk_vec3 side;
-        float m;
-        const int more = rtk_lobes_sample(&bsdf, v.wo, u_lobe, u, &bs) && bs.pdf > 0.0f &&
-                         rtk_path_scatter(&ps, &v, sf.p, sf.ng, &bs, &ray, &side) &&
-                         !(rtk_path_roulette_due(pt, &ps, &m) && !rtk_path_survives(&ps, m, rtk_sample_next_1d(g, &pos)));
-        if (more)
-            ray.org = rtk_offset_point(sf.p, side);
-        if (shadowed && !rtk_program_occluded(s, &shadow, count))
-            L = rtk_rgb_add(L, nee);
-        if (!more)
-            break;
+        const int found = rtk_program_trace(s, &w.ray, count, &hit);
+        rtk_path_walk_shade(p, s, g, &w, found ? &hit : NULL, out);
+        if (w.shadowed)
+            rtk_path_walk_shadow(&w, rtk_program_occluded(s, &w.shadow, count));
     }
-    out->radiance = L;
+    out->radiance = w.L;
 }
 
-/* Program p on one sample: out as the kernel pre-fills li's (all 0, depth
- * infinite), then as the program sets it. */
-RTK_HD static inline void rtk_program_run(const rtk_program *p, const rtk_program_scene *s, const rtk_sample_gen *g,
-                                          const rtk_sample_pos *pos, const rtk_ray *ray, rtk_li_result *out,
-                                          rtk_program_count *count)
+/* out as the kernel pre-fills li's (all 0, depth infinite), no rays counted. */
+RTK_HD static inline void rtk_program_prefill(rtk_li_result *out, rtk_program_count *count)
 {
     out->radiance = out->albedo = rtk_rgb_make(0.0f, 0.0f, 0.0f);
     out->normal = rtk_vec3_make(0.0f, 0.0f, 0.0f);
     out->depth = INFINITY;
     count->traced = count->invalid = 0;
+}
+
+/* Program p on one sample: out pre-filled, then as the program sets it. */
+RTK_HD static inline void rtk_program_run(const rtk_program *p, const rtk_program_scene *s, const rtk_sample_gen *g,
+                                          const rtk_sample_pos *pos, const rtk_ray *ray, rtk_li_result *out,
+                                          rtk_program_count *count)
+{
+    rtk_program_prefill(out, count);
     if (p->kind == RTK_PROGRAM_AO)
         rtk_program_ao(p, s, g, *pos, ray, out, count);
     else if (p->kind == RTK_PROGRAM_HEADLIGHT)
         rtk_program_headlight(p, s, ray, out, count);
     else if (p->kind == RTK_PROGRAM_PATH)
         rtk_program_path(p, s, g, *pos, ray, out, count);
+}
+
+/* path (p) on n samples as a wavefront, on the host: every live walk's
+ * hit and shading, then every pending shadow ray, until no walk goes on:
+ * the steps a GPU's wavefront runs as kernels, in their order for each
+ * walk, so the results equal rtk_program_run's. walks and live have room
+ * for n. */
+static inline void rtk_program_path_wavefront(const rtk_program *p, const rtk_program_scene *s,
+                                              const rtk_sample_gen *g, uint32_t n, const rtk_ray *rays,
+                                              const rtk_sample_pos *pos, rtk_li_result *out, rtk_program_count *counts,
+                                              rtk_path_walk *walks, uint32_t *live)
+{
+    uint32_t alive = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        rtk_program_prefill(&out[i], &counts[i]);
+        rtk_path_walk_start(&walks[i], &rays[i], pos[i]);
+        live[alive++] = i;
+    }
+    while (alive) {
+        for (uint32_t k = 0; k < alive; k++) {
+            const uint32_t i = live[k];
+            rtk_hit hit;
+            const int found = rtk_program_trace(s, &walks[i].ray, &counts[i], &hit);
+            rtk_path_walk_shade(p, s, g, &walks[i], found ? &hit : NULL, &out[i]);
+        }
+        uint32_t next = 0;
+        for (uint32_t k = 0; k < alive; k++) {
+            const uint32_t i = live[k];
+            if (walks[i].shadowed)
+                rtk_path_walk_shadow(&walks[i], rtk_program_occluded(s, &walks[i].shadow, &counts[i]));
+            if (walks[i].more)
+                live[next++] = i;
+        }
+        alive = next;
+    }
+    for (uint32_t i = 0; i < n; i++)
+        out[i].radiance = walks[i].L;
 }
 
 #endif

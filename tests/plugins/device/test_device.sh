@@ -64,12 +64,13 @@ same_but_date() {
     [ -n "$date_at" ] && [ "$(stat -c %s "$1")" = "$(stat -c %s "$2")" ] &&
         cmp -l "$1" "$2" | awk -v d="$date_at" '$1 - 1 < d || $1 - 1 > d + 64 { bad = 1 } END { exit bad }'
 }
+device_args=() # set for the testdevice render alone
 program_image() {
     local name=$1 cfg=$2
     shift 2
     local dev=("$rtk" render "$cfg" "${small[@]}" "$@" --set 'film.aovs=["albedo","normal","depth"]')
     if ! "${dev[@]}" --set accelerator.plugin=sah --set film.output="$tmp/$name-sah.exr" >"$tmp/$name-sah.log" 2>&1 ||
-       ! "${dev[@]}" --set accelerator.plugin=testdevice --set film.output="$tmp/$name-dev.exr" \
+       ! "${dev[@]}" --set accelerator.plugin=testdevice "${device_args[@]}" --set film.output="$tmp/$name-dev.exr" \
          >"$tmp/$name-dev.log" 2>&1; then
         bad "$name: a render failed"; sed 's/^/    /' "$tmp/$name-sah.log" "$tmp/$name-dev.log"; return
     fi
@@ -181,6 +182,10 @@ if [ -s "$textured" ]; then
     program_image "program, ao albedo over textures" "$tex-ao.cfg" --set sampler.type=\"stratified\"
     program_image "program, path over texture maps and a textured lamp" "$tex-path.cfg" --set sampler.type=\"sobol\"
     program_image "program, path over placed textured meshes" "$tex-instanced.cfg"
+    # path's program as a wavefront: each step over every live sample.
+    device_args=(--set accelerator.wavefront=true)
+    program_image "program, path as a wavefront, textures and a lamp" "$tex-path.cfg" --set sampler.type=\"stratified\"
+    device_args=()
 else
     bad "no $textured"
 fi
@@ -204,6 +209,12 @@ PY
         >"$tmp/$model.cfg"
     program_image "program, path over $model (a double-sided copy)" "$tmp/$model.cfg"
 done
+
+device_args=(--set accelerator.wavefront=true)
+program_image "program, path as a wavefront under every kind of light" "$tmp/all-lights.cfg" \
+    --set integrator.max_depth=5 --set integrator.rr_depth=1
+program_image "program, path as a wavefront over instances" "$tmp/instanced-path.cfg"
+device_args=()
 
 # Where the device runs no program, it traces the integrator's batches, saying why.
 fallback() {

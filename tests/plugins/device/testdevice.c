@@ -12,6 +12,7 @@
  * Parameters:
  *   builder   string  sah   the accelerator that builds its trees
  *   programs  bool    true  run integrators' device programs (false: trace batches only)
+ *   wavefront bool    false run path's program as a wavefront (rtk_program_path_wavefront)
  * With RTK_TESTDEVICE_FAIL=create or attach in the environment it fails
  * there, with a message (tests of the kernel's errors). */
 #include "accel/device_tree.h"
@@ -27,7 +28,7 @@
 
 typedef struct testdevice {
     int fail_attach;
-    int programs;
+    int programs, wavefront;
     rtk_flat_scene scene;
     rtk_flat_tree *meshes;
     rtk_program_scene program_scene;
@@ -67,6 +68,7 @@ static rtk_status testdevice_create(const rtk_params *params, void **state)
         return rtk_error(RTK_ERR_NOMEM, "testdevice: out of memory");
     d->fail_attach = strcmp(fail, "attach") == 0;
     d->programs = rtk_params_bool(params, "programs");
+    d->wavefront = rtk_params_bool(params, "wavefront");
     pthread_mutex_init(&d->lock, NULL);
     *state = d;
     return RTK_OK;
@@ -121,10 +123,24 @@ static rtk_status testdevice_shade(const void *state, rtk_shade_batch *b)
     rtk_program_scene scene = d->program_scene;
     scene.albedo = b->albedo;
     uint64_t traced = 0, invalid = 0;
-    for (uint32_t i = 0; i < b->count; i++) {
-        rtk_program_count c;
-        rtk_program_run(&p, &scene, b->gen, &b->pos[i], &b->rays[i], &b->out[i], &c);
-        traced += c.traced, invalid += c.invalid;
+    if (d->wavefront && p.kind == RTK_PROGRAM_PATH && b->count) {
+        rtk_path_walk *walks = malloc(sizeof *walks * b->count);
+        uint32_t *live = malloc(sizeof *live * b->count);
+        rtk_program_count *counts = malloc(sizeof *counts * b->count);
+        if (!walks || !live || !counts) {
+            free(walks), free(live), free(counts);
+            return rtk_error(RTK_ERR_NOMEM, "testdevice: out of memory for a wavefront of %u samples", b->count);
+        }
+        rtk_program_path_wavefront(&p, &scene, b->gen, b->count, b->rays, b->pos, b->out, counts, walks, live);
+        for (uint32_t i = 0; i < b->count; i++)
+            traced += counts[i].traced, invalid += counts[i].invalid;
+        free(walks), free(live), free(counts);
+    } else {
+        for (uint32_t i = 0; i < b->count; i++) {
+            rtk_program_count c;
+            rtk_program_run(&p, &scene, b->gen, &b->pos[i], &b->rays[i], &b->out[i], &c);
+            traced += c.traced, invalid += c.invalid;
+        }
     }
     b->rays_traced = traced;
     b->invalid_rays = invalid;
@@ -167,6 +183,8 @@ static const rtk_param_desc testdevice_params[] = {
      .doc = "the accelerator that builds the trees this device traces"},
     {.name = "programs", .type = RTK_PARAM_BOOL, .def = 1,
      .doc = "run integrators' device programs (false: trace their batches only)"},
+    {.name = "wavefront", .type = RTK_PARAM_BOOL, .def = 0,
+     .doc = "run path's program as a wavefront, step by step over all samples (false: one sample at a time)"},
 };
 
 static const rtk_accelerator_fns testdevice_fns = {
