@@ -167,7 +167,7 @@ typedef struct rtk_device_tree {
      * floats a triangle id, its corners' texture coordinates (uvs1: the
      * second set, NULL when absent), and the textures that the materials'
      * slots index (the kernel's rtk_device_texture,
-     * kernel/scene/texture_sample.h, texture_count of them). NULL, 0
+     * kernel/scene/texture.h, texture_count of them). NULL, 0
      * otherwise. */
     const float *uvs;
     const float *uvs1;

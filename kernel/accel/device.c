@@ -3,7 +3,6 @@
  * accelerator that traces batches on another processor (the cuda plugin).
  * Single rays stay with the kernel's traversal of the same tree. */
 #include "accel.h"
-#include "../scene/texture_sample.h"
 
 #include <pthread.h>
 #include <stddef.h>

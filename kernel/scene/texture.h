@@ -58,6 +58,19 @@ typedef struct rtk_texture {
     char *problem;     /* why it may not be read (outside the scene's folders), or NULL */
 } rtk_texture;
 
+/* A texture as device programs read it (rtk_device_tree.textures): level 0
+ * alone, at level of detail 0, so trilinear reads level 0 bilinearly as
+ * the kernel does without a footprint (texture_sample.h reads it). */
+typedef struct rtk_device_texture {
+    int32_t filter;     /* rtk_texture_filter */
+    int32_t width, height;
+    const float *rgba;  /* linear RGBA, row 0 = top; NULL: missing, read as white */
+    int32_t decoded;    /* a decode was tried: the material's slot reads it */
+    int32_t has_alpha;  /* some texel's alpha is below 1 (rtk_texture_coverage) */
+    int32_t normal_map; /* usable as a tangent-space normal map (rtk_normal_map_usable) */
+    int32_t reserved;   /* 0 */
+} rtk_device_texture;
+
 /* Decodes tex if not yet tried; on failure warns once and marks it missing.
  * Builds the MIP pyramid when tex->filter is trilinear. */
 struct rtk_scene_files;

@@ -145,19 +145,6 @@ RTK_HD static inline void rtk_texture_view_sample(const rtk_texture_view *t, rtk
         rgba[c] = (1.0f - f) * a[c] + f * b[c];
 }
 
-/* A texture as device programs read it (rtk_device_tree.textures): level 0
- * alone, at level of detail 0, so trilinear reads level 0 bilinearly as
- * the kernel does without a footprint. */
-typedef struct rtk_device_texture {
-    int32_t filter;     /* rtk_texture_filter */
-    int32_t width, height;
-    const float *rgba;  /* linear RGBA, row 0 = top; NULL: missing, read as white */
-    int32_t decoded;    /* a decode was tried: the material's slot reads it */
-    int32_t has_alpha;  /* some texel's alpha is below 1 (rtk_texture_coverage) */
-    int32_t normal_map; /* usable as a tangent-space normal map (rtk_normal_map_usable) */
-    int32_t reserved;   /* 0 */
-} rtk_device_texture;
-
 /* rtk_texture_sample(tex, wrap, u, v, 0, rgba) of the texture t shows. */
 RTK_HD static inline void rtk_device_texture_sample(const rtk_device_texture *t, rtk_tex_wrap wrap, float u, float v,
                                                     float rgba[4])
