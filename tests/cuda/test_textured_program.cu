@@ -7,8 +7,11 @@
  * program gives headlight's li bit for bit; on a GPU, the program run by
  * rtk_gpu_shade over rtk_gpu_upload's copy of the scene gives the host's
  * results bit for bit too (headlight draws nothing, so no cosf or sinf
- * can part them). Without a GPU the device code is compiled (for sm_90)
- * but not run, and the test says so.
+ * can part them). path (4 bounces) run as a wavefront
+ * (rtk_program_path_wavefront on the host; gpu.cu's wavefront kernels on
+ * a GPU) equals path run as one loop (one kernel) bit for bit. Without a
+ * GPU the device code is compiled (for sm_90) but not run, and the test
+ * says so.
  *
  *   test_textured_program_cuda SOURCE_ROOT */
 #include "../../plugins/accelerators/cuda/gpu.cu"
@@ -83,22 +86,24 @@ bool same_bits(const rtk_li_result &a, const rtk_li_result &b)
     return std::memcmp(&a, &b, sizeof a) == 0;
 }
 
-/* The program on the GPU through gpu.cu; false (saying why) when CUDA failed. */
-bool run_on_gpu(const rtk_device_tree &tree, const rtk_program &p, rtk_rgb albedo, const rtk_sample_gen &gen,
-                const std::vector<rtk_ray> &rays, const std::vector<rtk_sample_pos> &pos,
-                std::vector<rtk_li_result> &out)
+/* The program on the GPU through gpu.cu (path as a wavefront when
+ * wavefront is set), its rays counted in counts; false (saying why) when
+ * CUDA failed. */
+bool run_on_gpu(const rtk_device_tree &tree, const rtk_program &p, int wavefront, rtk_rgb albedo,
+                const rtk_sample_gen &gen, const std::vector<rtk_ray> &rays, const std::vector<rtk_sample_pos> &pos,
+                std::vector<rtk_li_result> &out, uint64_t counts[2])
 {
     char name[128], why[512] = "";
     rtk_gpu *gpu = nullptr;
     rtk_gpu_lane *lane = nullptr;
     double seconds = 0.0, steps[3];
-    uint64_t counts[2] = {0, 0};
+    counts[0] = counts[1] = 0;
     out.resize(rays.size());
     const uint32_t n = (uint32_t)rays.size();
     const bool ok = rtk_gpu_open(0, name, sizeof name, &gpu, why, sizeof why) == 0 &&
                     rtk_gpu_upload(gpu, &tree, &seconds, why, sizeof why) == 0 &&
                     rtk_gpu_lane_open(gpu, n, &lane, why, sizeof why) == 0 &&
-                    rtk_gpu_shade(gpu, lane, &p, albedo, &gen, rays.data(), pos.data(), n, out.data(), counts, steps,
+                    rtk_gpu_shade(gpu, lane, &p, wavefront, albedo, &gen, rays.data(), pos.data(), n, out.data(), counts, steps,
                                   why, sizeof why) == 0;
     if (!ok)
         std::printf("      CUDA: %s\n", why);
@@ -124,7 +129,8 @@ int main(int argc, char **argv)
     rtk_log_set_level(RTK_LOG_ERROR);
     const std::string path = std::string(argv[1]) + "/tests/scenes/textured/textured.obj";
     rtk_scene *s = nullptr;
-    bool ready = rtk_scene_load(path.c_str(), RTK_NEED_NORMALS | RTK_NEED_MATERIALS | RTK_NEED_TEXTURES, &s) == RTK_OK;
+    const uint32_t needs = RTK_NEED_NORMALS | RTK_NEED_MATERIALS | RTK_NEED_TEXTURES | RTK_NEED_LIGHTS;
+    bool ready = rtk_scene_load(path.c_str(), needs, &s) == RTK_OK;
     rtk_log_set_level(RTK_LOG_WARN);
     for (uint32_t i = 0; ready && i < s->texture_count; i++)
         ready = fill_texture(&s->textures[i], (int)i);
@@ -182,9 +188,33 @@ int main(int argc, char **argv)
         std::snprintf(what, sizeof what, "nvcc's host program equals headlight's li on %d samples (%d hit, %d with "
                       "bent or curved normals): %d differ", n, hits, bent, differ);
         check(differ == 0 && hits > n / 2 && hits < n && bent > n / 4, what);
+        /* path (max_depth 4, rr_depth 3) as a wavefront on the host equals
+         * its one loop: the steps a GPU's wavefront kernels take. */
+        rtk_device_program pd = rtk_device_program();
+        std::snprintf(pd.name, sizeof pd.name, "path");
+        pd.params[0] = 4.0f, pd.params[1] = 3.0f, pd.params[2] = 0.0f;
+        const rtk_program path = rtk_program_of(&pd);
+        std::vector<rtk_li_result> loop(n), wave(n);
+        std::vector<rtk_program_count> loop_counts(n), wave_counts(n);
+        std::vector<rtk_path_walk> walks(n);
+        std::vector<uint32_t> live(n);
+        for (int i = 0; i < n; i++)
+            rtk_program_run(&path, &ps, &ctx.gen, &pos[i], &rays[i], &loop[i], &loop_counts[i]);
+        rtk_program_path_wavefront(&path, &ps, &ctx.gen, (uint32_t)n, rays.data(), pos.data(), wave.data(),
+                                   wave_counts.data(), walks.data(), live.data());
+        int wave_differ = 0, lit = 0;
+        for (int i = 0; i < n; i++) {
+            wave_differ += !same_bits(loop[i], wave[i]) || loop_counts[i].traced != wave_counts[i].traced ||
+                           loop_counts[i].invalid != wave_counts[i].invalid;
+            lit += loop[i].radiance.r > 0.0f || loop[i].radiance.g > 0.0f || loop[i].radiance.b > 0.0f;
+        }
+        std::snprintf(what, sizeof what, "path (max_depth 4) as a wavefront on the host equals its one loop on %d "
+                      "samples (%d lit): %d differ", n, lit, wave_differ);
+        check(path.kind == RTK_PROGRAM_PATH && wave_differ == 0 && lit > n / 4, what);
         if (gpu) {
             std::vector<rtk_li_result> dev;
-            if (!run_on_gpu(tree, p, ps.albedo, ctx.gen, rays, pos, dev)) {
+            uint64_t dev_counts[2];
+            if (!run_on_gpu(tree, p, 0, ps.albedo, ctx.gen, rays, pos, dev, dev_counts)) {
                 check(false, "the program ran on the GPU through gpu.cu");
             } else {
                 int gpu_differ = 0;
@@ -193,6 +223,23 @@ int main(int argc, char **argv)
                 std::snprintf(what, sizeof what, "on the GPU, through gpu.cu's upload of the textures: %d of %d "
                               "samples differ from the host's (want 0)", gpu_differ, n);
                 check(gpu_differ == 0, what);
+            }
+            /* On the GPU the two runs of path share the device's cosf and
+             * sinf, so they agree bit for bit as on the host. */
+            std::vector<rtk_li_result> mega, front;
+            uint64_t mega_counts[2], front_counts[2];
+            if (!run_on_gpu(tree, path, 0, ps.albedo, ctx.gen, rays, pos, mega, mega_counts) ||
+                !run_on_gpu(tree, path, 1, ps.albedo, ctx.gen, rays, pos, front, front_counts)) {
+                check(false, "path ran on the GPU as one kernel and as a wavefront");
+            } else {
+                int gpu_wave_differ = 0;
+                for (int i = 0; i < n; i++)
+                    gpu_wave_differ += !same_bits(mega[i], front[i]);
+                std::snprintf(what, sizeof what, "on the GPU, path as a wavefront equals path as one kernel: %d of "
+                              "%d samples differ (want 0); rays %llu and %llu", gpu_wave_differ, n,
+                              (unsigned long long)front_counts[0], (unsigned long long)mega_counts[0]);
+                check(gpu_wave_differ == 0 && front_counts[0] == mega_counts[0] &&
+                          front_counts[1] == mega_counts[1], what);
             }
         }
     }

@@ -10,7 +10,8 @@
 #      and the showroom, path (4 bounces) in the Cornell box; the renders
 #      as PFM in $OUT/renders-NAME.tar.gz, for compare.sh. Then path's
 #      frame rate in the box: 64 frames of 1 spp at 512x512, 4 bounces, as
-#      one render of 64 spp (frames/s = 64 / its render time, and 64 / the
+#      one render of 64 spp, as one kernel and as a wavefront, whose
+#      images must be equal (frames/s = 64 / its render time, and 64 / the
 #      device's shade time);
 #   4. `rtk bench` on bunny, the showroom, dragon, armadillo and elephant
 #      with cuda, sah, lbvh and Embree (HIGH, MEDIUM, LOW; when packed) at
@@ -108,15 +109,24 @@ if [[ " $steps " == *" render "* ]]; then
     if [ -f "$box" ]; then
         render_case cornell "$box_cfg"
         printf '%s\nfilm = { width = 512; height = 512; spp = 64; };\n' "$box_cfg" >/tmp/gpu-check-renders/frames.cfg
-        trun 60 "$logs/frames.txt" "$b/bin/rtk" render /tmp/gpu-check-renders/frames.cfg --threads 16 \
-            --set accelerator.plugin=cuda -o /tmp/gpu-check-renders/frames.pfm
-        st=$?
-        echo "---- path frames, Cornell box 512x512, 4 bounces, 64 x 1 spp"
-        grep -E '^(render|rays|device) ' "$logs/frames.txt"
-        awk '$1 == "render" { r = $2 } $1 == "device" { for (i = 1; i <= NF; i++) if ($i == "shade") s = $(i + 1) + 0 }
-             END { printf "path frames/s (512x512, 1 spp, 4 bounces): %.1f by render time, %.1f by shade time summed over the device lanes (target >= 30)\n",
-                   (r > 0 ? 64 / r : 0), (s > 0 ? 64 / s : 0) }' "$logs/frames.txt" | tee -a "$logs/frames.txt"
-        note "path frames: exit $st ($(tail -1 "$logs/frames.txt"))"
+        # path as one kernel (a megakernel), then as a wavefront: the same image, bit for bit.
+        for mode in megakernel wavefront; do
+            trun 60 "$logs/frames_$mode.txt" "$b/bin/rtk" render /tmp/gpu-check-renders/frames.cfg --threads 16 \
+                --set accelerator.plugin=cuda --set accelerator.wavefront=$([ $mode = wavefront ] && echo true || echo false) \
+                -o /tmp/gpu-check-renders/frames-$mode.pfm
+            st=$?
+            echo "---- path frames ($mode), Cornell box 512x512, 4 bounces, 64 x 1 spp"
+            grep -E '^(render|rays|device) ' "$logs/frames_$mode.txt"
+            awk -v mode=$mode '$1 == "render" { r = $2 } $1 == "device" { for (i = 1; i <= NF; i++) if ($i == "shade") s = $(i + 1) + 0 }
+                 END { printf "path frames/s (%s; 512x512, 1 spp, 4 bounces): %.1f by render time, %.1f by shade time summed over the device lanes (target >= 30)\n",
+                       mode, (r > 0 ? 64 / r : 0), (s > 0 ? 64 / s : 0) }' "$logs/frames_$mode.txt" | tee -a "$logs/frames_$mode.txt"
+            note "path frames, $mode: exit $st ($(tail -1 "$logs/frames_$mode.txt"))"
+        done
+        if cmp -s /tmp/gpu-check-renders/frames-megakernel.pfm /tmp/gpu-check-renders/frames-wavefront.pfm; then
+            note "path frames: the wavefront's image equals the megakernel's, bit for bit"
+        else
+            note "path frames: the wavefront's image DIFFERS from the megakernel's"
+        fi
     else
         note "render cornell: not packed"
     fi

@@ -8,14 +8,15 @@
  * if the GPU fails mid-run, a warning names the CUDA error and the rest is
  * traced on the CPU with the same code.
  * It also runs integrators' device programs (plugins/integrators/
- * device_programs.h: ao, headlight, path), one GPU thread per camera sample,
- * which trace and shade whole samples there; likewise on the CPU after a
- * failure.
+ * device_programs.h: ao, headlight, path), one GPU thread per camera sample
+ * (path also as a wavefront: a round of kernels per vertex), which trace
+ * and shade whole samples there; likewise on the CPU after a failure.
  *
  * Parameters:
  *   builder   string            sah     the accelerator that builds the tree
  *   chunk     int [1024, 2^20]  262144  rays (or program samples) per transfer and launch
  *   programs  bool              true    run device programs (false: trace batches only)
+ *   wavefront bool              false   run path's program as a wavefront (false: one kernel)
  * It runs on CUDA's first device; CUDA_VISIBLE_DEVICES picks another.
  *
  * Example: accelerator = { plugin = "cuda"; builder = "lbvh"; }; */
@@ -37,7 +38,7 @@ typedef struct lane_pool {
 
 typedef struct cuda {
     uint32_t chunk;
-    int programs;
+    int programs, wavefront;
     rtk_gpu *gpu;
     char name[128];
     rtk_flat_scene host;  /* the kernel's arrays: the CPU fallback */
@@ -57,6 +58,7 @@ static rtk_status cuda_create(const rtk_params *params, void **state)
         return rtk_error(RTK_ERR_NOMEM, "cuda: out of memory");
     c->chunk = (uint32_t)rtk_params_int(params, "chunk");
     c->programs = rtk_params_bool(params, "programs");
+    c->wavefront = rtk_params_bool(params, "wavefront");
     pthread_mutex_init(&c->lock, NULL);
     char why[512];
     if (rtk_gpu_open(0, c->name, sizeof c->name, &c->gpu, why, sizeof why) != 0) {
@@ -215,7 +217,7 @@ static rtk_status cuda_shade(const void *state, rtk_shade_batch *b)
     char why[512] = "";
     while (lane && done < b->count) {
         const uint32_t n = b->count - done < c->chunk ? b->count - done : c->chunk;
-        if (rtk_gpu_shade(c->gpu, lane, &p, b->albedo, b->gen, b->rays + done, b->pos + done, n, b->out + done,
+        if (rtk_gpu_shade(c->gpu, lane, &p, c->wavefront, b->albedo, b->gen, b->rays + done, b->pos + done, n, b->out + done,
                           counts, seconds, why, sizeof why) != 0)
             break;
         for (int k = 0; k < 3; k++)
@@ -272,6 +274,9 @@ static const rtk_param_desc cuda_params[] = {
     {.name = "programs", .type = RTK_PARAM_BOOL, .def = 1,
      .doc = "run integrators' device programs, which trace and shade whole samples on the GPU (false: trace "
             "their batches only)"},
+    {.name = "wavefront", .type = RTK_PARAM_BOOL, .def = 0,
+     .doc = "run path's program as a wavefront, a round of kernels per path vertex over the paths still going "
+            "(about 200 more bytes a sample on the GPU; false: one kernel runs each sample's whole path)"},
 };
 
 static const rtk_accelerator_fns cuda_fns = {

@@ -40,6 +40,12 @@ struct rtk_gpu_lane {
     rtk_sample_pos *pos, *host_pos;
     rtk_li_result *out, *host_out;
     rtk_program_count *counts, *host_counts;
+    /* A wavefront's: every sample's walk, the live walks' queue and the
+     * next one, the queue of pending shadow rays, their lengths (device,
+     * and the next queue's length on the host). Made at the first. */
+    rtk_path_walk *walks;
+    uint32_t *queue[2], *shadows;
+    uint32_t *lengths, *host_length;
 };
 
 namespace {
@@ -78,6 +84,58 @@ __global__ void program_kernel(rtk_program p, rtk_program_scene s, rtk_sample_ge
     const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
     if (i < count)
         rtk_program_run(&p, &s, &g, &pos[i], &rays[i], &out[i], &counts[i]);
+}
+
+/* Path as a wavefront (rtk_program_path_wavefront's steps as kernels):
+ * each sample's walk started; then, while walks go on, every live walk's
+ * hit and shading (queueing its shadow ray and, when it goes on, itself
+ * for the next round), then every queued shadow ray; then the radiances.
+ * lengths[0] counts the next queue, lengths[1] the shadow rays. */
+__global__ void walk_start_kernel(const rtk_ray *rays, const rtk_sample_pos *pos, uint32_t count, rtk_li_result *out,
+                                  rtk_program_count *counts, rtk_path_walk *walks, uint32_t *queue)
+{
+    const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+    if (i < count) {
+        rtk_program_prefill(&out[i], &counts[i]);
+        rtk_path_walk_start(&walks[i], &rays[i], pos[i]);
+        queue[i] = i;
+    }
+}
+
+__global__ void walk_extend_kernel(rtk_program p, rtk_program_scene s, rtk_sample_gen g, const uint32_t *queue,
+                                   uint32_t live, rtk_path_walk *walks, rtk_li_result *out, rtk_program_count *counts,
+                                   uint32_t *next, uint32_t *shadows, uint32_t *lengths)
+{
+    const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
+    if (k >= live)
+        return;
+    const uint32_t i = queue[k];
+    rtk_path_walk w = walks[i];
+    rtk_hit hit;
+    const int found = rtk_program_trace(&s, &w.ray, &counts[i], &hit);
+    rtk_path_walk_shade(&p, &s, &g, &w, found ? &hit : NULL, &out[i]);
+    walks[i] = w;
+    if (w.shadowed)
+        shadows[atomicAdd(&lengths[1], 1u)] = i;
+    if (w.more)
+        next[atomicAdd(&lengths[0], 1u)] = i;
+}
+
+__global__ void walk_shadow_kernel(rtk_program_scene s, const uint32_t *shadows, const uint32_t *lengths,
+                                   rtk_path_walk *walks, rtk_program_count *counts)
+{
+    const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
+    if (k >= lengths[1])
+        return;
+    const uint32_t i = shadows[k];
+    rtk_path_walk_shadow(&walks[i], rtk_program_occluded(&s, &walks[i].shadow, &counts[i]));
+}
+
+__global__ void walk_finish_kernel(const rtk_path_walk *walks, uint32_t count, rtk_li_result *out)
+{
+    const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+    if (i < count)
+        out[i].radiance = walks[i].L;
 }
 
 const unsigned block_threads = 128;
@@ -401,6 +459,12 @@ static uint64_t program_bytes(uint32_t capacity)
     return (uint64_t)capacity * (sizeof(rtk_sample_pos) + sizeof(rtk_li_result) + sizeof(rtk_program_count));
 }
 
+/* Device memory a lane's wavefront buffers take. */
+static uint64_t wavefront_bytes(uint32_t capacity)
+{
+    return (uint64_t)capacity * (sizeof(rtk_path_walk) + 3 * sizeof(uint32_t)) + 2 * sizeof(uint32_t);
+}
+
 void rtk_gpu_lane_close(rtk_gpu *g, rtk_gpu_lane *l)
 {
     if (!l)
@@ -415,10 +479,14 @@ void rtk_gpu_lane_close(rtk_gpu *g, rtk_gpu_lane *l)
     cudaFreeHost(l->host_rays), cudaFreeHost(l->host_hits), cudaFreeHost(l->host_occluded);
     cudaFree(l->pos), cudaFree(l->out), cudaFree(l->counts);
     cudaFreeHost(l->host_pos), cudaFreeHost(l->host_out), cudaFreeHost(l->host_counts);
+    cudaFree(l->walks), cudaFree(l->queue[0]), cudaFree(l->queue[1]), cudaFree(l->shadows), cudaFree(l->lengths);
+    cudaFreeHost(l->host_length);
     if (l->capacity)
         g->lane_bytes -= lane_bytes(l->capacity);
     if (l->counts)
         g->lane_bytes -= program_bytes(l->capacity);
+    if (l->host_length)
+        g->lane_bytes -= wavefront_bytes(l->capacity);
     delete l;
 }
 
@@ -514,9 +582,61 @@ static int program_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
     return 0;
 }
 
-int rtk_gpu_shade(rtk_gpu *g, rtk_gpu_lane *l, const rtk_program *p, rtk_rgb albedo, const rtk_sample_gen *gen,
-                  const rtk_ray *rays, const rtk_sample_pos *pos, uint32_t count, rtk_li_result *out,
-                  uint64_t counts[2], double seconds[3], char *why, size_t cap)
+static int wavefront_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
+{
+    if (l->host_length)
+        return 0;
+    const size_t n = l->capacity;
+    int st = cuda_failed(cudaMalloc(&l->walks, sizeof(rtk_path_walk) * n), "cudaMalloc (walks)", why, cap) ||
+             cuda_failed(cudaMalloc(&l->queue[0], sizeof(uint32_t) * n), "cudaMalloc (queue)", why, cap) ||
+             cuda_failed(cudaMalloc(&l->queue[1], sizeof(uint32_t) * n), "cudaMalloc (queue)", why, cap) ||
+             cuda_failed(cudaMalloc(&l->shadows, sizeof(uint32_t) * n), "cudaMalloc (shadow queue)", why, cap) ||
+             cuda_failed(cudaMalloc(&l->lengths, 2 * sizeof(uint32_t)), "cudaMalloc (queue lengths)", why, cap) ||
+             cuda_failed(cudaMallocHost(&l->host_length, sizeof(uint32_t)), "cudaMallocHost (queue length)", why, cap);
+    if (st)
+        return -1; /* what was made is freed with the lane */
+    g->lane_bytes += wavefront_bytes(l->capacity);
+    return 0;
+}
+
+/* Path's program over the count samples already on the lane as a
+ * wavefront: one round of kernels a vertex, the next round's length read
+ * back after each. */
+static int run_wavefront(rtk_gpu *g, rtk_gpu_lane *l, const rtk_program *p, const rtk_program_scene &scene,
+                         const rtk_sample_gen *gen, uint32_t count, char *why, size_t cap)
+{
+    if (wavefront_buffers(g, l, why, cap))
+        return -1;
+    const unsigned blocks = (count + block_threads - 1) / block_threads;
+    walk_start_kernel<<<blocks, block_threads, 0, l->stream>>>(l->rays, l->pos, count, l->out, l->counts, l->walks,
+                                                                l->queue[0]);
+    if (cuda_failed(cudaGetLastError(), "walk_start_kernel launch", why, cap))
+        return -1;
+    uint32_t live = count;
+    for (int round = 0; live > 0; round ^= 1) {
+        const unsigned b = (live + block_threads - 1) / block_threads;
+        if (cuda_failed(cudaMemsetAsync(l->lengths, 0, 2 * sizeof(uint32_t), l->stream), "cudaMemsetAsync", why, cap))
+            return -1;
+        walk_extend_kernel<<<b, block_threads, 0, l->stream>>>(*p, scene, *gen, l->queue[round], live, l->walks, l->out,
+                                                                l->counts, l->queue[round ^ 1], l->shadows, l->lengths);
+        if (cuda_failed(cudaGetLastError(), "walk_extend_kernel launch", why, cap))
+            return -1;
+        walk_shadow_kernel<<<b, block_threads, 0, l->stream>>>(scene, l->shadows, l->lengths, l->walks, l->counts);
+        if (cuda_failed(cudaGetLastError(), "walk_shadow_kernel launch", why, cap) ||
+            cuda_failed(cudaMemcpyAsync(l->host_length, l->lengths, sizeof(uint32_t), cudaMemcpyDeviceToHost,
+                                        l->stream),
+                        "cudaMemcpyAsync (queue length)", why, cap) ||
+            cuda_failed(cudaStreamSynchronize(l->stream), "walk kernels", why, cap))
+            return -1;
+        live = *l->host_length;
+    }
+    walk_finish_kernel<<<blocks, block_threads, 0, l->stream>>>(l->walks, count, l->out);
+    return cuda_failed(cudaGetLastError(), "walk_finish_kernel launch", why, cap);
+}
+
+int rtk_gpu_shade(rtk_gpu *g, rtk_gpu_lane *l, const rtk_program *p, int wavefront, rtk_rgb albedo,
+                  const rtk_sample_gen *gen, const rtk_ray *rays, const rtk_sample_pos *pos, uint32_t count,
+                  rtk_li_result *out, uint64_t counts[2], double seconds[3], char *why, size_t cap)
 {
     if (count == 0)
         return 0;
@@ -541,10 +661,14 @@ int rtk_gpu_shade(rtk_gpu *g, rtk_gpu_lane *l, const rtk_program *p, rtk_rgb alb
              cuda_failed(cudaEventRecord(l->marks[1], l->stream), "cudaEventRecord", why, cap);
     if (st)
         return -1;
-    program_kernel<<<blocks, block_threads, 0, l->stream>>>(*p, scene, *gen, l->rays, l->pos, count, l->out,
-                                                             l->counts);
-    st = cuda_failed(cudaGetLastError(), "program_kernel launch", why, cap) ||
-         cuda_failed(cudaEventRecord(l->marks[2], l->stream), "cudaEventRecord", why, cap) ||
+    if (wavefront && p->kind == RTK_PROGRAM_PATH) {
+        st = run_wavefront(g, l, p, scene, gen, count, why, cap);
+    } else {
+        program_kernel<<<blocks, block_threads, 0, l->stream>>>(*p, scene, *gen, l->rays, l->pos, count, l->out,
+                                                                 l->counts);
+        st = cuda_failed(cudaGetLastError(), "program_kernel launch", why, cap);
+    }
+    st = st || cuda_failed(cudaEventRecord(l->marks[2], l->stream), "cudaEventRecord", why, cap) ||
          cuda_failed(cudaMemcpyAsync(l->host_out, l->out, sizeof(rtk_li_result) * (size_t)count, cudaMemcpyDeviceToHost,
                                 l->stream),
                 "cudaMemcpyAsync (results)", why, cap) ||

@@ -40,14 +40,16 @@ void rtk_gpu_lane_close(rtk_gpu *gpu, rtk_gpu_lane *lane);
 int rtk_gpu_trace(rtk_gpu *gpu, rtk_gpu_lane *lane, const rtk_ray *rays, uint32_t count, rtk_hit *hits,
                   uint8_t *occluded, double seconds[3], char *why, size_t cap);
 
-/* Runs program p on count <= capacity camera samples on lane (one GPU
- * thread a sample, plugins/integrators/device_programs.h): results into out
- * (filled as the kernel pre-fills them, then by the program), the rays
- * it traced and the invalid ones added to counts[0] and counts[1].
- * seconds as for rtk_gpu_trace. */
-int rtk_gpu_shade(rtk_gpu *gpu, rtk_gpu_lane *lane, const rtk_program *p, rtk_rgb albedo, const rtk_sample_gen *gen,
-                  const rtk_ray *rays, const rtk_sample_pos *pos, uint32_t count, rtk_li_result *out,
-                  uint64_t counts[2], double seconds[3], char *why, size_t cap);
+/* Runs program p on count <= capacity camera samples on lane
+ * (plugins/integrators/device_programs.h): one GPU thread a sample (a
+ * megakernel), or for path with wavefront set one round of kernels a
+ * vertex over the walks still going (rtk_program_path_wavefront's
+ * steps); results into out (filled as the kernel pre-fills them, then by
+ * the program), the rays it traced and the invalid ones added to
+ * counts[0] and counts[1]. seconds as for rtk_gpu_trace. */
+int rtk_gpu_shade(rtk_gpu *gpu, rtk_gpu_lane *lane, const rtk_program *p, int wavefront, rtk_rgb albedo,
+                  const rtk_sample_gen *gen, const rtk_ray *rays, const rtk_sample_pos *pos, uint32_t count,
+                  rtk_li_result *out, uint64_t counts[2], double seconds[3], char *why, size_t cap);
 
 RTK_EXTERN_C_END
 
