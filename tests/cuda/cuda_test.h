@@ -1,14 +1,18 @@
 /* What the tests/cuda programs share: the ok/FAIL lines and their count,
- * a repeatable random spread, copies to the device, and the GPU probe
- * with its closing lines. */
+ * a repeatable random spread, camera rays into tests/scenes/textured,
+ * copies to the device, and the GPU probe with its closing lines. */
 #ifndef RTK_TESTS_CUDA_TEST_H
 #define RTK_TESTS_CUDA_TEST_H
 
+#include <rtk/ray.h>
+
 #include <cuda_runtime.h>
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <vector>
 
 inline int passed = 0, failed = 0;
 
@@ -28,6 +32,21 @@ struct rng {
         return lo + (hi - lo) * ((float)r * (1.0f / 16777216.0f));
     }
 };
+
+/* n camera rays from around tests/scenes/textured/textured.cfg's camera
+ * towards points on the floor and the ball; one in eight past the
+ * floor's side. */
+inline std::vector<rtk_ray> textured_camera_rays(int n, rng *g)
+{
+    std::vector<rtk_ray> rays(n);
+    for (int i = 0; i < n; i++) {
+        const rtk_vec3 org = rtk_vec3_make(g->next(-0.3f, 0.3f), g->next(1.2f, 1.8f), g->next(-2.4f, -2.0f));
+        const float x = i % 8 == 7 ? g->next(1.1f, 1.6f) : g->next(-0.9f, 0.9f);
+        const rtk_vec3 at = rtk_vec3_make(x, g->next(0.0f, 0.3f), g->next(-0.9f, 0.9f));
+        rays[i] = {org, 0.0f, rtk_vec3_sub(at, org), INFINITY};
+    }
+    return rays;
+}
 
 /* Whether a GPU is there to run the device code on; *why holds
  * cudaGetDeviceCount's answer. */

@@ -111,19 +111,6 @@ rtk_scene *textured(const char *root)
     return rtk_scene_load(path.c_str(), needs, &s) == RTK_OK ? s : nullptr;
 }
 
-/* From around textured.cfg's camera towards points on the floor and the
- * ball; one in eight past the floor's side. */
-std::vector<rtk_ray> textured_rays(int n, rng *g)
-{
-    std::vector<rtk_ray> rays(n);
-    for (int i = 0; i < n; i++) {
-        const rtk_vec3 org = rtk_vec3_make(g->next(-0.3f, 0.3f), g->next(1.2f, 1.8f), g->next(-2.4f, -2.0f));
-        const float x = i % 8 == 7 ? g->next(1.1f, 1.6f) : g->next(-0.9f, 0.9f);
-        const rtk_vec3 at = rtk_vec3_make(x, g->next(0.0f, 0.3f), g->next(-0.9f, 0.9f));
-        rays[i] = {org, 0.0f, rtk_vec3_sub(at, org), INFINITY};
-    }
-    return rays;
-}
 
 bool same_bits(const rtk_li_result &a, const rtk_li_result &b)
 {
@@ -248,7 +235,7 @@ int main(int argc, char **argv)
                   "texture coordinates");
     if (tready)
         compare_setting(t, tps, path, {{"max_depth", "4"}}, 4, 3, 0.0f, "textured, max_depth 4",
-                        textured_rays(3000, &g));
+                        textured_camera_rays(3000, &g));
     free(tblock);
     free(tprogram_block);
     rtk_scene_free(t);

@@ -67,19 +67,6 @@ bool fill_texture(rtk_texture *t, int seed)
     return true;
 }
 
-/* From around textured.cfg's camera towards the floor and the ball; one
- * in eight past the floor's side. */
-std::vector<rtk_ray> camera_rays(int n, rng *g)
-{
-    std::vector<rtk_ray> rays(n);
-    for (int i = 0; i < n; i++) {
-        const rtk_vec3 org = rtk_vec3_make(g->next(-0.3f, 0.3f), g->next(1.2f, 1.8f), g->next(-2.4f, -2.0f));
-        const float x = i % 8 == 7 ? g->next(1.1f, 1.6f) : g->next(-0.9f, 0.9f);
-        const rtk_vec3 at = rtk_vec3_make(x, g->next(0.0f, 0.3f), g->next(-0.9f, 0.9f));
-        rays[i] = {org, 0.0f, rtk_vec3_sub(at, org), INFINITY};
-    }
-    return rays;
-}
 
 bool same_bits(const rtk_li_result &a, const rtk_li_result &b)
 {
@@ -167,7 +154,7 @@ int main(int argc, char **argv)
         std::memset(&ctx, 0, sizeof ctx);
         ctx.scene = s;
         rtk_ctx_set_sampler(&ctx, RTK_SAMPLER_INDEPENDENT, 7, 16);
-        const std::vector<rtk_ray> rays = camera_rays(n, &g);
+        const std::vector<rtk_ray> rays = textured_camera_rays(n, &g);
         std::vector<rtk_sample_pos> pos(n);
         std::vector<rtk_li_result> got(n);
         int differ = 0, hits = 0, bent = 0;
