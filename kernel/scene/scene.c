@@ -178,66 +178,9 @@ static int finite3d(const double v[3])
     return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
 }
 
-static double dot3d(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
 static void to3d(rtk_vec3 v, double out[3])
 {
     out[0] = v.x, out[1] = v.y, out[2] = v.z;
-}
-
-/* Where the ray (o, d) meets the plane through p with normal n, minus p;
- * 0 when it runs parallel to the plane or the point is not finite. */
-static int plane_offset(rtk_vec3 p, rtk_vec3 n, rtk_vec3 o, rtk_vec3 d, double out[3])
-{
-    double pd[3], nd[3], od[3], dd[3];
-    to3d(p, pd), to3d(n, nd), to3d(o, od), to3d(d, dd);
-    double den = dot3d(nd, dd);
-    if (den == 0.0)
-        return 0;
-    double po[3] = {pd[0] - od[0], pd[1] - od[1], pd[2] - od[2]};
-    double t = dot3d(nd, po) / den;
-    for (int k = 0; k < 3; k++)
-        out[k] = od[k] + t * dd[k] - pd[k];
-    return finite3d(out);
-}
-
-/* Change of the barycentrics of vertices 1 and 2 of triangle (a, b, c)
- * for a point moving by dp in its plane (least squares on the edges). */
-static int bary_change(rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, const double dp[3], double db[2])
-{
-    double e1[3] = {(double)b.x - a.x, (double)b.y - a.y, (double)b.z - a.z};
-    double e2[3] = {(double)c.x - a.x, (double)c.y - a.y, (double)c.z - a.z};
-    double g11 = dot3d(e1, e1), g12 = dot3d(e1, e2), g22 = dot3d(e2, e2);
-    double det = g11 * g22 - g12 * g12;
-    if (!(det > 0.0))
-        return 0;
-    double r1 = dot3d(e1, dp), r2 = dot3d(e2, dp);
-    db[0] = (g22 * r1 - g12 * r2) / det;
-    db[1] = (g11 * r2 - g12 * r1) / det;
-    return isfinite(db[0]) && isfinite(db[1]);
-}
-
-/* The uv footprint at p on the scene's own triangle prim, (a, b, c) with
- * normal n, for differentials d, in the uv set uvs (6 floats per
- * triangle); 0 when it cannot be measured. */
-static int uv_footprint(const float *uvs, uint32_t prim, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c, rtk_vec3 p, rtk_vec3 n,
-                        const rtk_ray_differential *d, rtk_uv_footprint *fp)
-{
-    double dpx[3], dpy[3], bx[2], by[2];
-    if (!plane_offset(p, n, d->rx_org, d->rx_dir, dpx) || !plane_offset(p, n, d->ry_org, d->ry_dir, dpy) ||
-        !bary_change(a, b, c, dpx, bx) || !bary_change(a, b, c, dpy, by))
-        return 0;
-    const float *t = uvs + 6 * (size_t)prim;
-    double du1 = (double)t[2] - t[0], du2 = (double)t[4] - t[0];
-    double dv1 = (double)t[3] - t[1], dv2 = (double)t[5] - t[1];
-    fp->dudx = (float)(bx[0] * du1 + bx[1] * du2);
-    fp->dvdx = (float)(bx[0] * dv1 + bx[1] * dv2);
-    fp->dudy = (float)(by[0] * du1 + by[1] * du2);
-    fp->dvdy = (float)(by[0] * dv1 + by[1] * dv2);
-    return isfinite(fp->dudx) && isfinite(fp->dvdx) && isfinite(fp->dudy) && isfinite(fp->dvdy);
 }
 
 /* The uv set map reads: uvs1 for set 1 when the scene has it, else uvs. */
@@ -288,14 +231,7 @@ static void lookup(const rtk_scene *s, int tex, rtk_tex_wrap wrap, const rtk_tex
     const rtk_uv_footprint *fp = q->fp[map_set(s, map) == s->uvs1 && s->uvs1 ? 1 : 0];
     float lod = 0.0f;
     if (fp && t->filter == RTK_TEX_TRILINEAR) {
-        rtk_uv_footprint mapped = *fp;
-        if (map->transformed) {
-            const float *m = map->m;
-            mapped.dudx = m[0] * fp->dudx + m[1] * fp->dvdx;
-            mapped.dvdx = m[3] * fp->dudx + m[4] * fp->dvdx;
-            mapped.dudy = m[0] * fp->dudy + m[1] * fp->dvdy;
-            mapped.dvdy = m[3] * fp->dudy + m[4] * fp->dvdy;
-        }
+        const rtk_uv_footprint mapped = rtk_uv_footprint_mapped(fp, map->transformed, map->m);
         lod = rtk_texture_lod(t, &mapped);
     }
     rtk_texture_sample(t, wrap, uv.x, uv.y, lod, texel);
@@ -370,9 +306,10 @@ static void surface(const rtk_scene *s, const rtk_ray *ray, const rtk_ray_differ
         int mip = 0;
         for (int k = 0; k < 3; k++)
             mip |= usable(s, slots[k]) && s->textures[slots[k]].filter == RTK_TEX_TRILINEAR;
-        if (diff && mip && uv_footprint(s->uvs, hit->prim, a, b, c, out->p, ng, diff, &footprint[0]))
+        const size_t at = 6 * (size_t)hit->prim;
+        if (diff && mip && rtk_uv_footprint_at(s->uvs + at, a, b, c, out->p, ng, diff, &footprint[0]))
             q.fp[0] = &footprint[0];
-        if (diff && mip && s->uvs1 && uv_footprint(s->uvs1, hit->prim, a, b, c, out->p, ng, diff, &footprint[1]))
+        if (diff && mip && s->uvs1 && rtk_uv_footprint_at(s->uvs1 + at, a, b, c, out->p, ng, diff, &footprint[1]))
             q.fp[1] = &footprint[1];
         int alpha_done = 0;
         if (usable(s, m->base_tex)) {
@@ -447,7 +384,7 @@ static void normal_change(const rtk_scene *scene, const rtk_hit *hit, const rtk_
     rtk_vec3 a, b, c;
     rtk_scene_triangle(s, hit->prim, &a, &b, &c);
     double bx[2], by[2];
-    if (!bary_change(a, b, c, dx, bx) || !bary_change(a, b, c, dy, by))
+    if (!rtk_bary_change(a, b, c, dx, bx) || !rtk_bary_change(a, b, c, dy, by))
         return;
     const float *n = s->normals + 9 * (size_t)hit->prim;
     double w = 1.0 - (double)hit->u - (double)hit->v;
@@ -467,12 +404,12 @@ static void normal_change(const rtk_scene *scene, const rtk_hit *hit, const rtk_
         wx[k] = m ? m[k] * nx[0] + m[4 + k] * nx[1] + m[8 + k] * nx[2] : nx[k];
         wy[k] = m ? m[k] * ny[0] + m[4 + k] * ny[1] + m[8 + k] * ny[2] : ny[k];
     }
-    double len = sqrt(dot3d(wn, wn));
+    double len = sqrt(rtk_dot3d(wn, wn));
     if (!(len > 0.0))
         return;
     double ns[3];
     to3d(sf->ns, ns);
-    double scale = (dot3d(wn, ns) < 0.0 ? -1.0 : 1.0) / len;
+    double scale = (rtk_dot3d(wn, ns) < 0.0 ? -1.0 : 1.0) / len;
     for (int k = 0; k < 3; k++) {
         dndx[k] = wx[k] * scale;
         dndy[k] = wy[k] * scale;
@@ -495,7 +432,7 @@ typedef struct specular_diff {
 static void unit3d(rtk_vec3 v, double out[3])
 {
     to3d(v, out);
-    double len = sqrt(dot3d(out, out));
+    double len = sqrt(rtk_dot3d(out, out));
     for (int k = 0; k < 3; k++)
         out[k] = len > 0.0 ? out[k] / len : 0.0;
 }
@@ -503,8 +440,8 @@ static void unit3d(rtk_vec3 v, double out[3])
 static int specular_setup(const rtk_scene *scene, const rtk_ray *ray, const rtk_ray_differential *diff,
                           const rtk_hit *hit, const rtk_surface *sf, specular_diff *sd)
 {
-    if (!plane_offset(sf->p, sf->ng, diff->rx_org, diff->rx_dir, sd->dpdx) ||
-        !plane_offset(sf->p, sf->ng, diff->ry_org, diff->ry_dir, sd->dpdy))
+    if (!rtk_plane_offset(sf->p, sf->ng, diff->rx_org, diff->rx_dir, sd->dpdx) ||
+        !rtk_plane_offset(sf->p, sf->ng, diff->ry_org, diff->ry_dir, sd->dpdy))
         return 0;
     sd->p = sf->p;
     sd->ng = sf->ng;
@@ -530,7 +467,7 @@ static int specular_finish(const specular_diff *sd, const double wi[3], const do
 {
     double n[3], o[3], ox[3], oy[3];
     to3d(sd->ng, n);
-    to3d(rtk_offset_ray_origin(sd->p, dot3d(wi, n) >= 0.0 ? sd->ng : rtk_vec3_neg(sd->ng)), o);
+    to3d(rtk_offset_ray_origin(sd->p, rtk_dot3d(wi, n) >= 0.0 ? sd->ng : rtk_vec3_neg(sd->ng)), o);
     for (int k = 0; k < 3; k++) {
         ox[k] = o[k] + sd->dpdx[k];
         oy[k] = o[k] + sd->dpdy[k];
@@ -554,9 +491,9 @@ RTK_API int rtk_differential_reflect(const rtk_scene *scene, const rtk_ray *ray,
     double ns[3], w[3], dirx[3], diry[3];
     to3d(s->ns, ns);
     unit3d(wi, w);
-    double dn = dot3d(sd.wo, ns);
-    double ddnx = dot3d(sd.dwodx, ns) + dot3d(sd.wo, sd.dndx);
-    double ddny = dot3d(sd.dwody, ns) + dot3d(sd.wo, sd.dndy);
+    double dn = rtk_dot3d(sd.wo, ns);
+    double ddnx = rtk_dot3d(sd.dwodx, ns) + rtk_dot3d(sd.wo, sd.dndx);
+    double ddny = rtk_dot3d(sd.dwody, ns) + rtk_dot3d(sd.wo, sd.dndy);
     for (int k = 0; k < 3; k++) {
         dirx[k] = w[k] - sd.dwodx[k] + 2.0 * (dn * sd.dndx[k] + ddnx * ns[k]);
         diry[k] = w[k] - sd.dwody[k] + 2.0 * (dn * sd.dndy[k] + ddny * ns[k]);
@@ -575,16 +512,16 @@ RTK_API int rtk_differential_refract(const rtk_scene *scene, const rtk_ray *ray,
     to3d(s->ns, ns);
     unit3d(wi, w);
     /* The normal on wo's side, as the refraction formula has it. */
-    if (dot3d(sd.wo, ns) < 0.0)
+    if (rtk_dot3d(sd.wo, ns) < 0.0)
         for (int k = 0; k < 3; k++)
             ns[k] = -ns[k], sd.dndx[k] = -sd.dndx[k], sd.dndy[k] = -sd.dndy[k];
-    double e = eta, dn = dot3d(sd.wo, ns), cos_t = fabs(dot3d(w, ns));
+    double e = eta, dn = rtk_dot3d(sd.wo, ns), cos_t = fabs(rtk_dot3d(w, ns));
     if (!(cos_t > 0.0))
         return 0;
     /* wi = -eta wo + mu n with mu = eta (wo.n) - cos_t, differentiated. */
     double mu = e * dn - cos_t;
-    double ddnx = dot3d(sd.dwodx, ns) + dot3d(sd.wo, sd.dndx);
-    double ddny = dot3d(sd.dwody, ns) + dot3d(sd.wo, sd.dndy);
+    double ddnx = rtk_dot3d(sd.dwodx, ns) + rtk_dot3d(sd.wo, sd.dndx);
+    double ddny = rtk_dot3d(sd.dwody, ns) + rtk_dot3d(sd.wo, sd.dndy);
     double k_mu = e - e * e * dn / cos_t;
     for (int k = 0; k < 3; k++) {
         dirx[k] = w[k] - e * sd.dwodx[k] + mu * sd.dndx[k] + k_mu * ddnx * ns[k];

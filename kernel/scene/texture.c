@@ -242,15 +242,7 @@ int rtk_texture_filter_from_name(const char *name, rtk_texture_filter *filter)
 
 float rtk_texture_lod(const rtk_texture *tex, const rtk_uv_footprint *fp)
 {
-    double w = tex->width, h = tex->height;
-    double x = hypot((double)fp->dudx * w, (double)fp->dvdx * h);
-    double y = hypot((double)fp->dudy * w, (double)fp->dvdy * h);
-    double r = x > y ? x : y;
-    if (r == INFINITY)
-        return 1e30f;
-    if (!(r > 0.0))
-        return 0.0f;
-    return (float)log2(r);
+    return rtk_texture_lod_at(tex->width, tex->height, fp);
 }
 
 void rtk_texture_sample(const rtk_texture *tex, rtk_tex_wrap wrap, float u, float v, float lod, float rgba[4])

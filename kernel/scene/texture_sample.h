@@ -145,17 +145,36 @@ RTK_HD static inline void rtk_texture_view_sample(const rtk_texture_view *t, rtk
         rgba[c] = (1.0f - f) * a[c] + f * b[c];
 }
 
-/* rtk_texture_sample(tex, wrap, u, v, 0, rgba) of the texture t shows. */
-RTK_HD static inline void rtk_device_texture_sample(const rtk_device_texture *t, rtk_tex_wrap wrap, float u, float v,
-                                                    float rgba[4])
+/* rtk_texture_lod of a texture whose level 0 is width x height texels:
+ * log2 of the longer footprint side in texels. The sides are square roots
+ * of sums (not hypot), which round alike on every processor. */
+RTK_HD static inline float rtk_texture_lod_at(int width, int height, const rtk_uv_footprint *fp)
+{
+    const double w = width, h = height;
+    const double xu = (double)fp->dudx * w, xv = (double)fp->dvdx * h;
+    const double yu = (double)fp->dudy * w, yv = (double)fp->dvdy * h;
+    const double x = sqrt(xu * xu + xv * xv), y = sqrt(yu * yu + yv * yv);
+    const double r = x > y ? x : y;
+    if (r == INFINITY)
+        return 1e30f;
+    if (!(r > 0.0))
+        return 0.0f;
+    return (float)log2(r);
+}
+
+/* rtk_texture_sample(tex, wrap, u, v, lod, rgba) of the texture t shows,
+ * whose MIP levels (t->levels of them, level 0 first) are at level. */
+RTK_HD static inline void rtk_device_texture_sample(const rtk_device_texture *t, const rtk_texture_level *level,
+                                                    rtk_tex_wrap wrap, float u, float v, float lod, float rgba[4])
 {
     if (!t->rgba || t->width <= 0 || t->height <= 0) {
         rgba[0] = rgba[1] = rgba[2] = rgba[3] = 1.0f;
         return;
     }
     const rtk_texture_level base = {t->width, t->height, (float *)t->rgba};
-    const rtk_texture_view view = {(rtk_texture_filter)t->filter, 1, &base};
-    rtk_texture_view_sample(&view, wrap, u, v, 0.0f, rgba);
+    const int pyramid = t->filter == RTK_TEX_TRILINEAR && t->levels >= 2 && level;
+    const rtk_texture_view view = {(rtk_texture_filter)t->filter, pyramid ? t->levels : 1, pyramid ? level : &base};
+    rtk_texture_view_sample(&view, wrap, u, v, lod, rgba);
 }
 
 #endif
