@@ -173,6 +173,11 @@ typedef struct rtk_device_tree {
     const float *uvs1;
     const struct rtk_device_texture *textures;
     uint32_t texture_count;
+    /* ABI 3.9, with textures: each texture's MIP levels (the kernel's
+     * rtk_texture_level, kernel/scene/texture.h: level 0 first, its
+     * rtk_device_texture.levels of them), NULL for one read at level 0
+     * alone (any but a trilinear one). */
+    const struct rtk_texture_level *const *texture_levels;
 } rtk_device_tree;
 
 /* ABI 3.5. What a device accelerator did so far, summed over its calls. */
@@ -210,6 +215,9 @@ typedef struct rtk_shade_batch {
     const struct rtk_sample_pos *pos;        /* each sample's stream, at li's first draw */
     struct rtk_li_result *out;               /* set by shade: as li's pre-filled result, then by the program */
     uint64_t rays_traced, invalid_rays;      /* what rtk_trace and rtk_occluded would have counted */
+    /* ABI 3.9: each camera ray's differentials (rtk_ctx_camera_differential),
+     * where some texture the program reads is filtered trilinearly; else NULL. */
+    const rtk_ray_differential *diffs;
 } rtk_shade_batch;
 
 /* Function table of an accelerator. */

@@ -43,9 +43,11 @@ RTK_EXTERN_C_BEGIN
  * (rtk_device_tree.materials, lights, punctual, punctual_count, frames;
  * rtk_device_frame).
  * 3.8: device programs that read textures (rtk_device_tree.uvs, uvs1,
- * textures, texture_count). */
+ * textures, texture_count).
+ * 3.9: device programs that read trilinear textures (rtk_device_tree.texture_levels,
+ * rtk_device_texture.levels, rtk_shade_batch.diffs). */
 #define RTK_ABI_MAJOR 3
-#define RTK_ABI_MINOR 8
+#define RTK_ABI_MINOR 9
 
 /* Name of the one symbol a plugin exports. */
 #define RTK_PLUGIN_ENTRY_NAME "rtk_plugin_entry"

@@ -91,6 +91,9 @@ RTK_KERNEL_API const char *rtk_device_runs(const rtk_scene *s, const rtk_device_
  * out->lights' stamp. */
 RTK_KERNEL_API rtk_status rtk_device_tree_view(const rtk_scene *s, uint32_t threads, rtk_device_tree *out,
                                                void **block);
+/* Whether some texture that s's device programs read is filtered
+ * trilinearly: their batches then carry camera differentials. */
+int rtk_device_reads_footprints(const rtk_scene *s);
 /* Runs batch->program on s's device (rtk_device_runs said yes). [any thread] */
 rtk_status rtk_device_shade(const rtk_scene *s, rtk_shade_batch *batch);
 

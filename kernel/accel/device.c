@@ -69,6 +69,7 @@ void rtk_device_release(rtk_scene *s)
     s->device_state = NULL;
     s->device_data = NULL;
     s->device_lights = 0;
+    s->device_minor = 0;
 }
 
 /* Some triangle of s, or of a mesh it places, needs the per-hit material test. */
@@ -97,6 +98,7 @@ typedef struct view_space {
     float *corners;
     rtk_rgb *bases;
     rtk_device_texture *textures;
+    const rtk_texture_level **levels; /* each texture's MIP levels or NULL */
 } view_space;
 
 /* Bytes of the space the views of s and its meshes take. */
@@ -107,12 +109,12 @@ static size_t view_bytes(const rtk_scene *s)
         triangles += s->meshes[i]->triangle_count, materials += s->meshes[i]->material_count;
         textures += s->meshes[i]->texture_count;
     }
-    return sizeof(rtk_device_texture) * (size_t)textures + sizeof(rtk_rgb) * (size_t)materials +
-           sizeof(float) * 9 * (size_t)triangles;
+    return (sizeof(rtk_device_texture) + sizeof(rtk_texture_level *)) * (size_t)textures +
+           sizeof(rtk_rgb) * (size_t)materials + sizeof(float) * 9 * (size_t)triangles;
 }
 
-/* The space at block, view_bytes of it: textures first (they hold
- * pointers), then base colours, then corners. */
+/* The space at block, view_bytes of it: textures and their levels first
+ * (they hold pointers), then base colours, then corners. */
 static view_space space_at(void *block, const rtk_scene *s)
 {
     uint64_t textures = s->texture_count, materials = s->material_count;
@@ -120,7 +122,8 @@ static view_space space_at(void *block, const rtk_scene *s)
         textures += s->meshes[i]->texture_count, materials += s->meshes[i]->material_count;
     view_space v;
     v.textures = block;
-    v.bases = (rtk_rgb *)(void *)(v.textures + textures);
+    v.levels = (const rtk_texture_level **)(void *)(v.textures + textures);
+    v.bases = (rtk_rgb *)(void *)(v.levels + textures);
     v.corners = (float *)(void *)(v.bases + materials);
     return v;
 }
@@ -136,6 +139,8 @@ static rtk_device_texture device_texture(const rtk_texture *t)
         d.width = t->width, d.height = t->height, d.rgba = t->rgba;
         d.has_alpha = t->has_alpha != 0;
         d.normal_map = t->normal_map_checked > 0;
+        if (t->filter == RTK_TEX_TRILINEAR && t->levels >= 2 && t->mip)
+            d.levels = t->levels;
     }
     return d;
 }
@@ -163,16 +168,20 @@ static rtk_device_tree tree_view(const rtk_scene *m, view_space *space, uint32_t
             t.colors = m->colors;
         }
         if (reads_textures(m)) {
-            for (uint32_t i = 0; i < m->texture_count; i++)
+            for (uint32_t i = 0; i < m->texture_count; i++) {
                 space->textures[i] = device_texture(&m->textures[i]);
+                space->levels[i] = space->textures[i].levels ? m->textures[i].mip : NULL;
+            }
             t.uvs = m->uvs, t.uvs1 = m->uvs1;
             t.textures = space->textures;
             t.texture_count = m->texture_count;
+            t.texture_levels = space->levels;
         }
     }
     space->corners += 9 * (size_t)m->triangle_count;
     space->bases += m->material_count;
     space->textures += m->texture_count;
+    space->levels += m->texture_count;
     return t;
 }
 
@@ -281,6 +290,7 @@ static rtk_status device_build(rtk_scene *s, const rtk_plugin *device, const rtk
     s->device = f;
     s->device_state = state;
     s->device_lights = tree.lights ? tree.lights->stamp : 0;
+    s->device_minor = device->abi_minor;
     return RTK_OK;
 }
 
@@ -319,9 +329,7 @@ static rtk_status (*shade_fn(const rtk_accelerator_fns *f))(const void *, rtk_sh
     return f->size >= offsetof(rtk_accelerator_fns, shade) + sizeof f->shade ? f->shade : NULL;
 }
 
-/* Some texture that s's or a placed mesh's hits read is filtered
- * trilinearly. */
-static int reads_trilinear(const rtk_scene *s)
+int rtk_device_reads_footprints(const rtk_scene *s)
 {
     for (uint32_t i = 0; i <= s->mesh_count; i++) {
         const rtk_scene *m = i < s->mesh_count ? s->meshes[i] : s;
@@ -340,9 +348,9 @@ const char *rtk_device_runs(const rtk_scene *s, const rtk_device_program *progra
         return "the device accelerator runs no programs";
     if ((s->needs & RTK_NEED_LIGHTS) && s->lights && s->lights->stamp != s->device_lights)
         return "the scene's lights changed after the device took its tree";
-    if (reads_trilinear(s))
-        return "textures.filter = \"trilinear\" reads each pixel's footprint, which device programs do not "
-               "carry (\"bilinear\" or \"nearest\" run on the device)";
+    if (rtk_device_reads_footprints(s) && s->device_minor < 9)
+        return "textures.filter = \"trilinear\" needs a device accelerator built for plugin ABI 3.9 or later, "
+               "which reads MIP levels (rebuild it, or pick \"bilinear\" or \"nearest\")";
     rtk_shade_batch probe;
     memset(&probe, 0, sizeof probe);
     probe.size = sizeof probe;

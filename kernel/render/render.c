@@ -33,6 +33,7 @@ typedef struct render_job {
     int batches; /* the integrator's li_batch renders (batches_wanted) */
     int on_device;  /* the scene's device runs the integrator's program */
     rtk_device_program program;
+    int footprints; /* and reads trilinear textures: it gets camera differentials */
     uint32_t device_run; /* tiles a worker takes at once for the device */
     uint32_t tiles_x, tiles_y, tile_count;
     atomic_uint next_tile;
@@ -157,6 +158,7 @@ typedef struct device_batch {
     rtk_ray rays[DEVICE_BATCH];
     rtk_sample_pos pos[DEVICE_BATCH];
     rtk_li_result out[DEVICE_BATCH];
+    rtk_ray_differential diffs[DEVICE_BATCH]; /* when the job's footprints */
     float fx[DEVICE_BATCH], fy[DEVICE_BATCH], fw[DEVICE_BATCH];
     int px[DEVICE_BATCH], py[DEVICE_BATCH];
     uint32_t tile[DEVICE_BATCH]; /* index into the run's tiles */
@@ -177,6 +179,7 @@ static int flush_device(render_job *job, rtk_ctx *ctx, device_batch *b, uint32_t
     sb.rays = b->rays;
     sb.pos = b->pos;
     sb.out = b->out;
+    sb.diffs = job->footprints ? b->diffs : NULL;
     rtk_status st = rtk_device_shade(job->scene, &sb);
     if (st != RTK_OK) {
         fail(job, st);
@@ -213,6 +216,8 @@ static void render_tiles_on_device(render_job *job, uint32_t first, uint32_t end
                 for (uint32_t s = 0; ok && s < job->spp; s++) {
                     b->rays[n] = start_sample(job, ctx, x, y, s, &b->fx[n], &b->fy[n], &b->fw[n]);
                     b->pos[n] = ctx->pos;
+                    if (job->footprints)
+                        rtk_ctx_camera_differential(ctx, &b->diffs[n]);
                     b->px[n] = (int)x, b->py[n] = (int)y;
                     b->tile[n] = k;
                     if (++n == DEVICE_BATCH) {
@@ -427,6 +432,7 @@ rtk_status rtk_render_film(const rtk_film_render *r, float *pixels, rtk_render_s
     job.on_device = r->device_program != NULL;
     if (job.on_device) {
         job.program = *r->device_program;
+        job.footprints = rtk_device_reads_footprints(r->scene);
         uint64_t per_tile = (uint64_t)TILE_SIZE * TILE_SIZE * (r->spp ? r->spp : 1);
         job.device_run = per_tile < DEVICE_BATCH ? (uint32_t)(DEVICE_BATCH / per_tile) : 1;
     }

@@ -208,6 +208,7 @@ struct rtk_scene {
     void *device_state;
     void *device_data;
     uint64_t device_lights; /* the stamp of the lights it was given (0: none) */
+    uint32_t device_minor;  /* its plugin's ABI minor (9 on: it reads MIP levels) */
     /* The binary tree collapsed for SIMD traversal (kernel/accel/bvh_wide_build.c), or NULL. */
     struct rtk_wide_bvh *wide;
     /* Where builds of this scene record their phases (kernel/accel/accel.h),

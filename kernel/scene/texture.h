@@ -58,9 +58,9 @@ typedef struct rtk_texture {
     char *problem;     /* why it may not be read (outside the scene's folders), or NULL */
 } rtk_texture;
 
-/* A texture as device programs read it (rtk_device_tree.textures): level 0
- * alone, at level of detail 0, so trilinear reads level 0 bilinearly as
- * the kernel does without a footprint (texture_sample.h reads it). */
+/* A texture as device programs read it (rtk_device_tree.textures): its
+ * level 0, and for trilinear its MIP levels (rtk_device_tree.texture_levels);
+ * texture_sample.h reads it as the kernel reads the texture. */
 typedef struct rtk_device_texture {
     int32_t filter;     /* rtk_texture_filter */
     int32_t width, height;
@@ -68,7 +68,7 @@ typedef struct rtk_device_texture {
     int32_t decoded;    /* a decode was tried: the material's slot reads it */
     int32_t has_alpha;  /* some texel's alpha is below 1 (rtk_texture_coverage) */
     int32_t normal_map; /* usable as a tangent-space normal map (rtk_normal_map_usable) */
-    int32_t reserved;   /* 0 */
+    int32_t levels;     /* ABI 3.9: MIP levels in texture_levels (level 0 first), else 0 (3.8: reserved, 0) */
 } rtk_device_texture;
 
 /* Decodes tex if not yet tried; on failure warns once and marks it missing.

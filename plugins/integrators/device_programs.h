@@ -19,10 +19,13 @@
  * Surfaces: position, normals, the material's factors (base colour times
  * vertex colour, emission, the BSDF of kernel/scene/material_bsdf.h) and
  * its textures (base colour, alpha, emission, normal map and the BSDF's
- * factor maps, read at level 0 through kernel/scene/texture_sample.h).
+ * factor maps, through kernel/scene/texture_sample.h): at a camera ray's
+ * hit, base colour, alpha and emission read trilinearly filtered textures
+ * at the level of detail of the pixel's footprint (the camera
+ * differentials of rtk_shade_batch.diffs), as rtk_surface_at_footprint
+ * does; every other read is at level 0, as on the CPU.
  * Scenes: a device accelerator's (no cut-outs, no single-sided
- * materials), instances included, with no trilinear textures to read (the
- * kernel offers no others: rtk_device_runs).
+ * materials), instances included.
  *
  * Run on a CPU, a program gives what the integrator's li gives, bit for
  * bit (tests/plugins/device checks it); on a GPU, hits are still the
@@ -85,6 +88,7 @@ typedef struct rtk_program_mesh {
     const float *uvs, *uvs1;       /* 6 floats a triangle id; uvs NULL: no textures read */
     const rtk_device_texture *textures;
     uint32_t texture_count;
+    const rtk_texture_level *const *levels; /* each texture's MIP levels (NULL: level 0 alone) */
 } rtk_program_mesh;
 
 /* What a program reads: the scene's trees, its own triangles' and each
@@ -161,6 +165,7 @@ static inline rtk_program_mesh rtk_program_mesh_of(const rtk_device_tree *tree, 
         m.uvs = tree->uvs, m.uvs1 = tree->uvs1;
         m.textures = tree->textures;
         m.texture_count = tree->texture_count;
+        m.levels = tree->texture_levels;
     }
     return m;
 }
@@ -302,12 +307,22 @@ RTK_HD static inline rtk_vec2 rtk_program_uv(const rtk_program_mesh *m, const rt
     return rtk_corner_uv(uvs + 6 * (size_t)prim, map->transformed, map->m, u, v);
 }
 
-/* Texture t through wrap and map at (u, v) of triangle prim of m, at level 0. */
+/* Texture t (one of m's) through wrap and map at (u, v) of triangle
+ * prim of m; when t is trilinear and fp (each uv set's footprint, NULL
+ * where not measured) has map's, at its level of detail through map,
+ * else at level 0 (scene.c's lookup). */
 RTK_HD static inline void rtk_program_lookup(const rtk_program_mesh *m, const rtk_device_texture *t, rtk_tex_wrap wrap,
-                                             const rtk_tex_map *map, uint32_t prim, float u, float v, float texel[4])
+                                             const rtk_tex_map *map, uint32_t prim, float u, float v,
+                                             const rtk_uv_footprint *const *fp, float texel[4])
 {
     rtk_vec2 uv = rtk_program_uv(m, map, prim, u, v);
-    rtk_device_texture_sample(t, wrap, uv.x, uv.y, texel);
+    const rtk_uv_footprint *set = fp ? fp[map->set == 1 && m->uvs1 ? 1 : 0] : NULL;
+    float lod = 0.0f;
+    if (set && t->filter == RTK_TEX_TRILINEAR) {
+        const rtk_uv_footprint mapped = rtk_uv_footprint_mapped(set, map->transformed, map->m);
+        lod = rtk_texture_lod_at(t->width, t->height, &mapped);
+    }
+    rtk_device_texture_sample(t, m->levels ? m->levels[t - m->textures] : NULL, wrap, uv.x, uv.y, lod, texel);
 }
 
 /* Whether two slots read the same texels: the same wrap and uv map. */
@@ -337,22 +352,24 @@ RTK_HD static inline int rtk_program_normal_map(const rtk_program_mesh *m, const
     }
     const rtk_tex_wrap repeat = {RTK_WRAP_REPEAT, RTK_WRAP_REPEAT};
     float texel[4];
-    rtk_program_lookup(m, tex, repeat, &mat->normal_uv, prim, u, v, texel);
+    rtk_program_lookup(m, tex, repeat, &mat->normal_uv, prim, u, v, NULL, texel);
     rtk_vec3 p0, p1, p2;
     rtk_program_corners(m, prim, &p0, &p1, &p2);
     return rtk_bend_normal(p0, p1, p2, t, texel, ns);
 }
 
 /* The textures of material mat on out (scene.c's surface): base colour,
- * alpha, emission, then the normal map. */
+ * alpha, emission (at footprints fp, rtk_program_lookup's), then the
+ * normal map. */
 RTK_HD static inline void rtk_program_textures(const rtk_program_mesh *m, const rtk_material *mat, uint32_t prim,
-                                               float u, float v, rtk_program_surface *out)
+                                               float u, float v, const rtk_uv_footprint *const *fp,
+                                               rtk_program_surface *out)
 {
     float texel[4];
     int alpha_done = 0;
     const rtk_device_texture *t = rtk_program_texture(m, mat->base_tex);
     if (t) {
-        rtk_program_lookup(m, t, mat->base_wrap, &mat->base_uv, prim, u, v, texel);
+        rtk_program_lookup(m, t, mat->base_wrap, &mat->base_uv, prim, u, v, fp, texel);
         out->base = rtk_rgb_mul(out->base, rtk_rgb_make(texel[0], texel[1], texel[2]));
         if (mat->alpha_tex == mat->base_tex &&
             rtk_program_same_use(mat->alpha_wrap, mat->base_wrap, &mat->alpha_uv, &mat->base_uv)) {
@@ -361,11 +378,11 @@ RTK_HD static inline void rtk_program_textures(const rtk_program_mesh *m, const 
         }
     }
     if (!alpha_done && (t = rtk_program_texture(m, mat->alpha_tex))) {
-        rtk_program_lookup(m, t, mat->alpha_wrap, &mat->alpha_uv, prim, u, v, texel);
+        rtk_program_lookup(m, t, mat->alpha_wrap, &mat->alpha_uv, prim, u, v, fp, texel);
         out->alpha *= mat->alpha_tex == mat->base_tex || t->has_alpha ? texel[3] : texel[0];
     }
     if ((t = rtk_program_texture(m, mat->emission_tex))) {
-        rtk_program_lookup(m, t, mat->emission_wrap, &mat->emission_uv, prim, u, v, texel);
+        rtk_program_lookup(m, t, mat->emission_wrap, &mat->emission_uv, prim, u, v, fp, texel);
         out->emission = rtk_rgb_mul(out->emission, rtk_rgb_make(texel[0], texel[1], texel[2]));
     }
     rtk_vec3 n = out->front ? out->ns : rtk_vec3_neg(out->ns);
@@ -387,14 +404,29 @@ RTK_HD static inline int rtk_program_read_map(const void *ctx, const rtk_materia
     const rtk_device_texture *t = rtk_program_texture(sf->mesh, slot->tex);
     if (!t)
         return 0;
-    rtk_program_lookup(sf->mesh, t, slot->wrap, &slot->uv, sf->prim, sf->u, sf->v, texel);
+    rtk_program_lookup(sf->mesh, t, slot->wrap, &slot->uv, sf->prim, sf->u, sf->v, NULL, texel);
     return 1;
 }
 
+/* Whether material mat's base colour, alpha or emission reads a
+ * trilinear texture of m (scene.c's surface then measures footprints). */
+RTK_HD static inline int rtk_program_reads_mip(const rtk_program_mesh *m, const rtk_material *mat)
+{
+    const int slots[3] = {mat->base_tex, mat->alpha_tex, mat->emission_tex};
+    int mip = 0;
+    for (int k = 0; k < 3; k++) {
+        const rtk_device_texture *t = rtk_program_texture(m, slots[k]);
+        mip |= t && t->filter == RTK_TEX_TRILINEAR;
+    }
+    return mip;
+}
+
 /* The surface of triangle prim of mesh m at barycentrics (u, v), seen
- * along dir, in m's space. */
+ * along dir, in m's space; diff (NULL: none) the ray's differentials
+ * there, for the textures' footprints. */
 RTK_HD static inline void rtk_program_mesh_surface(const rtk_program_scene *s, const rtk_program_mesh *m, uint32_t prim,
-                                                   float u, float v, rtk_vec3 dir, rtk_program_surface *out)
+                                                   float u, float v, rtk_vec3 dir, const rtk_ray_differential *diff,
+                                                   rtk_program_surface *out)
 {
     rtk_vec3 p0, p1, p2;
     rtk_program_corners(m, prim, &p0, &p1, &p2);
@@ -421,8 +453,18 @@ RTK_HD static inline void rtk_program_mesh_surface(const rtk_program_scene *s, c
         out->base = rtk_surface_base_color(out->base, colors, u, v);
         out->alpha *= vc[3];
     }
-    if (out->m && m->uvs)
-        rtk_program_textures(m, out->m, prim, u, v, out);
+    if (out->m && m->uvs) {
+        rtk_uv_footprint footprint[2];
+        const rtk_uv_footprint *fp[2] = {NULL, NULL};
+        if (diff && rtk_program_reads_mip(m, out->m)) {
+            const size_t at = 6 * (size_t)prim;
+            if (rtk_uv_footprint_at(m->uvs + at, p0, p1, p2, out->p, out->ng, diff, &footprint[0]))
+                fp[0] = &footprint[0];
+            if (m->uvs1 && rtk_uv_footprint_at(m->uvs1 + at, p0, p1, p2, out->p, out->ng, diff, &footprint[1]))
+                fp[1] = &footprint[1];
+        }
+        rtk_program_textures(m, out->m, prim, u, v, fp, out);
+    }
 }
 
 /* A normal through frame f: the inverse transpose (to_object's rows as
@@ -435,49 +477,64 @@ RTK_HD static inline rtk_vec3 rtk_program_world_normal(const double *to_object, 
     return rtk_vec3_normalize(rtk_vec3_make((float)w[0], (float)w[1], (float)w[2]));
 }
 
-/* A hit's surface as rtk_surface_at gives it: an
- * instance's in its mesh's space (the ray's direction taken there), then
- * placed in the world. */
-RTK_HD static inline void rtk_program_surface_at(const rtk_program_scene *s, const rtk_ray *ray, const rtk_hit *hit,
+/* A hit's surface as rtk_surface_at_footprint gives it for differentials
+ * diff (NULL: rtk_surface_at's): an instance's in its mesh's space (the
+ * ray's direction and the differential rays taken there), then placed in
+ * the world. */
+RTK_HD static inline void rtk_program_surface_at(const rtk_program_scene *s, const rtk_ray *ray,
+                                                 const rtk_ray_differential *diff, const rtk_hit *hit,
                                                  rtk_program_surface *out)
 {
     if (hit->inst == RTK_INVALID_ID) {
-        rtk_program_mesh_surface(s, &s->own, hit->prim, hit->u, hit->v, ray->dir, out);
+        rtk_program_mesh_surface(s, &s->own, hit->prim, hit->u, hit->v, ray->dir, diff, out);
         return;
     }
     const rtk_device_instance *in = &s->flat.top.instances[hit->inst];
     double d[3];
     rtk_affine_vector(in->to_object, ray->dir.x, ray->dir.y, ray->dir.z, d);
+    rtk_ray_differential local;
+    int local_diff = 0;
+    if (diff) {
+        rtk_ray rx, ry, lx, ly;
+        rx.org = diff->rx_org, rx.dir = diff->rx_dir, ry.org = diff->ry_org, ry.dir = diff->ry_dir;
+        rx.tmin = ry.tmin = 0.0f;
+        rx.tmax = ry.tmax = INFINITY;
+        local_diff = rtk_local_ray(in->to_object, &rx, &lx) && rtk_local_ray(in->to_object, &ry, &ly);
+        if (local_diff)
+            local.rx_org = lx.org, local.rx_dir = lx.dir, local.ry_org = ly.org, local.ry_dir = ly.dir;
+    }
     rtk_program_mesh_surface(s, &s->meshes[in->mesh], hit->prim, hit->u, hit->v,
-                             rtk_vec3_make((float)d[0], (float)d[1], (float)d[2]), out);
+                             rtk_vec3_make((float)d[0], (float)d[1], (float)d[2]), local_diff ? &local : NULL, out);
     out->p = rtk_program_place(&s->frames[hit->inst], out->p);
     out->ng = rtk_program_world_normal(in->to_object, out->ng);
     out->ns = rtk_program_world_normal(in->to_object, out->ns);
 }
 
-/* A camera ray's first hit as rtk_trace and rtk_surface_at give it:
- * 0 when it misses (or is invalid, counted); else its surface, with out's
- * AOVs set. */
-RTK_HD static inline int rtk_program_camera_hit(const rtk_program_scene *s, const rtk_ray *ray, rtk_li_result *out,
+/* A camera ray's first hit as rtk_trace and rtk_surface_at_footprint
+ * give it (diff its differentials, NULL: none): 0 when it misses (or is
+ * invalid, counted); else its surface, with out's AOVs set. */
+RTK_HD static inline int rtk_program_camera_hit(const rtk_program_scene *s, const rtk_ray *ray,
+                                                const rtk_ray_differential *diff, rtk_li_result *out,
                                                 rtk_program_count *count, rtk_program_surface *h)
 {
     rtk_hit hit;
     if (!rtk_program_trace(s, ray, count, &hit))
         return 0;
-    rtk_program_surface_at(s, ray, &hit, h);
+    rtk_program_surface_at(s, ray, diff, &hit, h);
     out->albedo = h->base;
     out->normal = h->ns;
     out->depth = hit.t * rtk_vec3_length(ray->dir);
     return 1;
 }
 
-/* ao's li (plugins/integrators/ao.c) for camera ray ray, drawing from pos. */
+/* ao's li (plugins/integrators/ao.c) for camera ray ray (differentials
+ * diff, read for albedo only), drawing from pos. */
 RTK_HD static inline void rtk_program_ao(const rtk_program *p, const rtk_program_scene *s, const rtk_sample_gen *g,
-                                         rtk_sample_pos pos, const rtk_ray *ray, rtk_li_result *out,
-                                         rtk_program_count *count)
+                                         rtk_sample_pos pos, const rtk_ray *ray, const rtk_ray_differential *diff,
+                                         rtk_li_result *out, rtk_program_count *count)
 {
     rtk_program_surface h;
-    if (!rtk_program_camera_hit(s, ray, out, count, &h))
+    if (!rtk_program_camera_hit(s, ray, p->albedo ? diff : NULL, out, count, &h))
         return;
     rtk_vec3 b1, b2;
     rtk_ao_basis(h.ns, &b1, &b2);
@@ -492,12 +549,14 @@ RTK_HD static inline void rtk_program_ao(const rtk_program *p, const rtk_program
     out->radiance = rtk_ao_value(open, p->rays, p->albedo, h.base);
 }
 
-/* headlight's li (plugins/integrators/headlight.c) for camera ray ray. */
+/* headlight's li (plugins/integrators/headlight.c) for camera ray ray
+ * (differentials diff). */
 RTK_HD static inline void rtk_program_headlight(const rtk_program *p, const rtk_program_scene *s, const rtk_ray *ray,
-                                                rtk_li_result *out, rtk_program_count *count)
+                                                const rtk_ray_differential *diff, rtk_li_result *out,
+                                                rtk_program_count *count)
 {
     rtk_program_surface h;
-    if (rtk_program_camera_hit(s, ray, out, count, &h))
+    if (rtk_program_camera_hit(s, ray, diff, out, count, &h))
         out->radiance = rtk_headlight_value(h.base, h.ns, ray->dir, p->ambient);
 }
 
@@ -525,7 +584,7 @@ RTK_HD static inline rtk_rgb rtk_program_emitter_emission(const void *ctx, uint3
         return m->emission;
     const rtk_tex_wrap repeat = {RTK_WRAP_REPEAT, RTK_WRAP_REPEAT};
     float texel[4];
-    rtk_program_lookup(mesh, t, repeat, &m->emission_uv, prim, b1, b2, texel);
+    rtk_program_lookup(mesh, t, repeat, &m->emission_uv, prim, b1, b2, NULL, texel);
     return rtk_rgb_mul(m->emission, rtk_rgb_make(texel[0], texel[1], texel[2]));
 }
 
@@ -603,10 +662,11 @@ RTK_HD static inline void rtk_path_walk_start(rtk_path_walk *w, const rtk_ray *c
 
 /* One vertex of path's li: w's ray found hit (NULL: it left the scene).
  * Adds what it found, leaves the vertex's shadow ray pending (shadowed)
- * and the next ray (more; the depth counted on). */
+ * and the next ray (more; the depth counted on). diff: the camera ray's
+ * differentials (NULL: none), read at the first vertex. */
 RTK_HD static inline void rtk_path_walk_shade(const rtk_program *p, const rtk_program_scene *s,
                                               const rtk_sample_gen *g, rtk_path_walk *w, const rtk_hit *hit,
-                                              rtk_li_result *out)
+                                              const rtk_ray_differential *diff, rtk_li_result *out)
 {
     const rtk_path_params *pt = &p->path;
     rtk_path_state *ps = &w->ps;
@@ -621,7 +681,7 @@ RTK_HD static inline void rtk_path_walk_shade(const rtk_program *p, const rtk_pr
         return;
     }
     rtk_program_surface sf;
-    rtk_program_surface_at(s, &w->ray, hit, &sf);
+    rtk_program_surface_at(s, &w->ray, ps->depth == 0 ? diff : NULL, hit, &sf);
     if (ps->depth == 0) {
         out->albedo = sf.base;
         out->normal = sf.ns;
@@ -671,20 +731,20 @@ RTK_HD static inline void rtk_path_walk_shadow(rtk_path_walk *w, int occluded)
     w->shadowed = 0;
 }
 
-/* path's li (plugins/integrators/path.c) for camera ray camera, drawing
- * from pos, as one loop (a megakernel's): each vertex's hit, its shading,
- * then its shadow ray. A wavefront runs the same three steps on many
- * walks at once. */
+/* path's li (plugins/integrators/path.c) for camera ray camera
+ * (differentials diff), drawing from pos, as one loop (a megakernel's):
+ * each vertex's hit, its shading, then its shadow ray. A wavefront runs
+ * the same three steps on many walks at once. */
 RTK_HD static inline void rtk_program_path(const rtk_program *p, const rtk_program_scene *s, const rtk_sample_gen *g,
-                                           rtk_sample_pos pos, const rtk_ray *camera, rtk_li_result *out,
-                                           rtk_program_count *count)
+                                           rtk_sample_pos pos, const rtk_ray *camera, const rtk_ray_differential *diff,
+                                           rtk_li_result *out, rtk_program_count *count)
 {
     rtk_path_walk w;
     rtk_path_walk_start(&w, camera, pos);
     while (w.more) {
         rtk_hit hit;
         const int found = rtk_program_trace(s, &w.ray, count, &hit);
-        rtk_path_walk_shade(p, s, g, &w, found ? &hit : NULL, out);
+        rtk_path_walk_shade(p, s, g, &w, found ? &hit : NULL, diff, out);
         if (w.shadowed)
             rtk_path_walk_shadow(&w, rtk_program_occluded(s, &w.shadow, count));
     }
@@ -700,29 +760,32 @@ RTK_HD static inline void rtk_program_prefill(rtk_li_result *out, rtk_program_co
     count->traced = count->invalid = 0;
 }
 
-/* Program p on one sample: out pre-filled, then as the program sets it. */
+/* Program p on one sample (camera ray ray, its differentials diff or
+ * NULL): out pre-filled, then as the program sets it. */
 RTK_HD static inline void rtk_program_run(const rtk_program *p, const rtk_program_scene *s, const rtk_sample_gen *g,
-                                          const rtk_sample_pos *pos, const rtk_ray *ray, rtk_li_result *out,
+                                          const rtk_sample_pos *pos, const rtk_ray *ray,
+                                          const rtk_ray_differential *diff, rtk_li_result *out,
                                           rtk_program_count *count)
 {
     rtk_program_prefill(out, count);
     if (p->kind == RTK_PROGRAM_AO)
-        rtk_program_ao(p, s, g, *pos, ray, out, count);
+        rtk_program_ao(p, s, g, *pos, ray, diff, out, count);
     else if (p->kind == RTK_PROGRAM_HEADLIGHT)
-        rtk_program_headlight(p, s, ray, out, count);
+        rtk_program_headlight(p, s, ray, diff, out, count);
     else if (p->kind == RTK_PROGRAM_PATH)
-        rtk_program_path(p, s, g, *pos, ray, out, count);
+        rtk_program_path(p, s, g, *pos, ray, diff, out, count);
 }
 
 /* path (p) on n samples as a wavefront, on the host: every live walk's
  * hit and shading, then every pending shadow ray, until no walk goes on:
  * the steps a GPU's wavefront runs as kernels, in their order for each
- * walk, so the results equal rtk_program_run's. walks and live have room
- * for n. */
+ * walk, so the results equal rtk_program_run's. diffs: the rays'
+ * differentials, or NULL. walks and live have room for n. */
 static inline void rtk_program_path_wavefront(const rtk_program *p, const rtk_program_scene *s,
                                               const rtk_sample_gen *g, uint32_t n, const rtk_ray *rays,
-                                              const rtk_sample_pos *pos, rtk_li_result *out, rtk_program_count *counts,
-                                              rtk_path_walk *walks, uint32_t *live)
+                                              const rtk_ray_differential *diffs, const rtk_sample_pos *pos,
+                                              rtk_li_result *out, rtk_program_count *counts, rtk_path_walk *walks,
+                                              uint32_t *live)
 {
     uint32_t alive = 0;
     for (uint32_t i = 0; i < n; i++) {
@@ -735,7 +798,7 @@ static inline void rtk_program_path_wavefront(const rtk_program *p, const rtk_pr
             const uint32_t i = live[k];
             rtk_hit hit;
             const int found = rtk_program_trace(s, &walks[i].ray, &counts[i], &hit);
-            rtk_path_walk_shade(p, s, g, &walks[i], found ? &hit : NULL, &out[i]);
+            rtk_path_walk_shade(p, s, g, &walks[i], found ? &hit : NULL, diffs ? &diffs[i] : NULL, &out[i]);
         }
         uint32_t next = 0;
         for (uint32_t k = 0; k < alive; k++) {

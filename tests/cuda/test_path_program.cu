@@ -39,7 +39,7 @@ __global__ void program_kernel(rtk_program p, rtk_program_scene s, rtk_sample_ge
     const int i = blockIdx.x * blockDim.x + threadIdx.x;
     rtk_program_count c;
     if (i < n)
-        rtk_program_run(&p, &s, &g, &pos[i], &rays[i], &out[i], &c);
+        rtk_program_run(&p, &s, &g, &pos[i], &rays[i], nullptr, &out[i], &c);
 }
 
 namespace {
@@ -135,7 +135,7 @@ void compare(rtk_scene *s, const rtk_program_scene &ps, const rtk_program &p, co
         want.depth = INFINITY;
         path->li(state, &ctx, &rays[i], &want);
         rtk_program_count c;
-        rtk_program_run(&p, &ps, &ctx.gen, &pos, &rays[i], &got, &c);
+        rtk_program_run(&p, &ps, &ctx.gen, &pos, &rays[i], nullptr, &got, &c);
         differ += !same_bits(want, got);
         count_differ += c.traced != ctx.rays - before || c.invalid != ctx.invalid_rays - invalid_before;
         hits += std::isfinite(want.depth);

@@ -95,7 +95,7 @@ __global__ void program_kernel(rtk_program p, rtk_program_scene s, rtk_sample_ge
     const int i = blockIdx.x * blockDim.x + threadIdx.x;
     rtk_program_count c;
     if (i < n)
-        rtk_program_run(&p, &s, &g, &pos[i], &rays[i], &out[i], &c);
+        rtk_program_run(&p, &s, &g, &pos[i], &rays[i], nullptr, &out[i], &c);
 }
 
 /* The program on the GPU over the same tree; false when CUDA failed. */
@@ -173,7 +173,7 @@ void compare(rtk_scene *s, const rtk_integrator_fns *ao, const void *state, rtk_
         want[i].depth = INFINITY;
         ao->li(state, &ctx, &rays[i], &want[i]);
         rtk_program_count c;
-        rtk_program_run(&p, &ps, &ctx.gen, &pos[i], &rays[i], &got[i], &c);
+        rtk_program_run(&p, &ps, &ctx.gen, &pos[i], &rays[i], nullptr, &got[i], &c);
         differ += !same_bits(want[i], got[i]);
         count_differ += c.traced != ctx.rays - before || c.invalid != ctx.invalid_rays - invalid_before;
         hits += std::isfinite(want[i].depth);

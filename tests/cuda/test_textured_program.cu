@@ -7,7 +7,10 @@
  * program gives headlight's li bit for bit; on a GPU, the program run by
  * rtk_gpu_shade over rtk_gpu_upload's copy of the scene gives the host's
  * results bit for bit too (headlight draws nothing, so no cosf or sinf
- * can part them). path (4 bounces) run as a wavefront
+ * can part them). With the textures filtered trilinearly, camera rays
+ * through film positions and their differentials (rtk_shade_batch.diffs)
+ * give headlight's li too, MIP levels read at each hit's footprint, on
+ * the host and on a GPU. path (4 bounces) run as a wavefront
  * (rtk_program_path_wavefront on the host; gpu.cu's wavefront kernels on
  * a GPU) equals path run as one loop (one kernel) bit for bit. Without a
  * GPU the device code is compiled (for sm_90) but not run, and the test
@@ -78,7 +81,7 @@ bool same_bits(const rtk_li_result &a, const rtk_li_result &b)
  * CUDA failed. */
 bool run_on_gpu(const rtk_device_tree &tree, const rtk_program &p, int wavefront, rtk_rgb albedo,
                 const rtk_sample_gen &gen, const std::vector<rtk_ray> &rays, const std::vector<rtk_sample_pos> &pos,
-                std::vector<rtk_li_result> &out, uint64_t counts[2])
+                std::vector<rtk_li_result> &out, uint64_t counts[2], const rtk_ray_differential *diffs = nullptr)
 {
     char name[128], why[512] = "";
     rtk_gpu *gpu = nullptr;
@@ -90,8 +93,8 @@ bool run_on_gpu(const rtk_device_tree &tree, const rtk_program &p, int wavefront
     const bool ok = rtk_gpu_open(0, name, sizeof name, &gpu, why, sizeof why) == 0 &&
                     rtk_gpu_upload(gpu, &tree, &seconds, why, sizeof why) == 0 &&
                     rtk_gpu_lane_open(gpu, n, &lane, why, sizeof why) == 0 &&
-                    rtk_gpu_shade(gpu, lane, &p, wavefront, albedo, &gen, rays.data(), pos.data(), n, out.data(), counts, steps,
-                                  why, sizeof why) == 0;
+                    rtk_gpu_shade(gpu, lane, &p, wavefront, albedo, &gen, rays.data(), diffs, pos.data(), n, out.data(),
+                                  counts, steps, why, sizeof why) == 0;
     if (!ok)
         std::printf("      CUDA: %s\n", why);
     if (lane)
@@ -99,6 +102,89 @@ bool run_on_gpu(const rtk_device_tree &tree, const rtk_program &p, int wavefront
     if (gpu)
         rtk_gpu_close(gpu);
     return ok;
+}
+
+/* Headlight (p, its plugin fns and state) over s with every texture
+ * made trilinear: n camera rays through random film positions of a 64 x
+ * 64 film, li given each ray's film position (so its differentials), the
+ * host's program given the same differentials; and on a GPU, gpu.cu's
+ * upload of the MIP levels and the batch's differentials. */
+void check_trilinear(rtk_scene *s, bool gpu, const rtk_integrator_fns *fns, void *state, const rtk_program &p, rng *g)
+{
+    bool ready = true;
+    for (uint32_t i = 0; ready && i < s->texture_count; i++)
+        ready = rtk_texture_set_filter(&s->textures[i], RTK_TEX_TRILINEAR) == RTK_OK && s->textures[i].levels == 5;
+    rtk_device_tree tree = rtk_device_tree();
+    void *block = nullptr, *program_block = nullptr;
+    rtk_program_scene ps = rtk_program_scene();
+    ready = ready && rtk_device_tree_view(s, 1, &tree, &block) == RTK_OK && tree.texture_levels &&
+            tree.textures[0].levels == 5;
+    if (ready) {
+        rtk_flat_scene flat;
+        rtk_flat_scene_of(&tree, nullptr, &flat);
+        ready = rtk_program_scene_of(&tree, &flat, &program_block, &ps) == 0;
+        ps.albedo = rtk_material_default().base_color;
+    }
+    rtk_camera cam;
+    const rtk_camera_desc desc = {rtk_vec3_make(0.0f, 1.5f, -2.2f), rtk_vec3_make(0.0f, 0.3f, 0.0f),
+                                  rtk_vec3_make(0.0f, 1.0f, 0.0f), 50.0f};
+    ready = ready && rtk_camera_init(&cam, &desc, 64, 64) == RTK_OK;
+    check(ready, "the 16 x 16 textures filtered trilinearly (5 MIP levels each) in the device's view; a 64 x 64 "
+                 "camera");
+    if (!ready) {
+        free(block), free(program_block);
+        return;
+    }
+    const int n = 4000;
+    rtk_ctx ctx;
+    std::memset(&ctx, 0, sizeof ctx);
+    ctx.scene = s;
+    ctx.camera = &cam;
+    rtk_ctx_set_sampler(&ctx, RTK_SAMPLER_INDEPENDENT, 7, 16);
+    std::vector<rtk_ray> rays(n);
+    std::vector<rtk_ray_differential> diffs(n);
+    std::vector<rtk_sample_pos> pos(n);
+    std::vector<rtk_li_result> got(n);
+    int differ = 0, hits = 0, mip = 0;
+    for (int i = 0; i < n; i++) {
+        const float fx = g->next(0.0f, 64.0f), fy = g->next(0.0f, 64.0f);
+        rays[i] = rtk_camera_ray(&cam, fx, fy);
+        /* rtk_camera_differential's rays: one pixel right, one down. */
+        const rtk_ray rx = rtk_camera_ray(&cam, fx + 1.0f, fy), ry = rtk_camera_ray(&cam, fx, fy + 1.0f);
+        diffs[i] = {rx.org, rx.dir, ry.org, ry.dir};
+        rtk_ctx_start_sample(&ctx, (uint64_t)i / 16, (uint64_t)i % 16);
+        ctx.film_x = fx, ctx.film_y = fy;
+        pos[i] = ctx.pos;
+        rtk_li_result want = rtk_li_result(), level0 = rtk_li_result();
+        want.depth = INFINITY;
+        fns->li(state, &ctx, &rays[i], &want);
+        rtk_program_count c;
+        rtk_program_run(&p, &ps, &ctx.gen, &pos[i], &rays[i], &diffs[i], &got[i], &c);
+        rtk_program_run(&p, &ps, &ctx.gen, &pos[i], &rays[i], nullptr, &level0, &c);
+        differ += !same_bits(want, got[i]);
+        hits += std::isfinite(want.depth);
+        mip += !same_bits(level0, got[i]);
+    }
+    char what[256];
+    std::snprintf(what, sizeof what, "trilinear: nvcc's host program given the camera differentials equals "
+                  "headlight's li on %d samples (%d hit, %d read past level 0): %d differ", n, hits, mip, differ);
+    check(differ == 0 && hits > n / 3 && mip > n / 10, what);
+    if (gpu) {
+        std::vector<rtk_li_result> dev;
+        uint64_t counts[2];
+        if (!run_on_gpu(tree, p, 0, ps.albedo, ctx.gen, rays, pos, dev, counts, diffs.data())) {
+            check(false, "the trilinear program ran on the GPU through gpu.cu");
+        } else {
+            int gpu_differ = 0;
+            for (int i = 0; i < n; i++)
+                gpu_differ += !same_bits(dev[i], got[i]);
+            std::snprintf(what, sizeof what, "trilinear on the GPU, through gpu.cu's upload of the MIP levels and "
+                          "differentials: %d of %d samples differ from the host's (want 0)", gpu_differ, n);
+            check(gpu_differ == 0, what);
+        }
+    }
+    free(block);
+    free(program_block);
 }
 
 } // namespace
@@ -165,7 +251,7 @@ int main(int argc, char **argv)
             want.depth = INFINITY;
             fns->li(state, &ctx, &rays[i], &want);
             rtk_program_count c;
-            rtk_program_run(&p, &ps, &ctx.gen, &pos[i], &rays[i], &got[i], &c);
+            rtk_program_run(&p, &ps, &ctx.gen, &pos[i], &rays[i], nullptr, &got[i], &c);
             differ += !same_bits(want, got[i]);
             hits += std::isfinite(want.depth);
             /* The floor's geometric normal is +y: a normal map bent it. */
@@ -186,8 +272,8 @@ int main(int argc, char **argv)
         std::vector<rtk_path_walk> walks(n);
         std::vector<uint32_t> live(n);
         for (int i = 0; i < n; i++)
-            rtk_program_run(&path, &ps, &ctx.gen, &pos[i], &rays[i], &loop[i], &loop_counts[i]);
-        rtk_program_path_wavefront(&path, &ps, &ctx.gen, (uint32_t)n, rays.data(), pos.data(), wave.data(),
+            rtk_program_run(&path, &ps, &ctx.gen, &pos[i], &rays[i], nullptr, &loop[i], &loop_counts[i]);
+        rtk_program_path_wavefront(&path, &ps, &ctx.gen, (uint32_t)n, rays.data(), nullptr, pos.data(), wave.data(),
                                    wave_counts.data(), walks.data(), live.data());
         int wave_differ = 0, lit = 0;
         for (int i = 0; i < n; i++) {
@@ -229,6 +315,7 @@ int main(int argc, char **argv)
                           front_counts[1] == mega_counts[1], what);
             }
         }
+        check_trilinear(s, gpu, fns, state, p, &g);
     }
     if (state)
         fns->destroy(state);

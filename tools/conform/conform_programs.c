@@ -29,7 +29,7 @@ static rtk_status cpu_shade(const void *state, rtk_shade_batch *b)
     ps.albedo = b->albedo;
     for (uint32_t i = 0; i < b->count; i++) {
         rtk_program_count c;
-        rtk_program_run(&p, &ps, b->gen, &b->pos[i], &b->rays[i], &b->out[i], &c);
+        rtk_program_run(&p, &ps, b->gen, &b->pos[i], &b->rays[i], b->diffs ? &b->diffs[i] : NULL, &b->out[i], &c);
         b->rays_traced += c.traced;
         b->invalid_rays += c.invalid;
     }

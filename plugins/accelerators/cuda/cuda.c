@@ -217,8 +217,9 @@ static rtk_status cuda_shade(const void *state, rtk_shade_batch *b)
     char why[512] = "";
     while (lane && done < b->count) {
         const uint32_t n = b->count - done < c->chunk ? b->count - done : c->chunk;
-        if (rtk_gpu_shade(c->gpu, lane, &p, c->wavefront, b->albedo, b->gen, b->rays + done, b->pos + done, n, b->out + done,
-                          counts, seconds, why, sizeof why) != 0)
+        if (rtk_gpu_shade(c->gpu, lane, &p, c->wavefront, b->albedo, b->gen, b->rays + done,
+                          b->diffs ? b->diffs + done : NULL, b->pos + done, n, b->out + done, counts, seconds, why,
+                          sizeof why) != 0)
             break;
         for (int k = 0; k < 3; k++)
             sums[k] += seconds[k];
@@ -230,7 +231,7 @@ static rtk_status cuda_shade(const void *state, rtk_shade_batch *b)
     host.albedo = b->albedo;
     for (uint32_t i = done; i < b->count; i++) {
         rtk_program_count n;
-        rtk_program_run(&p, &host, b->gen, &b->pos[i], &b->rays[i], &b->out[i], &n);
+        rtk_program_run(&p, &host, b->gen, &b->pos[i], &b->rays[i], b->diffs ? &b->diffs[i] : NULL, &b->out[i], &n);
         counts[0] += n.traced, counts[1] += n.invalid;
     }
     b->rays_traced = counts[0];

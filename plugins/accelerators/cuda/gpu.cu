@@ -40,6 +40,8 @@ struct rtk_gpu_lane {
     rtk_sample_pos *pos, *host_pos;
     rtk_li_result *out, *host_out;
     rtk_program_count *counts, *host_counts;
+    /* Camera differentials, made at the first batch that carries them. */
+    rtk_ray_differential *diffs, *host_diffs;
     /* A wavefront's: every sample's walk, the live walks' queue and the
      * next one, the queue of pending shadow rays, their lengths (device,
      * and the next queue's length on the host). Made at the first. */
@@ -78,12 +80,12 @@ __global__ void any_kernel(rtk_flat_scene scene, const rtk_ray *rays, uint32_t c
 
 /* One sample a thread. */
 __global__ void program_kernel(rtk_program p, rtk_program_scene s, rtk_sample_gen g, const rtk_ray *rays,
-                               const rtk_sample_pos *pos, uint32_t count, rtk_li_result *out,
-                               rtk_program_count *counts)
+                               const rtk_ray_differential *diffs, const rtk_sample_pos *pos, uint32_t count,
+                               rtk_li_result *out, rtk_program_count *counts)
 {
     const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
     if (i < count)
-        rtk_program_run(&p, &s, &g, &pos[i], &rays[i], &out[i], &counts[i]);
+        rtk_program_run(&p, &s, &g, &pos[i], &rays[i], diffs ? &diffs[i] : nullptr, &out[i], &counts[i]);
 }
 
 /* Path as a wavefront (rtk_program_path_wavefront's steps as kernels):
@@ -102,9 +104,10 @@ __global__ void walk_start_kernel(const rtk_ray *rays, const rtk_sample_pos *pos
     }
 }
 
-__global__ void walk_extend_kernel(rtk_program p, rtk_program_scene s, rtk_sample_gen g, const uint32_t *queue,
-                                   uint32_t live, rtk_path_walk *walks, rtk_li_result *out, rtk_program_count *counts,
-                                   uint32_t *next, uint32_t *shadows, uint32_t *lengths)
+__global__ void walk_extend_kernel(rtk_program p, rtk_program_scene s, rtk_sample_gen g,
+                                   const rtk_ray_differential *diffs, const uint32_t *queue, uint32_t live,
+                                   rtk_path_walk *walks, rtk_li_result *out, rtk_program_count *counts, uint32_t *next,
+                                   uint32_t *shadows, uint32_t *lengths)
 {
     const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
     if (k >= live)
@@ -113,7 +116,7 @@ __global__ void walk_extend_kernel(rtk_program p, rtk_program_scene s, rtk_sampl
     rtk_path_walk w = walks[i];
     rtk_hit hit;
     const int found = rtk_program_trace(&s, &w.ray, &counts[i], &hit);
-    rtk_path_walk_shade(&p, &s, &g, &w, found ? &hit : NULL, &out[i]);
+    rtk_path_walk_shade(&p, &s, &g, &w, found ? &hit : NULL, diffs ? &diffs[i] : nullptr, &out[i]);
     walks[i] = w;
     if (w.shadowed)
         shadows[atomicAdd(&lengths[1], 1u)] = i;
@@ -281,26 +284,65 @@ static int put_lights(rtk_gpu *g, const rtk_device_tree *t, const rtk_lights **o
            put_n(g, t->punctual, t->punctual_count, punctual, "punctual lights", why, cap);
 }
 
-/* The textures of tree t on the device, their texels each a block of
- * its own: *out NULL when t reads none. */
-static int put_textures(rtk_gpu *g, const rtk_device_tree *t, const rtk_device_texture **out, char *why, size_t cap)
+/* The MIP levels of a texture on the device (n of them, at level), each
+ * level's texels a block of its own: *out their table there, *base level
+ * 0's texels there. */
+static int put_levels(rtk_gpu *g, const rtk_texture_level *level, int n, const rtk_texture_level **out,
+                      const float **base, char *why, size_t cap)
 {
-    *out = nullptr;
-    if (!t->textures || !t->texture_count)
-        return 0;
-    rtk_device_texture *d = static_cast<rtk_device_texture *>(std::malloc(sizeof *d * t->texture_count));
+    rtk_texture_level *d = static_cast<rtk_texture_level *>(std::malloc(sizeof *d * (size_t)n));
     if (!d) {
         std::snprintf(why, cap, "out of memory");
         return -1;
     }
     int st = 0;
-    for (uint32_t i = 0; i < t->texture_count && !st; i++) {
-        d[i] = t->textures[i];
-        const size_t texels = d[i].rgba ? 4 * (size_t)d[i].width * (size_t)d[i].height : 0;
-        st = put_n(g, d[i].rgba, texels, &d[i].rgba, "texture", why, cap);
+    for (int k = 0; k < n && !st; k++) {
+        const float *texels = nullptr;
+        d[k] = level[k];
+        st = put_n(g, static_cast<const float *>(level[k].rgba), 4 * (size_t)level[k].width * (size_t)level[k].height,
+                   &texels, "MIP level", why, cap);
+        d[k].rgba = const_cast<float *>(texels);
     }
-    st = st || put_n(g, static_cast<const rtk_device_texture *>(d), t->texture_count, out, "textures", why, cap);
+    *base = d[0].rgba;
+    st = st || put_n(g, static_cast<const rtk_texture_level *>(d), (size_t)n, out, "MIP levels", why, cap);
     std::free(d);
+    return st;
+}
+
+/* The textures of tree t on the device, their texels each a block of
+ * its own (a trilinear one's level 0 is its first MIP level): *out NULL
+ * when t reads none, *levels NULL when none has MIP levels. */
+static int put_textures(rtk_gpu *g, const rtk_device_tree *t, const rtk_device_texture **out,
+                        const rtk_texture_level *const **levels, char *why, size_t cap)
+{
+    *out = nullptr;
+    *levels = nullptr;
+    if (!t->textures || !t->texture_count)
+        return 0;
+    const size_t n = t->texture_count;
+    rtk_device_texture *d = static_cast<rtk_device_texture *>(std::malloc(sizeof *d * n));
+    const rtk_texture_level **mips = static_cast<const rtk_texture_level **>(std::calloc(n, sizeof *mips));
+    if (!d || !mips) {
+        std::free(d), std::free(mips);
+        std::snprintf(why, cap, "out of memory");
+        return -1;
+    }
+    int st = 0, any = 0;
+    for (size_t i = 0; i < n && !st; i++) {
+        d[i] = t->textures[i];
+        const rtk_texture_level *mip = t->texture_levels ? t->texture_levels[i] : nullptr;
+        if (mip && d[i].rgba && d[i].levels >= 2) {
+            st = put_levels(g, mip, d[i].levels, &mips[i], &d[i].rgba, why, cap);
+            any = 1;
+        } else {
+            d[i].levels = 0;
+            const size_t texels = d[i].rgba ? 4 * (size_t)d[i].width * (size_t)d[i].height : 0;
+            st = put_n(g, d[i].rgba, texels, &d[i].rgba, "texture", why, cap);
+        }
+    }
+    st = st || put_n(g, static_cast<const rtk_device_texture *>(d), n, out, "textures", why, cap) ||
+         (any && put_n(g, static_cast<const rtk_texture_level *const *>(mips), n, levels, "texture levels", why, cap));
+    std::free(d), std::free(mips);
     return st;
 }
 
@@ -329,7 +371,7 @@ static int put_program_mesh(rtk_gpu *g, const rtk_device_tree *t, const float *c
                    put_n(g, m.light_of, n, &m.light_of, "emitters of triangles", why, cap) ||
                    put_n(g, m.uvs, 6 * n, &m.uvs, "texture coordinates", why, cap) ||
                    put_n(g, m.uvs1, 6 * n, &m.uvs1, "texture coordinates", why, cap) ||
-                   put_textures(g, t, &m.textures, why, cap);
+                   put_textures(g, t, &m.textures, &m.levels, why, cap);
     std::free(slot_of);
     if (!st)
         *out = m;
@@ -481,12 +523,15 @@ void rtk_gpu_lane_close(rtk_gpu *g, rtk_gpu_lane *l)
     cudaFreeHost(l->host_pos), cudaFreeHost(l->host_out), cudaFreeHost(l->host_counts);
     cudaFree(l->walks), cudaFree(l->queue[0]), cudaFree(l->queue[1]), cudaFree(l->shadows), cudaFree(l->lengths);
     cudaFreeHost(l->host_length);
+    cudaFree(l->diffs), cudaFreeHost(l->host_diffs);
     if (l->capacity)
         g->lane_bytes -= lane_bytes(l->capacity);
     if (l->counts)
         g->lane_bytes -= program_bytes(l->capacity);
     if (l->host_length)
         g->lane_bytes -= wavefront_bytes(l->capacity);
+    if (l->host_diffs)
+        g->lane_bytes -= sizeof(rtk_ray_differential) * (uint64_t)l->capacity;
     delete l;
 }
 
@@ -582,6 +627,19 @@ static int program_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
     return 0;
 }
 
+/* Makes lane l's buffers of camera differentials if it has none yet. */
+static int diff_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
+{
+    if (l->host_diffs)
+        return 0;
+    const size_t bytes = sizeof(rtk_ray_differential) * (size_t)l->capacity;
+    if (cuda_failed(cudaMalloc(&l->diffs, bytes), "cudaMalloc (camera differentials)", why, cap) ||
+        cuda_failed(cudaMallocHost(&l->host_diffs, bytes), "cudaMallocHost (camera differentials)", why, cap))
+        return -1; /* what was made is freed with the lane */
+    g->lane_bytes += bytes;
+    return 0;
+}
+
 static int wavefront_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
 {
     if (l->host_length)
@@ -599,11 +657,13 @@ static int wavefront_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
     return 0;
 }
 
-/* Path's program over the count samples already on the lane as a
- * wavefront: one round of kernels a vertex, the next round's length read
- * back after each. */
+/* Path's program over the count samples already on the lane (their
+ * differentials at diffs, device memory, or NULL) as a wavefront: one
+ * round of kernels a vertex, the next round's length read back after
+ * each. */
 static int run_wavefront(rtk_gpu *g, rtk_gpu_lane *l, const rtk_program *p, const rtk_program_scene &scene,
-                         const rtk_sample_gen *gen, uint32_t count, char *why, size_t cap)
+                         const rtk_sample_gen *gen, const rtk_ray_differential *diffs, uint32_t count, char *why,
+                         size_t cap)
 {
     if (wavefront_buffers(g, l, why, cap))
         return -1;
@@ -617,8 +677,9 @@ static int run_wavefront(rtk_gpu *g, rtk_gpu_lane *l, const rtk_program *p, cons
         const unsigned b = (live + block_threads - 1) / block_threads;
         if (cuda_failed(cudaMemsetAsync(l->lengths, 0, 2 * sizeof(uint32_t), l->stream), "cudaMemsetAsync", why, cap))
             return -1;
-        walk_extend_kernel<<<b, block_threads, 0, l->stream>>>(*p, scene, *gen, l->queue[round], live, l->walks, l->out,
-                                                                l->counts, l->queue[round ^ 1], l->shadows, l->lengths);
+        walk_extend_kernel<<<b, block_threads, 0, l->stream>>>(*p, scene, *gen, diffs, l->queue[round], live, l->walks,
+                                                                l->out, l->counts, l->queue[round ^ 1], l->shadows,
+                                                                l->lengths);
         if (cuda_failed(cudaGetLastError(), "walk_extend_kernel launch", why, cap))
             return -1;
         walk_shadow_kernel<<<b, block_threads, 0, l->stream>>>(scene, l->shadows, l->lengths, l->walks, l->counts);
@@ -635,8 +696,9 @@ static int run_wavefront(rtk_gpu *g, rtk_gpu_lane *l, const rtk_program *p, cons
 }
 
 int rtk_gpu_shade(rtk_gpu *g, rtk_gpu_lane *l, const rtk_program *p, int wavefront, rtk_rgb albedo,
-                  const rtk_sample_gen *gen, const rtk_ray *rays, const rtk_sample_pos *pos, uint32_t count,
-                  rtk_li_result *out, uint64_t counts[2], double seconds[3], char *why, size_t cap)
+                  const rtk_sample_gen *gen, const rtk_ray *rays, const rtk_ray_differential *diffs,
+                  const rtk_sample_pos *pos, uint32_t count, rtk_li_result *out, uint64_t counts[2],
+                  double seconds[3], char *why, size_t cap)
 {
     if (count == 0)
         return 0;
@@ -644,10 +706,13 @@ int rtk_gpu_shade(rtk_gpu *g, rtk_gpu_lane *l, const rtk_program *p, int wavefro
         std::snprintf(why, cap, "a batch of %u samples on a lane of %u", count, l->capacity);
         return -1;
     }
-    if (cuda_failed(cudaSetDevice(g->ordinal), "cudaSetDevice", why, cap) || program_buffers(g, l, why, cap))
+    if (cuda_failed(cudaSetDevice(g->ordinal), "cudaSetDevice", why, cap) || program_buffers(g, l, why, cap) ||
+        (diffs && diff_buffers(g, l, why, cap)))
         return -1;
     std::memcpy(l->host_rays, rays, sizeof(rtk_ray) * (size_t)count);
     std::memcpy(l->host_pos, pos, sizeof(rtk_sample_pos) * (size_t)count);
+    if (diffs)
+        std::memcpy(l->host_diffs, diffs, sizeof(rtk_ray_differential) * (size_t)count);
     rtk_program_scene scene = g->program_scene;
     scene.albedo = albedo;
     const unsigned blocks = (count + block_threads - 1) / block_threads;
@@ -658,14 +723,18 @@ int rtk_gpu_shade(rtk_gpu *g, rtk_gpu_lane *l, const rtk_program *p, int wavefro
              cuda_failed(cudaMemcpyAsync(l->pos, l->host_pos, sizeof(rtk_sample_pos) * (size_t)count,
                                     cudaMemcpyHostToDevice, l->stream),
                     "cudaMemcpyAsync (sample streams)", why, cap) ||
+             (diffs && cuda_failed(cudaMemcpyAsync(l->diffs, l->host_diffs, sizeof(rtk_ray_differential) * (size_t)count,
+                                                   cudaMemcpyHostToDevice, l->stream),
+                                   "cudaMemcpyAsync (camera differentials)", why, cap)) ||
              cuda_failed(cudaEventRecord(l->marks[1], l->stream), "cudaEventRecord", why, cap);
     if (st)
         return -1;
+    const rtk_ray_differential *device_diffs = diffs ? l->diffs : nullptr;
     if (wavefront && p->kind == RTK_PROGRAM_PATH) {
-        st = run_wavefront(g, l, p, scene, gen, count, why, cap);
+        st = run_wavefront(g, l, p, scene, gen, device_diffs, count, why, cap);
     } else {
-        program_kernel<<<blocks, block_threads, 0, l->stream>>>(*p, scene, *gen, l->rays, l->pos, count, l->out,
-                                                                 l->counts);
+        program_kernel<<<blocks, block_threads, 0, l->stream>>>(*p, scene, *gen, l->rays, device_diffs, l->pos, count,
+                                                                 l->out, l->counts);
         st = cuda_failed(cudaGetLastError(), "program_kernel launch", why, cap);
     }
     st = st || cuda_failed(cudaEventRecord(l->marks[2], l->stream), "cudaEventRecord", why, cap) ||

@@ -44,12 +44,14 @@ int rtk_gpu_trace(rtk_gpu *gpu, rtk_gpu_lane *lane, const rtk_ray *rays, uint32_
  * (plugins/integrators/device_programs.h): one GPU thread a sample (a
  * megakernel), or for path with wavefront set one round of kernels a
  * vertex over the walks still going (rtk_program_path_wavefront's
- * steps); results into out (filled as the kernel pre-fills them, then by
- * the program), the rays it traced and the invalid ones added to
- * counts[0] and counts[1]. seconds as for rtk_gpu_trace. */
+ * steps), diffs the camera rays' differentials (NULL: none); results
+ * into out (filled as the kernel pre-fills them, then by the program),
+ * the rays it traced and the invalid ones added to counts[0] and
+ * counts[1]. seconds as for rtk_gpu_trace. */
 int rtk_gpu_shade(rtk_gpu *gpu, rtk_gpu_lane *lane, const rtk_program *p, int wavefront, rtk_rgb albedo,
-                  const rtk_sample_gen *gen, const rtk_ray *rays, const rtk_sample_pos *pos, uint32_t count,
-                  rtk_li_result *out, uint64_t counts[2], double seconds[3], char *why, size_t cap);
+                  const rtk_sample_gen *gen, const rtk_ray *rays, const rtk_ray_differential *diffs,
+                  const rtk_sample_pos *pos, uint32_t count, rtk_li_result *out, uint64_t counts[2],
+                  double seconds[3], char *why, size_t cap);
 
 RTK_EXTERN_C_END
 

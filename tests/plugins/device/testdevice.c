@@ -131,14 +131,16 @@ static rtk_status testdevice_shade(const void *state, rtk_shade_batch *b)
             free(walks), free(live), free(counts);
             return rtk_error(RTK_ERR_NOMEM, "testdevice: out of memory for a wavefront of %u samples", b->count);
         }
-        rtk_program_path_wavefront(&p, &scene, b->gen, b->count, b->rays, b->pos, b->out, counts, walks, live);
+        rtk_program_path_wavefront(&p, &scene, b->gen, b->count, b->rays, b->diffs, b->pos, b->out, counts, walks,
+                                   live);
         for (uint32_t i = 0; i < b->count; i++)
             traced += counts[i].traced, invalid += counts[i].invalid;
         free(walks), free(live), free(counts);
     } else {
         for (uint32_t i = 0; i < b->count; i++) {
             rtk_program_count c;
-            rtk_program_run(&p, &scene, b->gen, &b->pos[i], &b->rays[i], &b->out[i], &c);
+            rtk_program_run(&p, &scene, b->gen, &b->pos[i], &b->rays[i], b->diffs ? &b->diffs[i] : NULL, &b->out[i],
+                            &c);
             traced += c.traced, invalid += c.invalid;
         }
     }
@@ -198,10 +200,19 @@ static const rtk_accelerator_fns testdevice_fns = {
     .shade = testdevice_shade,
 };
 
+/* Built a second time as a plugin of an older ABI minor, for the kernel's
+ * fallbacks (tests/plugins/device/meson.build). */
+#ifndef TESTDEVICE_ABI_MINOR
+#define TESTDEVICE_ABI_MINOR RTK_ABI_MINOR
+#define TESTDEVICE_NAME "testdevice"
+#endif
+
 static const rtk_plugin testdevice_plugin = {
-    RTK_PLUGIN_HEADER,
+    .size = sizeof(rtk_plugin),
+    .abi_major = RTK_ABI_MAJOR,
+    .abi_minor = TESTDEVICE_ABI_MINOR,
     .kind = RTK_KIND_ACCELERATOR,
-    .name = "testdevice",
+    .name = TESTDEVICE_NAME,
     .version = "1.0",
     .summary = "a device accelerator on the CPU, for tests of the kernel's device support",
     .params = testdevice_params,
