@@ -188,6 +188,17 @@ if [ -s "$textured" ]; then
     program_image "program, ao albedo over trilinear textures" "$tex-ao.cfg" "${tri[@]}"
     program_image "program, path over trilinear textures" "$tex-path.cfg" "${tri[@]}" --set sampler.type=\"sobol\"
     program_image "program, path over placed trilinear meshes" "$tex-instanced.cfg" "${tri[@]}"
+    # Texture transforms and the second uv set (mapped.gltf): footprints
+    # measured in the set a slot reads and taken through its transform.
+    mapped=$src/tests/scenes/textured/mapped.gltf
+    sed "s|^scene = .*|scene = \"$mapped\";|" "$src/tests/scenes/textured/mapped.cfg" >"$tmp/mapped-headlight.cfg"
+    sed 's/^integrator = .*/integrator = { plugin = "path"; max_depth = 3; };/' "$tmp/mapped-headlight.cfg" \
+        >"$tmp/mapped-path.cfg"
+    program_image "program, headlight over texture transforms and a second uv set" "$tmp/mapped-headlight.cfg"
+    program_image "program, headlight over transforms and a second uv set, trilinear" "$tmp/mapped-headlight.cfg" \
+        "${tri[@]}"
+    program_image "program, path over an emission map on the second uv set, trilinear" "$tmp/mapped-path.cfg" \
+        "${tri[@]}"
     # The footprints matter: trilinear's image is not bilinear's.
     if ! cmp -s "$tmp/program, headlight over trilinear textures-dev.exr" \
             "$tmp/program, headlight over textures and normal maps-dev.exr"; then

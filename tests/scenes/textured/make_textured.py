@@ -10,11 +10,21 @@ whose every surface reads textures, for device programs' tests.
       a lamp above (y = 1.2, facing down) whose emission is an image
   checker.ppm, bumps.ppm, rough.ppm, metal.ppm, shiny.ppm, stripes.ppm
       the images, binary PPM
+  mapped.gltf, mapped.bin, grid.png, bands.png
+      what OBJ cannot say: a double-sided floor (4 x 4 quads) whose base
+      colour reads TEXCOORD_0 through a KHR_texture_transform (offset,
+      rotation, scale) and whose emission reads TEXCOORD_1 through another,
+      and a wall whose base colour reads TEXCOORD_1 untransformed, with
+      repeat and mirrored-repeat wrapping
 
 Every file is computed here (this script and its output are rtk's own
 work, free to ship with it). Run it in this folder to write them again.
 """
+import base64
+import json
 import math
+import struct
+import zlib
 
 
 def ppm(name, n, texel):
@@ -25,6 +35,92 @@ def ppm(name, n, texel):
             px += bytes(max(0, min(255, int(255 * c + 0.5))) for c in texel(x / n, y / n))
     with open(name, "wb") as f:
         f.write(b"P6 %d %d 255\n" % (n, n) + px)
+
+
+def png(name, n, texel):
+    """An n x n RGB PNG whose texel at (u, v) in [0, 1) is texel(u, v)."""
+    rows = b""
+    for y in range(n):
+        rows += b"\0" + bytes(max(0, min(255, int(255 * c + 0.5))) for x in range(n) for c in texel(x / n, y / n))
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    with open(name, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", n, n, 8, 2, 0, 0, 0)) +
+                chunk(b"IDAT", zlib.compress(rows, 9)) + chunk(b"IEND", b""))
+
+
+def mapped():
+    """mapped.gltf and its buffer and images (see the module's summary)."""
+    png("grid.png", 32, lambda u, v: (0.9, 0.8, 0.2) if (int(8 * u) + int(8 * v)) % 2 else (0.1, 0.3, 0.7))
+    png("bands.png", 16, lambda u, v: (1.0, 0.5, 0.3) if int(4 * (u + v)) % 2 else (0.2, 0.2, 0.2))
+    pos, uv0, uv1, idx = [], [], [], []
+    n = 4
+    for j in range(n + 1):  # the floor, y = 0, x and z in [-1.5, 1.5]
+        for i in range(n + 1):
+            pos.append((-1.5 + 3.0 * i / n, 0.0, -1.5 + 3.0 * j / n))
+            uv0.append((2.0 * i / n, 2.0 * j / n))
+            uv1.append((1.0 * j / n, 1.0 - 1.0 * i / n))
+    for j in range(n):
+        for i in range(n):
+            a, b = j * (n + 1) + i, j * (n + 1) + i + 1
+            c, d = a + n + 1, b + n + 1
+            idx += [a, c, b, b, c, d]
+    floor = len(idx)
+    w = len(pos)  # the wall, z = 1.2, x in [-1.2, 1.2], y in [0, 1.4]
+    for x, y in ((-1.2, 0.0), (1.2, 0.0), (1.2, 1.4), (-1.2, 1.4)):
+        pos.append((x, y, 1.2))
+        uv0.append((0.0, 0.0))
+        uv1.append(((x + 1.2) / 0.8, 1.4 - y))
+    idx += [w, w + 2, w + 1, w, w + 3, w + 2]
+    blob = b"".join(struct.pack("<3f", *p) for p in pos)
+    views = [(0, len(blob))]
+    for data, fmt in ((uv0, "<2f"), (uv1, "<2f")):
+        start = len(blob)
+        blob += b"".join(struct.pack(fmt, *t) for t in data)
+        views.append((start, len(blob) - start))
+    start = len(blob)
+    blob += struct.pack("<%dH" % len(idx), *idx)
+    views.append((start, len(blob) - start))
+    with open("mapped.bin", "wb") as f:
+        f.write(blob)
+    lo = [min(p[k] for p in pos) for k in range(3)]
+    hi = [max(p[k] for p in pos) for k in range(3)]
+    accessors = [{"bufferView": 0, "componentType": 5126, "count": len(pos), "type": "VEC3", "min": lo, "max": hi},
+                 {"bufferView": 1, "componentType": 5126, "count": len(pos), "type": "VEC2"},
+                 {"bufferView": 2, "componentType": 5126, "count": len(pos), "type": "VEC2"},
+                 {"bufferView": 3, "byteOffset": 0, "componentType": 5123, "count": floor, "type": "SCALAR"},
+                 {"bufferView": 3, "byteOffset": 2 * floor, "componentType": 5123, "count": 6, "type": "SCALAR"}]
+    attributes = {"POSITION": 0, "TEXCOORD_0": 1, "TEXCOORD_1": 2}
+    doc = {
+        "asset": {"version": "2.0", "generator": "rtk tests/scenes/textured/make_textured.py"},
+        "extensionsUsed": ["KHR_texture_transform"],
+        "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": attributes, "indices": 3, "material": 0},
+                                   {"attributes": attributes, "indices": 4, "material": 1}]}],
+        "materials": [
+            {"name": "floor", "doubleSided": True,
+             "pbrMetallicRoughness": {
+                 "baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform": {
+                     "offset": [0.1, 0.2], "rotation": 0.4, "scale": [2.5, 1.5]}}},
+                 "metallicFactor": 0.0, "roughnessFactor": 0.8},
+             "emissiveFactor": [0.6, 0.6, 0.6],
+             "emissiveTexture": {"index": 1, "texCoord": 1, "extensions": {"KHR_texture_transform": {
+                 "offset": [0.3, 0.0], "scale": [3.0, 2.0]}}}},
+            {"name": "wall", "doubleSided": True,
+             "pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 1},
+                                      "metallicFactor": 0.0, "roughnessFactor": 0.5}}],
+        "textures": [{"source": 0, "sampler": 0}, {"source": 1, "sampler": 1}],
+        "images": [{"uri": "grid.png"}, {"uri": "bands.png"}],
+        "samplers": [{"wrapS": 10497, "wrapT": 33648}, {"wrapS": 10497, "wrapT": 10497}],
+        "accessors": accessors,
+        "bufferViews": [{"buffer": 0, "byteOffset": o, "byteLength": l} for o, l in views],
+        "buffers": [{"uri": "mapped.bin", "byteLength": len(blob)}],
+    }
+    with open("mapped.gltf", "w") as f:
+        json.dump(doc, f, indent=1)
+        f.write("\n")
 
 
 def main():
@@ -68,6 +164,7 @@ def main():
                 "newmtl ball\nKd 0.9 0.9 0.9\nKs 0.3 0.3 0.3\nNs 60\nillum 2\nmap_Kd -clamp on checker.ppm\n"
                 "map_Ns shiny.ppm\nnorm bumps.ppm\n"
                 "newmtl lamp\nKd 0 0 0\nKe 3 3 3\nmap_Ke stripes.ppm\n")
+    mapped()
 
 
 if __name__ == "__main__":
