@@ -632,6 +632,8 @@ static int diff_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
 {
     if (l->host_diffs)
         return 0;
+    cudaFree(l->diffs); /* a failed try's, if any */
+    l->diffs = nullptr;
     const size_t bytes = sizeof(rtk_ray_differential) * (size_t)l->capacity;
     if (cuda_failed(cudaMalloc(&l->diffs, bytes), "cudaMalloc (camera differentials)", why, cap) ||
         cuda_failed(cudaMallocHost(&l->host_diffs, bytes), "cudaMallocHost (camera differentials)", why, cap))
