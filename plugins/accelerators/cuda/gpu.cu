@@ -607,6 +607,16 @@ int rtk_gpu_trace(rtk_gpu *g, rtk_gpu_lane *l, const rtk_ray *rays, uint32_t cou
     return 0;
 }
 
+/* Frees lane l's program buffers, made or half-made, and forgets them. */
+static void drop_program_buffers(rtk_gpu_lane *l)
+{
+    cudaFree(l->pos), cudaFree(l->out), cudaFree(l->counts);
+    cudaFreeHost(l->host_pos), cudaFreeHost(l->host_out), cudaFreeHost(l->host_counts);
+    l->pos = l->host_pos = nullptr;
+    l->out = l->host_out = nullptr;
+    l->counts = l->host_counts = nullptr;
+}
+
 /* Makes lane l's program buffers if it has none yet. */
 static int program_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
 {
@@ -621,8 +631,10 @@ static int program_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
              cuda_failed(cudaMallocHost(&l->host_counts, sizeof(rtk_program_count) * n), "cudaMallocHost (ray counts)",
                     why, cap) ||
              cuda_failed(cudaMalloc(&l->counts, sizeof(rtk_program_count) * n), "cudaMalloc (ray counts)", why, cap);
-    if (st)
-        return -1; /* what was made is freed with the lane */
+    if (st) {
+        drop_program_buffers(l); /* a later try starts afresh */
+        return -1;
+    }
     g->lane_bytes += program_bytes(l->capacity);
     return 0;
 }
@@ -632,12 +644,13 @@ static int diff_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
 {
     if (l->host_diffs)
         return 0;
-    cudaFree(l->diffs); /* a failed try's, if any */
-    l->diffs = nullptr;
     const size_t bytes = sizeof(rtk_ray_differential) * (size_t)l->capacity;
     if (cuda_failed(cudaMalloc(&l->diffs, bytes), "cudaMalloc (camera differentials)", why, cap) ||
-        cuda_failed(cudaMallocHost(&l->host_diffs, bytes), "cudaMallocHost (camera differentials)", why, cap))
-        return -1; /* what was made is freed with the lane */
+        cuda_failed(cudaMallocHost(&l->host_diffs, bytes), "cudaMallocHost (camera differentials)", why, cap)) {
+        cudaFree(l->diffs), cudaFreeHost(l->host_diffs); /* a later try starts afresh */
+        l->diffs = l->host_diffs = nullptr;
+        return -1;
+    }
     g->lane_bytes += bytes;
     return 0;
 }
@@ -653,8 +666,13 @@ static int wavefront_buffers(rtk_gpu *g, rtk_gpu_lane *l, char *why, size_t cap)
              cuda_failed(cudaMalloc(&l->shadows, sizeof(uint32_t) * n), "cudaMalloc (shadow queue)", why, cap) ||
              cuda_failed(cudaMalloc(&l->lengths, 2 * sizeof(uint32_t)), "cudaMalloc (queue lengths)", why, cap) ||
              cuda_failed(cudaMallocHost(&l->host_length, sizeof(uint32_t)), "cudaMallocHost (queue length)", why, cap);
-    if (st)
-        return -1; /* what was made is freed with the lane */
+    if (st) {
+        cudaFree(l->walks), cudaFree(l->queue[0]), cudaFree(l->queue[1]), cudaFree(l->shadows), cudaFree(l->lengths);
+        cudaFreeHost(l->host_length); /* a later try starts afresh */
+        l->walks = nullptr;
+        l->queue[0] = l->queue[1] = l->shadows = l->lengths = l->host_length = nullptr;
+        return -1;
+    }
     g->lane_bytes += wavefront_bytes(l->capacity);
     return 0;
 }
