@@ -104,6 +104,28 @@ bool run_on_gpu(const rtk_device_tree &tree, const rtk_program &p, int wavefront
     return ok;
 }
 
+/* Program p (megakernel) on the GPU through gpu.cu gives host's results
+ * bit for bit; what names the check. */
+void check_gpu_equals_host(const rtk_device_tree &tree, const rtk_program &p, rtk_rgb albedo, const rtk_sample_gen &gen,
+                           const std::vector<rtk_ray> &rays, const std::vector<rtk_sample_pos> &pos,
+                           const rtk_ray_differential *diffs, const std::vector<rtk_li_result> &host, const char *what)
+{
+    std::vector<rtk_li_result> dev;
+    uint64_t counts[2];
+    char line[320];
+    if (!run_on_gpu(tree, p, 0, albedo, gen, rays, pos, dev, counts, diffs)) {
+        std::snprintf(line, sizeof line, "%s: the program ran", what);
+        check(false, line);
+        return;
+    }
+    int differ = 0;
+    for (size_t i = 0; i < host.size(); i++)
+        differ += !same_bits(dev[i], host[i]);
+    std::snprintf(line, sizeof line, "%s: %d of %zu samples differ from the host's (want 0)", what, differ,
+                  host.size());
+    check(differ == 0, line);
+}
+
 /* Headlight (p, its plugin fns and state) over s with every texture
  * made trilinear: n camera rays through random film positions of a 64 x
  * 64 film, li given each ray's film position (so its differentials), the
@@ -169,20 +191,9 @@ void check_trilinear(rtk_scene *s, bool gpu, const rtk_integrator_fns *fns, void
     std::snprintf(what, sizeof what, "trilinear: nvcc's host program given the camera differentials equals "
                   "headlight's li on %d samples (%d hit, %d read past level 0): %d differ", n, hits, mip, differ);
     check(differ == 0 && hits > n / 3 && mip > n / 10, what);
-    if (gpu) {
-        std::vector<rtk_li_result> dev;
-        uint64_t counts[2];
-        if (!run_on_gpu(tree, p, 0, ps.albedo, ctx.gen, rays, pos, dev, counts, diffs.data())) {
-            check(false, "the trilinear program ran on the GPU through gpu.cu");
-        } else {
-            int gpu_differ = 0;
-            for (int i = 0; i < n; i++)
-                gpu_differ += !same_bits(dev[i], got[i]);
-            std::snprintf(what, sizeof what, "trilinear on the GPU, through gpu.cu's upload of the MIP levels and "
-                          "differentials: %d of %d samples differ from the host's (want 0)", gpu_differ, n);
-            check(gpu_differ == 0, what);
-        }
-    }
+    if (gpu)
+        check_gpu_equals_host(tree, p, ps.albedo, ctx.gen, rays, pos, diffs.data(), got,
+                              "trilinear on the GPU, through gpu.cu's upload of the MIP levels and differentials");
     free(block);
     free(program_block);
 }
@@ -285,18 +296,8 @@ int main(int argc, char **argv)
                       "samples (%d lit): %d differ", n, lit, wave_differ);
         check(path.kind == RTK_PROGRAM_PATH && wave_differ == 0 && lit > n / 4, what);
         if (gpu) {
-            std::vector<rtk_li_result> dev;
-            uint64_t dev_counts[2];
-            if (!run_on_gpu(tree, p, 0, ps.albedo, ctx.gen, rays, pos, dev, dev_counts)) {
-                check(false, "the program ran on the GPU through gpu.cu");
-            } else {
-                int gpu_differ = 0;
-                for (int i = 0; i < n; i++)
-                    gpu_differ += !same_bits(dev[i], got[i]);
-                std::snprintf(what, sizeof what, "on the GPU, through gpu.cu's upload of the textures: %d of %d "
-                              "samples differ from the host's (want 0)", gpu_differ, n);
-                check(gpu_differ == 0, what);
-            }
+            check_gpu_equals_host(tree, p, ps.albedo, ctx.gen, rays, pos, nullptr, got,
+                                  "on the GPU, through gpu.cu's upload of the textures");
             /* On the GPU the two runs of path share the device's cosf and
              * sinf, so they agree bit for bit as on the host. */
             std::vector<rtk_li_result> mega, front;
