@@ -54,6 +54,14 @@
 #define SAH_SPAWN_MIN 1024
 /* Nodes of at most this many primitives try every object split. */
 #define SAH_SMALL 8
+/* Nodes split by a team of threads (team_node), on any number of threads
+ * so that the tree does not depend on it: the root of SAH_SPAWN_MIN or
+ * more primitives, and the nodes down to depth SAH_TEAM_DEPTH of
+ * SAH_TEAM_MIN or more. On threads the queue then starts with up to
+ * 2^SAH_TEAM_DEPTH subtrees, not two, so no member waits while a large
+ * node near the root is split on one thread. */
+#define SAH_TEAM_DEPTH 5
+#define SAH_TEAM_MIN 32768
 
 typedef struct sah {
     int sweep;
@@ -133,7 +141,7 @@ typedef struct job {
     vbox geom, cent;
     uint32_t slot, begin, end, region, depth;
     uint32_t dense;    /* 1: below a node under SAH_SPAWN_MIN primitives */
-    uint32_t presplit; /* 1: its split is build.root_split (the root, binned by a team) */
+    uint32_t presplit; /* 1: split by the build's team into build.pre */
 } job;
 
 /* Jobs shared between workers; pending counts queued and running ones. */
@@ -160,6 +168,21 @@ typedef struct segment {
     uint32_t start, len, dense, shift;
 } segment;
 
+/* Bins of one node: a box and a count per bin and axis. */
+typedef struct binning {
+    vbox box[3][256];
+    uint32_t count[3][256];
+} binning;
+
+/* A node's split made by a team: the split; when it separates the
+ * primitives (parted), the first right slot and the children's bounds. */
+typedef struct presplit {
+    split s;
+    uint32_t mid;
+    int parted;
+    job sides[2];
+} presplit;
+
 /* One build: options, arguments, scratch arrays and the queue. */
 typedef struct build {
     const sah *opt;
@@ -174,10 +197,12 @@ typedef struct build {
     atomic_uint *seg_count; /* how many: the next is taken with an atomic add */
     uint32_t dense_end; /* one thread: the slots the tree fills, [0, dense_end) */
     queue *q;         /* NULL when building on one thread */
-    split root_split; /* the root's, when its job says presplit */
-    uint32_t root_mid; /* presplit and root_parted: the root's first right slot */
-    int root_parted;   /* 1: the root's refs are partitioned (root_sides: its children's bounds) */
-    job root_sides[2];
+    presplit pre;     /* threads: the split of the job that says presplit */
+    /* Scratch of team splits (binned mode, from SAH_SPAWN_MIN primitives):
+     * per member its bins and its sides' bounds, per chunk its left refs. */
+    binning (*team_bins)[2];
+    job *team_sides;
+    uint32_t *team_lefts;
 } build;
 
 static rtk_status sah_create(const rtk_params *params, void **state)
@@ -299,12 +324,6 @@ static void bin_setup(const sah *o, const job *j, v4 *scale, v4 *last)
     *scale = v4_load(s);
     *last = v4_set1((float)(nb - 1));
 }
-
-/* Bins of one node: a box and a count per bin and axis. */
-typedef struct binning {
-    vbox box[3][256];
-    uint32_t count[3][256];
-} binning;
 
 static void binning_clear(binning *bn, uint32_t nb)
 {
@@ -708,6 +727,16 @@ static void add_segment(const build *b, uint32_t start, uint32_t len, uint32_t d
     b->segs[atomic_fetch_add(b->seg_count, 1u)] = (segment){start, len, dense, 0};
 }
 
+/* Whether a team splits node j (SAH_TEAM_DEPTH). */
+static int team_node(const sah *o, const job *j)
+{
+    const uint32_t count = j->end - j->begin;
+    return !o->sweep && count >= SAH_SPAWN_MIN && j->depth <= SAH_TEAM_DEPTH &&
+           (j->depth == 1 || count >= SAH_TEAM_MIN);
+}
+
+static void team_split(const build *b, const job *j, uint32_t threads, presplit *out, int mark);
+
 /* Builds the subtree of root, handing large subtrees to the queue, or
  * with root_only splits root alone and queues both its children.
  * Returns the next slot after a dense root's subtree. A node's left
@@ -734,8 +763,15 @@ static uint32_t build_subtree(const build *b, const job *root, int root_only)
         split s;
         s.axis = -1;
         s.cost = INFINITY;
+        /* A team's split: made before on threads, here on one. */
+        presplit ps;
+        const int team = j.presplit || (!b->q && team_node(o, &j));
         if (j.presplit)
-            s = b->root_split;
+            ps = b->pre;
+        else if (team)
+            team_split(b, &j, 1, &ps, 0);
+        if (team)
+            s = ps.s;
         else if (count > 1 && j.depth < SAH_HALVING_DEPTH && o->sweep)
             find_sweep(b, &j, &s);
         else if (count > 1 && j.depth < SAH_HALVING_DEPTH)
@@ -786,10 +822,10 @@ static uint32_t build_subtree(const build *b, const job *root, int root_only)
             partition_sweep(b, &j, &s);
         } else if (count <= SAH_SMALL) {
             mid = partition_small(b, &j, &s, &l, r);
-        } else if (j.presplit && b->root_parted) {
-            mid = b->root_mid;
-            l.geom = b->root_sides[0].geom, l.cent = b->root_sides[0].cent;
-            r->geom = b->root_sides[1].geom, r->cent = b->root_sides[1].cent;
+        } else if (team && ps.parted) {
+            mid = ps.mid;
+            l.geom = ps.sides[0].geom, l.cent = ps.sides[0].cent;
+            r->geom = ps.sides[1].geom, r->cent = ps.sides[1].cent;
         } else {
             mid = partition_binned(b, &j, &s, &l, r);
         }
@@ -875,44 +911,43 @@ static uint32_t build_threads(const rtk_build_args *a)
     return a->thread_count < a->prim_count / SAH_SPAWN_MIN ? a->thread_count : a->prim_count / SAH_SPAWN_MIN;
 }
 
-/* The root's bins, one part of its refs per member of a team. */
-typedef struct root_binning {
+/* A node's bins by a team, one part of its refs per member. */
+typedef struct team_binning {
     const build *b;
-    const job *root;
-    binning (*parts)[2];
-} root_binning;
+    const job *node;
+} team_binning;
 
 static void bin_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
 {
     (void)team;
-    const root_binning *r = ctx;
-    const uint32_t n = r->root->end;
-    bin_refs(r->b, r->root, (uint32_t)((uint64_t)n * index / size), (uint32_t)((uint64_t)n * (index + 1) / size),
-             r->parts[index]);
+    const team_binning *r = ctx;
+    const uint32_t begin = r->node->begin, n = r->node->end - begin;
+    bin_refs(r->b, r->node, begin + (uint32_t)((uint64_t)n * index / size),
+             begin + (uint32_t)((uint64_t)n * (index + 1) / size), r->b->team_bins[index]);
 }
 
-/* The root's partition by a team, in place and the same for any number of
+/* A node's partition by a team, in place and the same for any number of
  * members: each chunk of SAH_PART_CHUNK refs is partitioned as
  * partition_range does, then the right refs left of the split and the
  * left refs right of it are swapped pairwise, in slot order. */
 #define SAH_PART_CHUNK 8192u
 
-typedef struct root_parting {
-    build *b;
-    const job *root;
+typedef struct team_parting {
+    const build *b;
+    const job *node;
     uint32_t *lefts; /* per chunk: its left refs */
     job *sides;      /* per member: bounds of its chunks' left [2i] and right [2i + 1] refs */
     int k;
     float clo, scl, at;
-} root_parting;
+} team_parting;
 
 /* Chunk c's misplaced refs once every chunk is partitioned: its right
  * refs before slot split (right_of 0) or its left refs from split on
  * (right_of 1), a run of slots from *first; returns how many. */
-static uint32_t misplaced(const root_parting *r, uint32_t c, uint32_t split, int right_of, uint32_t *first)
+static uint32_t misplaced(const team_parting *r, uint32_t c, uint32_t split, int right_of, uint32_t *first)
 {
-    const uint32_t cs = r->root->begin + c * SAH_PART_CHUNK;
-    const uint32_t ce = r->root->end - cs < SAH_PART_CHUNK ? r->root->end : cs + SAH_PART_CHUNK;
+    const uint32_t cs = r->node->begin + c * SAH_PART_CHUNK;
+    const uint32_t ce = r->node->end - cs < SAH_PART_CHUNK ? r->node->end : cs + SAH_PART_CHUNK;
     const uint32_t cm = cs + r->lefts[c];
     const uint32_t from = right_of ? (cs > split ? cs : split) : cm;
     const uint32_t to = right_of ? cm : (ce < split ? ce : split);
@@ -922,7 +957,7 @@ static uint32_t misplaced(const root_parting *r, uint32_t c, uint32_t split, int
 
 /* The slot of the k-th misplaced ref of one side, its chunk in *c and the
  * end of that chunk's run in *run_end. */
-static uint32_t misplaced_at(const root_parting *r, uint32_t chunks, uint32_t split, int right_of, uint32_t k,
+static uint32_t misplaced_at(const team_parting *r, uint32_t chunks, uint32_t split, int right_of, uint32_t k,
                              uint32_t *c, uint32_t *run_end)
 {
     for (*c = 0; *c < chunks; (*c)++) {
@@ -939,7 +974,7 @@ static uint32_t misplaced_at(const root_parting *r, uint32_t chunks, uint32_t sp
 
 /* The next misplaced ref of one side after slot at, moving on to the next
  * chunk's run at the end of the current one. */
-static uint32_t misplaced_next(const root_parting *r, uint32_t chunks, uint32_t split, int right_of, uint32_t at,
+static uint32_t misplaced_next(const team_parting *r, uint32_t chunks, uint32_t split, int right_of, uint32_t at,
                                uint32_t *c, uint32_t *run_end)
 {
     if (++at < *run_end)
@@ -956,9 +991,9 @@ static uint32_t misplaced_next(const root_parting *r, uint32_t chunks, uint32_t 
 
 static void part_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
 {
-    const root_parting *r = ctx;
+    const team_parting *r = ctx;
     ref *refs = r->b->refs;
-    const uint32_t begin = r->root->begin, end = r->root->end;
+    const uint32_t begin = r->node->begin, end = r->node->end;
     const uint32_t chunks = (end - begin + SAH_PART_CHUNK - 1) / SAH_PART_CHUNK;
     job *l = &r->sides[2 * index], *rt = &r->sides[2 * index + 1];
     box_empty(&l->geom), box_empty(&l->cent), box_empty(&rt->geom), box_empty(&rt->cent);
@@ -966,8 +1001,16 @@ static void part_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size
         const uint32_t cs = begin + c * SAH_PART_CHUNK, ce = end - cs < SAH_PART_CHUNK ? end : cs + SAH_PART_CHUNK;
         const uint32_t cm = partition_range(refs, cs, ce, r->k, r->clo, r->scl, r->at);
         r->lefts[c] = cm - cs;
-        for (uint32_t i = cs; i < ce; i++)
-            ref_grow(i < cm ? l : rt, &refs[i]);
+        /* Each side in a local, kept in registers. */
+        job side;
+        box_empty(&side.geom), box_empty(&side.cent);
+        for (uint32_t i = cs; i < cm; i++)
+            ref_grow(&side, &refs[i]);
+        box_grow(&l->geom, side.geom.lo, side.geom.hi), box_grow(&l->cent, side.cent.lo, side.cent.hi);
+        box_empty(&side.geom), box_empty(&side.cent);
+        for (uint32_t i = cm; i < ce; i++)
+            ref_grow(&side, &refs[i]);
+        box_grow(&rt->geom, side.geom.lo, side.geom.hi), box_grow(&rt->cent, side.cent.lo, side.cent.hi);
     }
     rtk_team_sync(team);
     uint32_t split = begin, swaps = 0;
@@ -992,92 +1035,123 @@ static void part_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size
     }
 }
 
-/* Bins the root on a team of up to threads (the same split as
- * find_binned: its bins do not depend on how its primitives are divided)
- * into b->root_split, and when it splits, partitions it into
- * b->root_mid and b->root_sides (on any thread count, so the tree does
- * not depend on it; the others would wait for the root, a twentieth of a
- * one-thread build of the bunny and an eighth of a 16-thread build of
- * the showroom). Out of memory, it leaves the root to be split as any node. */
-static void split_root(build *b, job *root, uint32_t threads)
+/* Splits node j on a team of up to threads, on any thread count the
+ * same: bins as find_binned's (bins do not depend on how the primitives
+ * are divided among members) and, when the split separates them, the
+ * team's partition (part_member). mark: record the build's phases. */
+static void team_split(const build *b, const job *j, uint32_t threads, presplit *out, int mark)
 {
-    binning(*parts)[2] = malloc(sizeof *parts * threads);
-    if (!parts)
-        return;
-    rtk_build_phase(b->a, "sah: root bins", threads > 1);
-    root_binning rb = {b, root, parts};
-    uint32_t size = rtk_team_run(threads, bin_member, &rb);
-    const uint32_t nb = node_bins(b->opt, root->end - root->begin);
+    if (mark)
+        rtk_build_phase(b->a, "sah: top bins", threads > 1);
+    team_binning tb = {b, j};
+    uint32_t size = rtk_team_run(threads, bin_member, &tb);
+    const uint32_t nb = node_bins(b->opt, j->end - j->begin);
     for (uint32_t t = 1; t < size; t++)
-        binning_merge(&parts[0][0], &parts[t][0], nb);
-    best_binned(b, root, &parts[0][0], &b->root_split);
-    free(parts);
-    root->presplit = 1;
-    const uint32_t chunks = (root->end - root->begin + SAH_PART_CHUNK - 1) / SAH_PART_CHUNK;
-    uint32_t *lefts = b->root_split.axis >= 0 ? malloc(sizeof *lefts * chunks) : NULL;
-    job *sides = lefts ? malloc(sizeof *sides * 2 * threads) : NULL;
-    if (sides) {
-        v4 scale, last;
-        bin_setup(b->opt, root, &scale, &last);
-        float lo[4], sc[4];
-        v4_store(lo, root->cent.lo);
-        v4_store(sc, scale);
-        const int k = b->root_split.axis;
-        root_parting rp = {b, root, lefts, sides, k, lo[k], sc[k], (float)b->root_split.at};
-        rtk_build_phase(b->a, "sah: root partition", threads > 1);
-        size = rtk_team_run(threads, part_member, &rp);
-        job *l = &b->root_sides[0], *r = &b->root_sides[1];
-        *l = sides[0], *r = sides[1];
-        for (uint32_t t = 1; t < size; t++) {
-            box_grow(&l->geom, sides[2 * t].geom.lo, sides[2 * t].geom.hi);
-            box_grow(&l->cent, sides[2 * t].cent.lo, sides[2 * t].cent.hi);
-            box_grow(&r->geom, sides[2 * t + 1].geom.lo, sides[2 * t + 1].geom.hi);
-            box_grow(&r->cent, sides[2 * t + 1].cent.lo, sides[2 * t + 1].cent.hi);
-        }
-        uint32_t mid = root->begin;
-        for (uint32_t c = 0; c < chunks; c++)
-            mid += lefts[c];
-        b->root_mid = mid;
-        b->root_parted = 1;
+        binning_merge(&b->team_bins[0][0], &b->team_bins[t][0], nb);
+    best_binned(b, j, &b->team_bins[0][0], &out->s);
+    out->parted = 0;
+    if (out->s.axis < 0)
+        return;
+    v4 scale, last;
+    bin_setup(b->opt, j, &scale, &last);
+    float lo[4], sc[4];
+    v4_store(lo, j->cent.lo);
+    v4_store(sc, scale);
+    const int k = out->s.axis;
+    team_parting tp = {b, j, b->team_lefts, b->team_sides, k, lo[k], sc[k], (float)out->s.at};
+    if (mark)
+        rtk_build_phase(b->a, "sah: top partition", threads > 1);
+    size = rtk_team_run(threads, part_member, &tp);
+    const job *sides = b->team_sides;
+    job *l = &out->sides[0], *r = &out->sides[1];
+    *l = sides[0], *r = sides[1];
+    for (uint32_t t = 1; t < size; t++) {
+        box_grow(&l->geom, sides[2 * t].geom.lo, sides[2 * t].geom.hi);
+        box_grow(&l->cent, sides[2 * t].cent.lo, sides[2 * t].cent.hi);
+        box_grow(&r->geom, sides[2 * t + 1].geom.lo, sides[2 * t + 1].geom.hi);
+        box_grow(&r->cent, sides[2 * t + 1].cent.lo, sides[2 * t + 1].cent.hi);
     }
-    free(lefts), free(sides);
+    const uint32_t chunks = (j->end - j->begin + SAH_PART_CHUNK - 1) / SAH_PART_CHUNK;
+    out->mid = j->begin;
+    for (uint32_t c = 0; c < chunks; c++)
+        out->mid += b->team_lefts[c];
+    out->parted = 1;
+}
+
+/* On threads, before the queue is worked: the root, then every queued
+ * node a team splits (team_node), each split by all threads and written
+ * here, its children queued. */
+static void split_top(build *b, const job *root, uint32_t threads)
+{
+    queue *q = b->q;
+    job j = *root;
+    for (;;) {
+        if (team_node(b->opt, &j)) {
+            team_split(b, &j, threads, &b->pre, 1);
+            j.presplit = 1;
+        }
+        rtk_build_phase(b->a, "sah: top nodes", 0);
+        build_subtree(b, &j, 1);
+        uint32_t count = atomic_load(&q->count), i = 0;
+        while (i < count && !team_node(b->opt, &q->jobs[i]))
+            i++;
+        if (i == count)
+            return;
+        j = q->jobs[i];
+        q->jobs[i] = q->jobs[count - 1];
+        atomic_store(&q->count, count - 1);
+        atomic_fetch_sub(&q->pending, 1u);
+    }
 }
 
 /* Builds from root on the build's threads (the caller's included). */
-static rtk_status run_build(build *b, job *root)
+static rtk_status run_build(build *b, const job *root)
 {
     const uint32_t threads = build_threads(b->a), n = b->a->prim_count;
-    /* A root of at least SAH_SPAWN_MIN primitives (never a leaf) is split
-     * by a team, on one thread too. */
-    if (!b->opt->sweep && n >= SAH_SPAWN_MIN && root->depth < SAH_HALVING_DEPTH)
-        split_root(b, root, threads > 1 ? threads : 1);
+    const uint32_t members = threads > 1 ? threads : 1;
+    rtk_status st = RTK_OK;
+    if (!b->opt->sweep && n >= SAH_SPAWN_MIN) {
+        b->team_bins = malloc(sizeof *b->team_bins * members);
+        b->team_sides = malloc(sizeof *b->team_sides * 2 * members);
+        b->team_lefts = malloc(sizeof *b->team_lefts * ((n + SAH_PART_CHUNK - 1) / SAH_PART_CHUNK));
+        if (!b->team_bins || !b->team_sides || !b->team_lefts) {
+            st = rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+            goto done;
+        }
+    }
     if (threads <= 1) {
         rtk_build_phase(b->a, "sah: tree", 0);
         b->dense_end = build_subtree(b, root, 0);
-        return RTK_OK;
+        goto done;
     }
     queue q;
-    /* Queued jobs cover disjoint ranges of at least SAH_SPAWN_MIN. */
-    q.jobs = malloc(sizeof *q.jobs * (n / SAH_SPAWN_MIN + 2));
-    if (!q.jobs)
-        return rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+    /* Queued jobs cover disjoint ranges of at least SAH_SPAWN_MIN, but
+     * for both children of each node split_top splits. */
+    q.jobs = malloc(sizeof *q.jobs * (n / SAH_SPAWN_MIN + 2 * ((size_t)2 << SAH_TEAM_DEPTH)));
+    if (!q.jobs) {
+        st = rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
+        goto done;
+    }
     pthread_mutex_init(&q.lock, NULL);
     pthread_cond_init(&q.wake, NULL);
     atomic_init(&q.count, 0u);
     atomic_init(&q.pending, 0u);
     b->q = &q;
-    /* The root's node is written and its children queued here, on one
-     * thread (as any job's would be: the tree is the same); the splits
-     * just below it still run on fewer threads than the team. */
-    rtk_build_phase(b->a, "sah: root split", 0);
-    build_subtree(b, root, 1);
+    split_top(b, root, threads);
     rtk_build_phase(b->a, "sah: subtrees", 1);
     rtk_team_run(threads, work, b);
     pthread_cond_destroy(&q.wake);
     pthread_mutex_destroy(&q.lock);
     free(q.jobs);
     b->q = NULL;
-    return RTK_OK;
+done:
+    free(b->team_bins);
+    free(b->team_sides);
+    free(b->team_lefts);
+    b->team_bins = NULL;
+    b->team_sides = NULL;
+    b->team_lefts = NULL;
+    return st;
 }
 
 static int segment_order(const void *x, const void *y)
