@@ -867,8 +867,8 @@ static rtk_status build_tree(rtk_scene *s, const rtk_plugin *plugin, const rtk_p
      * (rtk_alloc_large), they fault 512 times less often (the showroom's
      * 141 MB: 16,000 faults a build, 1.6 us each on a virtual machine),
      * unless the builder on threads leaves most of them unwritten
-     * (RTK_BUILD_SPARSE_NODES: lbvh writes a fifth of each subtree's
-     * region, and all 141 MB would be faulted in). Smaller arrays come
+     * (RTK_BUILD_SPARSE_NODES: one that fills a fifth of each subtree's
+     * region would have all 141 MB faulted in). Smaller arrays come
      * back from the heap already faulted in, and aligned there they
      * faulted more (bunny, elephant). */
     const size_t node_bytes = sizeof *a.nodes * (size_t)a.max_nodes;

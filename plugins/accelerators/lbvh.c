@@ -29,18 +29,20 @@
  * not depend on thread_count. Its slots hold the children pairs in
  * depth-first order, left first, which is the order a build on one
  * thread fills them from the root. On several threads the top of the
- * tree is split into subtrees of at most 4096 primitives: a node over m
- * primitives owns the 2m - 2 slots of its region, its children first,
- * and each subtree fills the start of its region densely in that order;
- * then each subtree's inner nodes are renumbered for the slots its region
- * leaves unused before it (on the threads), and its block and the pairs
- * above it move down by as much, which leaves the same slots as one
- * thread. The moves run on the threads too, taken in slot order, each
- * once the moves whose slots it overwrites are done: their destinations
- * are mostly pages touched for the first time, too slow for one thread
- * alone. A region's nodes fill about a fifth of it, so the build
- * declares RTK_BUILD_SPARSE_NODES: in huge pages the kernel's node array
- * would be faulted in whole.
+ * tree is split into subtrees of at most 4096 primitives, a node over m
+ * primitives owning the 2m - 2 slots of its region. Without collapse,
+ * the threads first count each subtree's nodes (its splits alone, from
+ * its codes: no bounds are read), the calling thread lays the
+ * subtrees and the pairs above them out in slot order, and each subtree
+ * is built where it stays: the nodes are written once, densely. With
+ * collapse a subtree's size is known only once built: each fills the
+ * start of its region, its inner nodes are renumbered for the slots its
+ * region leaves unused before it (on the threads), and its block and the
+ * pairs above it move down by as much, which leaves the same slots as one
+ * thread; the moves run on the threads too, taken in slot order, each
+ * once the moves whose slots it overwrites are done. Those regions are
+ * nearly full (the tree goes down to single primitives), so the node
+ * array may be in huge pages either way.
  */
 #include <rtk/rtk.h>
 
@@ -110,7 +112,7 @@ typedef struct build {
     task *tasks;                   /* subtrees for the threads, in slot order */
     uint32_t task_count;
     uint32_t gap_total;            /* the slots all subtrees leave unused */
-    atomic_uint next_task, next_fix, next_bucket;
+    atomic_uint next_task, next_fix, next_bucket, next_size;
     atomic_uint planned, shifted;  /* set by member 0: tasks planned, their shifts summed */
     task *tops;                    /* inner nodes above the subtrees, parents first (slot order) */
     uint32_t top_count;
@@ -587,6 +589,79 @@ static void plan(build *b, uint32_t grain)
     }
 }
 
+/* Slots the descendants of a node over sorted primitives [begin, end)
+ * fill when the tree is not collapsed: two for each inner node below it. */
+static uint32_t slots_below(const build *b, uint32_t begin, uint32_t end)
+{
+    uint32_t slots = 0;
+    while (end - begin > b->opt->max_leaf) {
+        const uint32_t mid = split_at(b, begin, end);
+        slots += 2 + slots_below(b, begin, mid);
+        begin = mid;
+    }
+    return slots;
+}
+
+/* Where slot s of a pair above the subtrees (or the root's) lands once
+ * the gaps before it are closed: down by the unused slots of the
+ * subtrees whose regions come before it. */
+static uint32_t closed_slot(const build *b, uint32_t s)
+{
+    uint32_t lo = 0, hi = b->task_count;
+    while (lo < hi) {
+        const uint32_t mid = lo + (hi - lo) / 2;
+        if (b->tasks[mid].region < s)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return s - (lo < b->task_count ? b->tasks[lo].shift : b->gap_total);
+}
+
+/* Sums the slots each subtree's region leaves unused, before it, once
+ * every task's filled is known. */
+static void sum_gaps(build *b)
+{
+    uint32_t shift = 0;
+    for (uint32_t k = 0; k < b->task_count; k++) {
+        task *x = &b->tasks[k];
+        x->shift = shift;
+        shift += x->region + 2 * (x->end - x->begin) - 2 - x->filled;
+    }
+    b->gap_total = shift;
+}
+
+/* The tree without collapse, on threads: each subtree's size is known
+ * before it is built (slots_below, on the threads), so each is built
+ * where it stays (from region - shift), the pairs above the subtrees are
+ * laid out between them in slot order, and nothing moves afterwards.
+ * Sets the tasks' slots to their final places, and node_count. */
+static void lay_out(build *b)
+{
+    sum_gaps(b);
+    uint32_t count = 1 + 2 * b->top_count;
+    for (uint32_t k = 0; k < b->task_count; k++) {
+        task *x = &b->tasks[k];
+        count += x->filled - x->region;
+        x->slot = closed_slot(b, x->slot);
+    }
+    b->a->node_count = count;
+}
+
+/* The nodes above the subtrees in their final slots, children before
+ * parents, once the subtrees are built (lay_out). */
+static void top_bounds(build *b)
+{
+    rtk_bvh_node *nodes = b->a->nodes;
+    for (uint32_t i = b->top_count; i-- > 0;) {
+        const task *t = &b->tops[i];
+        const uint32_t slot = closed_slot(b, t->slot), first = closed_slot(b, t->region);
+        node_union(&nodes[slot], &nodes[first], &nodes[first + 1]);
+        nodes[slot].offset = first;
+        nodes[slot].count = 0;
+    }
+}
+
 /* Plans closing the gaps the subtrees left (run renumbered their nodes):
  * the nodes above them get their bounds and children, then the children
  * pairs above the subtrees and the subtrees' blocks are to move down in
@@ -681,27 +756,58 @@ static void wait_for(atomic_uint *flag)
     }
 }
 
-/* Member t's share of the whole build (rtk_team_fn). Member 0, the
- * thread that called build, runs the serial steps and marks the phases:
- * each ends at a sync or a flag, or at member 0's own share of a pass. */
-static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
+/* Member t's share of the subtrees without collapse: their sizes, their
+ * layout (member 0), then each built in its final slots (lay_out). */
+static void run_dense(build *b, rtk_team *team, uint32_t t, uint32_t size)
 {
-    build *b = ctx;
+    const int many = size > 1;
+    if (b->task_count > 1) {
+        if (t == 0)
+            rtk_build_phase(b->a, "lbvh: subtree sizes", many);
+        for (;;) {
+            const uint32_t k = atomic_fetch_add(&b->next_size, 1);
+            if (k >= b->task_count)
+                break;
+            task *x = &b->tasks[k];
+            x->filled = x->region + slots_below(b, x->begin, x->end);
+        }
+        rtk_team_sync(team);
+        if (t == 0) {
+            rtk_build_phase(b->a, "lbvh: layout", 0);
+            lay_out(b);
+            atomic_store_explicit(&b->shifted, 1, memory_order_release);
+        } else {
+            wait_for(&b->shifted);
+        }
+    }
+    if (t == 0)
+        rtk_build_phase(b->a, "lbvh: subtrees", many);
+    for (;;) {
+        const uint32_t k = atomic_fetch_add(&b->next_task, 1);
+        if (k >= b->task_count)
+            break;
+        task *x = &b->tasks[k];
+        uint32_t bump = x->region - x->shift;
+        emit(b, x->slot, x->begin, x->end, &bump);
+        if (b->task_count == 1)
+            b->a->node_count = bump;
+    }
+    rtk_team_sync(team);
+    if (t == 0 && b->top_count > 0) {
+        rtk_build_phase(b->a, "lbvh: top bounds", 0);
+        top_bounds(b);
+    }
+}
+
+/* Member t's share of the subtrees with collapse, whose sizes are known
+ * only once built: each fills the start of its region, then its inner
+ * nodes are renumbered for the gaps before it and the blocks move down
+ * (plan_moves, run_moves). */
+static void run_collapsed(build *b, rtk_team *team, uint32_t t, uint32_t size)
+{
     const int many = size > 1;
     if (t == 0)
-        rtk_build_phase(b->a, "lbvh: morton codes", many);
-    morton_codes(b, team, t, size);
-    if (t == 0)
-        rtk_build_phase(b->a, "lbvh: sort", many);
-    sort_codes(b, team, t, size);
-    if (t == 0) {
-        rtk_build_phase(b->a, "lbvh: top splits", 0);
-        plan(b, size > 1 ? LBVH_GRAIN : UINT32_MAX);
-        atomic_store_explicit(&b->planned, 1, memory_order_release);
         rtk_build_phase(b->a, "lbvh: subtrees", many);
-    } else {
-        wait_for(&b->planned);
-    }
     for (;;) {
         uint32_t k = atomic_fetch_add(&b->next_task, 1);
         if (k >= b->task_count)
@@ -714,14 +820,7 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
     rtk_team_sync(team);
     if (t == 0) {
         rtk_build_phase(b->a, "lbvh: gaps", 0);
-        /* The slots each subtree's region leaves unused, summed before it. */
-        uint32_t shift = 0;
-        for (uint32_t k = 0; k < b->task_count; k++) {
-            task *x = &b->tasks[k];
-            x->shift = shift;
-            shift += x->region + 2 * (x->end - x->begin) - 2 - x->filled;
-        }
-        b->gap_total = shift;
+        sum_gaps(b);
         atomic_store_explicit(&b->shifted, 1, memory_order_release);
         /* Beside the others' renumbering, which touches other nodes (the
          * subtrees') or other fields of them (their roots' offsets, where
@@ -752,6 +851,32 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
     if (t == 0)
         rtk_build_phase(b->a, "lbvh: moves", many);
     run_moves(b);
+}
+
+/* Member t's share of the whole build (rtk_team_fn). Member 0, the
+ * thread that called build, runs the serial steps and marks the phases:
+ * each ends at a sync or a flag, or at member 0's own share of a pass. */
+static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
+{
+    build *b = ctx;
+    const int many = size > 1;
+    if (t == 0)
+        rtk_build_phase(b->a, "lbvh: morton codes", many);
+    morton_codes(b, team, t, size);
+    if (t == 0)
+        rtk_build_phase(b->a, "lbvh: sort", many);
+    sort_codes(b, team, t, size);
+    if (t == 0) {
+        rtk_build_phase(b->a, "lbvh: top splits", 0);
+        plan(b, size > 1 ? LBVH_GRAIN : UINT32_MAX);
+        atomic_store_explicit(&b->planned, 1, memory_order_release);
+    } else {
+        wait_for(&b->planned);
+    }
+    if (b->opt->collapse)
+        run_collapsed(b, team, t, size);
+    else
+        run_dense(b, team, t, size);
 }
 
 static rtk_status lbvh_build(void *state, rtk_build_args *a)
@@ -789,6 +914,7 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
     atomic_init(&b.next_task, 0);
     atomic_init(&b.next_fix, 0);
     atomic_init(&b.next_bucket, 0);
+    atomic_init(&b.next_size, 0);
     atomic_init(&b.planned, 0);
     atomic_init(&b.shifted, 0);
     rtk_status st = RTK_OK;
@@ -836,7 +962,7 @@ static const rtk_accelerator_fns lbvh_fns = {
     .create = lbvh_create,
     .build = lbvh_build,
     .destroy = lbvh_destroy,
-    .build_flags = RTK_BUILD_NO_VERTICES | RTK_BUILD_SPARSE_NODES,
+    .build_flags = RTK_BUILD_NO_VERTICES,
 };
 
 static const rtk_plugin lbvh_plugin = {

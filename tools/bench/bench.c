@@ -27,6 +27,12 @@
 
 #define BENCH_AO_RAYS 8u
 #define BENCH_SEED 1u
+/* Untimed builds before the timed ones, in at least two rounds: a
+ * process's heap grows to what builds use again over its first few
+ * (bunny with lbvh alone: 7 to 9), and until then every build faults
+ * its arrays in anew, which would fall on the first thread count's
+ * rows alone. */
+#define BENCH_WARM_BUILDS 8u
 
 /* ---- the recipe ---- */
 
@@ -881,7 +887,8 @@ static void phases_add(bench_phases *p, uint32_t runs, uint32_t i, const rtk_bui
     }
 }
 
-/* The builds of every row, in rounds: for each thread count, each round
+/* The builds of every row, in rounds, after untimed warm-up rounds at
+ * the first thread count (BENCH_WARM_BUILDS): for each thread count, each round
  * builds once with every accelerator, in order, so that the machine's
  * other load (which drifts over seconds) falls on all of them alike
  * rather than on whichever ran during a busy spell. The thread count
@@ -892,6 +899,21 @@ static rtk_status measure_builds(bench *b, size_t *failed)
 {
     const uint32_t runs = b->opt.runs;
     const size_t rows = b->accel_count * b->thread_count;
+    const size_t warm_rounds = b->accel_count >= BENCH_WARM_BUILDS / 2
+                                   ? 2
+                                   : (BENCH_WARM_BUILDS + b->accel_count - 1) / b->accel_count;
+    for (size_t i = 0; i < warm_rounds; i++) {
+        for (size_t a = 0; a < b->accel_count; a++) {
+            const bench_row *row = &b->rows[a * b->thread_count];
+            progress(b, row->accel, row->threads, "warm-up build", (uint32_t)i + 1, (uint32_t)warm_rounds);
+            double wall, cpu;
+            rtk_status st = timed_build(b, row, &wall, &cpu, NULL);
+            if (st != RTK_OK) {
+                *failed = a * b->thread_count;
+                return st;
+            }
+        }
+    }
     for (size_t t = 0; t < b->thread_count; t++) {
         for (uint32_t i = 0; i < runs; i++) {
             for (size_t a = 0; a < b->accel_count; a++) {

@@ -902,8 +902,13 @@ int main(void)
         check_builder_threads(builders[bi], NULL, NULL);
         if (strcmp(builders[bi]->name, "sah") == 0) /* the gap closing serves both modes */
             check_builder_threads(builders[bi], "mode", "sweep");
-        if (strcmp(builders[bi]->name, "lbvh") == 0)
+        if (strcmp(builders[bi]->name, "lbvh") == 0) {
+            /* Subtrees built in place (sizes counted first) by default, and
+             * filled then moved down when collapsing. */
+            check_builder_threads(builders[bi], "collapse", "true");
+            check_builder_threads(builders[bi], "max_leaf", "1");
             check_lbvh_order(builders[bi]);
+        }
     }
     rtk_registry_destroy(reg);
     printf("%d passed, %d failed\n", passed, failed);
