@@ -907,6 +907,7 @@ int main(void)
              * filled then moved down when collapsing. */
             check_builder_threads(builders[bi], "collapse", "true");
             check_builder_threads(builders[bi], "max_leaf", "1");
+            check_builder_threads(builders[bi], "morton", "63");
             check_lbvh_order(builders[bi]);
         }
     }
