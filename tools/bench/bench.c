@@ -887,6 +887,15 @@ static void phases_add(bench_phases *p, uint32_t runs, uint32_t i, const rtk_bui
     }
 }
 
+/* Untimed rounds of builds before the timed ones: at least two, and at
+ * least BENCH_WARM_BUILDS builds. */
+static size_t warm_build_rounds(const bench *b)
+{
+    if (b->accel_count >= BENCH_WARM_BUILDS / 2)
+        return 2;
+    return (BENCH_WARM_BUILDS + b->accel_count - 1) / b->accel_count;
+}
+
 /* The builds of every row, in rounds, after untimed warm-up rounds at
  * the first thread count (BENCH_WARM_BUILDS): for each thread count, each round
  * builds once with every accelerator, in order, so that the machine's
@@ -899,9 +908,7 @@ static rtk_status measure_builds(bench *b, size_t *failed)
 {
     const uint32_t runs = b->opt.runs;
     const size_t rows = b->accel_count * b->thread_count;
-    const size_t warm_rounds = b->accel_count >= BENCH_WARM_BUILDS / 2
-                                   ? 2
-                                   : (BENCH_WARM_BUILDS + b->accel_count - 1) / b->accel_count;
+    const size_t warm_rounds = warm_build_rounds(b);
     for (size_t i = 0; i < warm_rounds; i++) {
         for (size_t a = 0; a < b->accel_count; a++) {
             const bench_row *row = &b->rows[a * b->thread_count];
@@ -1281,9 +1288,9 @@ static void print_report(const bench *b, const char *path, FILE *out)
     fprintf(out, "image %ux%u, camera eye (%.6g, %.6g, %.6g) forward (%.6g, %.6g, %.6g), vertical fov %.6g\n",
             b->width, b->height, c->eye[0], c->eye[1], c->eye[2], c->fwd[0], c->fwd[1], c->fwd[2],
             2.0 * atan(c->th) * 180.0 / M_PI);
-    fprintf(out, "AO: %u rays per hit, tfar %.6g; median of %u builds and of %u timed passes of each kind (after "
-            "one warm-up), both in rounds over every accelerator at each thread count\n",
-            BENCH_AO_RAYS, (double)(float)(0.1 * b->diag), b->opt.runs, b->opt.runs);
+    fprintf(out, "AO: %u rays per hit, tfar %.6g; median of %u builds (after %zu untimed rounds) and of %u timed "
+            "passes of each kind (after one warm-up), both in rounds over every accelerator at each thread count\n",
+            BENCH_AO_RAYS, (double)(float)(0.1 * b->diag), b->opt.runs, warm_build_rounds(b), b->opt.runs);
     fprintf(out, "primary_ray_hash 0x%016llx\n\n", (unsigned long long)b->hash);
     int w = 11;
     for (size_t i = 0; i < b->accel_count; i++)
