@@ -670,23 +670,19 @@ static void top_bounds(build *b)
 static void plan_moves(build *b)
 {
     rtk_bvh_node *nodes = b->a->nodes;
-    uint32_t k = 0;
     for (uint32_t i = b->top_count; i-- > 0;) { /* children before parents, all in place */
         const task *t = &b->tops[i];
         node_union(&nodes[t->slot], &nodes[t->region], &nodes[t->region + 1]);
         nodes[t->slot].count = 0;
     }
     for (uint32_t i = 0; i < b->top_count; i++) {
-        /* A pair moves by the unused slots of the subtrees before it. */
         task *t = &b->tops[i];
-        while (k < b->task_count && b->tasks[k].region < t->region)
-            k++;
-        t->shift = k < b->task_count ? b->tasks[k].shift : b->gap_total;
-        nodes[t->slot].offset = t->region - t->shift;
+        nodes[t->slot].offset = closed_slot(b, t->region);
+        t->shift = t->region - nodes[t->slot].offset;
     }
     uint32_t count = 1;
     b->move_count = 0;
-    k = 0;
+    uint32_t k = 0;
     for (uint32_t i = 0; i <= b->top_count; i++) {
         const uint32_t below = i < b->top_count ? b->tops[i].region : UINT32_MAX;
         for (; k < b->task_count && b->tasks[k].region < below; k++) {

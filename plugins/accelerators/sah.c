@@ -1001,15 +1001,11 @@ static void part_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size
         const uint32_t cs = begin + c * SAH_PART_CHUNK, ce = end - cs < SAH_PART_CHUNK ? end : cs + SAH_PART_CHUNK;
         const uint32_t cm = partition_range(refs, cs, ce, r->k, r->clo, r->scl, r->at);
         r->lefts[c] = cm - cs;
-        /* Each side in a local, kept in registers. */
+        /* Each side's bounds in a local first, kept in registers. */
         job side;
-        box_empty(&side.geom), box_empty(&side.cent);
-        for (uint32_t i = cs; i < cm; i++)
-            ref_grow(&side, &refs[i]);
+        bounds_of_refs(r->b, cs, cm, &side);
         box_grow(&l->geom, side.geom.lo, side.geom.hi), box_grow(&l->cent, side.cent.lo, side.cent.hi);
-        box_empty(&side.geom), box_empty(&side.cent);
-        for (uint32_t i = cm; i < ce; i++)
-            ref_grow(&side, &refs[i]);
+        bounds_of_refs(r->b, cm, ce, &side);
         box_grow(&rt->geom, side.geom.lo, side.geom.hi), box_grow(&rt->cent, side.cent.lo, side.cent.hi);
     }
     rtk_team_sync(team);
@@ -1148,9 +1144,6 @@ done:
     free(b->team_bins);
     free(b->team_sides);
     free(b->team_lefts);
-    b->team_bins = NULL;
-    b->team_sides = NULL;
-    b->team_lefts = NULL;
     return st;
 }
 

@@ -891,9 +891,8 @@ static void phases_add(bench_phases *p, uint32_t runs, uint32_t i, const rtk_bui
  * least BENCH_WARM_BUILDS builds. */
 static size_t warm_build_rounds(const bench *b)
 {
-    if (b->accel_count >= BENCH_WARM_BUILDS / 2)
-        return 2;
-    return (BENCH_WARM_BUILDS + b->accel_count - 1) / b->accel_count;
+    const size_t rounds = (BENCH_WARM_BUILDS + b->accel_count - 1) / b->accel_count;
+    return rounds > 2 ? rounds : 2;
 }
 
 /* The builds of every row, in rounds, after untimed warm-up rounds at
