@@ -36,7 +36,7 @@ int rtk_grow_array(void **array, uint32_t *cap, uint32_t count, size_t size);
  * rounded up to whole 2 MiB pages on a 2 MiB boundary, advised as
  * transparent huge pages, which cuts the cost of first touching it and
  * keeps traversal out of TLB misses. Freed with free(). */
-void *rtk_alloc_large(size_t size);
+RTK_KERNEL_API void *rtk_alloc_large(size_t size);
 /* glibc's largest threshold for giving an allocation a mapping of its
  * own (DEFAULT_MMAP_THRESHOLD_MAX on 64 bits): arrays above it are fresh
  * memory, first touched page by page, every time they are allocated. */

@@ -980,10 +980,10 @@ static rtk_status ao_rays_for_hits(bench *b, ao_rays *sets, size_t *count, size_
     size_t n = 0;
     for (size_t i = 0; i < pixels; i++)
         n += b->hits[i].prim != RTK_INVALID_ID;
-    ao->hits = rtk_alloc(sizeof *ao->hits * pixels);
-    ao->rays = rtk_alloc(sizeof *ao->rays * (n ? n * BENCH_AO_RAYS : 1));
+    ao->hits = rtk_alloc_large(sizeof *ao->hits * pixels);
+    ao->rays = rtk_alloc_large(sizeof *ao->rays * (n ? n * BENCH_AO_RAYS : 1));
     ao->rows = rtk_alloc(sizeof *ao->rows * ((size_t)b->height + 1));
-    ao->occluded = rtk_alloc(n ? n * BENCH_AO_RAYS : 1);
+    ao->occluded = rtk_alloc_large(n ? n * BENCH_AO_RAYS : 1);
     if (!ao->hits || !ao->rays || !ao->rows || !ao->occluded) {
         ao_rays_free(ao);
         memset(ao, 0, sizeof *ao);
@@ -1492,11 +1492,11 @@ rtk_status rtk_bench(const char *path, rtk_registry *registry, const rtk_bench_o
     st = setup_camera(&b);
     size_t pixels = (size_t)b.width * b.height;
     if (st == RTK_OK) {
-        b.primary = rtk_alloc(sizeof *b.primary * pixels);
-        b.hits = rtk_alloc(sizeof *b.hits * pixels);
+        b.primary = rtk_alloc_large(sizeof *b.primary * pixels);
+        b.hits = rtk_alloc_large(sizeof *b.hits * pixels);
         b.primary_rows = rtk_alloc(sizeof *b.primary_rows * (b.height + 1));
         b.row_count = rtk_alloc(sizeof *b.row_count * b.height);
-        b.batch_hits = rtk_alloc(sizeof *b.batch_hits * pixels);
+        b.batch_hits = rtk_alloc_large(sizeof *b.batch_hits * pixels);
         b.times = rtk_alloc(sizeof *b.times * b.opt.runs * 2 * b.accel_count);
         b.cpu_times = rtk_alloc(sizeof *b.cpu_times * b.opt.runs * 2 * b.accel_count);
         b.traced = rtk_calloc((size_t)b.opt.runs * 2 * b.accel_count, sizeof *b.traced);
