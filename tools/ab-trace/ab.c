@@ -28,7 +28,12 @@
  * multiplies the AO rays' tfar by F (1e-4: little more than the per-ray
  * set-up and the boxes around the origin; 10: far past the recipe's
  * length), AB_REPEAT=K traces each ray K times in a row (caches and
- * branch history warm after the first). */
+ * branch history warm after the first).
+ *
+ * AB_BATCH=N has B trace its chunks N rays to a call through its batch
+ * functions (rtk_wide_any_batch / rtk_wide_closest_batch), AB_BATCH_A=N
+ * the same for A; the batches' answers are checked against A's single
+ * rays first. The AO rays keep bench's order: one hit's rays together. */
 #include "bench/bench.h"
 #include "accel/accel.h"
 
@@ -39,6 +44,8 @@
 
 int B_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_trace_work *work);
 int B_wide_closest(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk_hit *hit, rtk_trace_work *work);
+void B_wide_any_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count, uint8_t *occluded);
+void B_wide_closest_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count, rtk_hit *hits);
 void B_wide_free(rtk_scene *s);
 rtk_status B_wide_build(rtk_scene *s, uint32_t threads, void *spare, size_t spare_bytes, int validate);
 
@@ -47,6 +54,9 @@ enum { WIDTH = 512, HEIGHT = 384, AO_PER_HIT = 8 };
 static int embree_mode;
 static int repeat = 1;         /* AB_REPEAT */
 static double ao_scale = 1.0;  /* AB_AO_SCALE */
+static size_t batch[2];        /* AB_BATCH_A, AB_BATCH: rays per batch call (0: one at a time) */
+static uint8_t *batch_occ;     /* room for one batch's answers */
+static rtk_hit *batch_hits;
 
 /* A number from the environment variable name in [lo, hi], def when it
  * is not set; 0 (after a message) when it is not such a number. */
@@ -135,12 +145,36 @@ static rtk_scene *load_and_build(const char *mesh, const rtk_plugin *p, const ch
     return s;
 }
 
+/* Rays [begin, end) through side b's batch functions, batch[b] rays a
+ * call; the answers into occluded (occlusion) or hits. */
+static void batch_run(int b, int occlusion, const rtk_ray *rays, size_t begin, size_t end, uint8_t *occluded,
+                      rtk_hit *hits)
+{
+    const rtk_scene *s = b ? scene_b : scene_a;
+    for (size_t i = begin; i < end; i += batch[b]) {
+        const uint32_t n = (uint32_t)(end - i < batch[b] ? end - i : batch[b]);
+        if (occlusion)
+            (b ? B_wide_any_batch : rtk_wide_any_batch)(s, path, rays + i, n, occluded + (i - begin));
+        else
+            (b ? B_wide_closest_batch : rtk_wide_closest_batch)(s, path, rays + i, n, hits + (i - begin));
+    }
+}
+
 /* One timed chunk: rays [begin, end) through any (occlusion) or closest. */
 static double time_chunk(int b, int occlusion, const rtk_ray *rays, size_t begin, size_t end, size_t *sink)
 {
     double t0 = cpu_now();
     size_t count = 0;
     rtk_hit h;
+    if (batch[b]) {
+        for (int k = 0; k < repeat; k++) {
+            batch_run(b, occlusion, rays, begin, end, batch_occ, batch_hits);
+            for (size_t i = 0; i < end - begin; i++)
+                count += occlusion ? batch_occ[i] != 0 : batch_hits[i].prim != RTK_INVALID_ID;
+        }
+        *sink += count;
+        return cpu_now() - t0;
+    }
     for (size_t i = begin; i < end; i++)
         for (int k = 0; k < repeat; k++)
             count += occlusion ? (b ? any_b(&rays[i], NULL) : any_a(&rays[i], NULL))
@@ -226,6 +260,18 @@ int main(int argc, char **argv)
         return 2;
     }
     double rep;
+    double nb[2];
+    if (!env_number("AB_BATCH_A", 0, 1 << 20, 0, &nb[0]) || !env_number("AB_BATCH", 0, 1 << 20, 0, &nb[1]))
+        return 2;
+    batch[0] = (size_t)nb[0], batch[1] = (size_t)nb[1];
+    if ((double)batch[0] != nb[0] || (double)batch[1] != nb[1]) {
+        fprintf(stderr, "ab: AB_BATCH and AB_BATCH_A: give whole numbers of rays\n");
+        return 2;
+    }
+    if ((batch[0] || batch[1]) && strcmp(argv[2], "embree") == 0) {
+        fprintf(stderr, "ab: AB_BATCH compares the wide tree's batches, not embree's\n");
+        return 2;
+    }
     if (!env_number("AB_REPEAT", 1, 64, 1, &rep) || !env_number("AB_AO_SCALE", 1e-9, 1e9, 1, &ao_scale))
         return 2;
     repeat = (int)rep;
@@ -305,6 +351,26 @@ int main(int argc, char **argv)
         occluded += oa;
         nodes[0] += wa.nodes, tris[0] += wa.triangles, nodes[1] += wb.nodes, tris[1] += wb.triangles;
     }
+    batch_occ = malloc(n_ao ? n_ao : 1);
+    batch_hits = malloc(sizeof *batch_hits * (n_ao > pixels ? n_ao : pixels));
+    if (!batch_occ || !batch_hits) {
+        fprintf(stderr, "ab: out of memory\n");
+        return 2;
+    }
+    for (int b = 0; b < 2; b++) {
+        if (!batch[b])
+            continue;
+        /* The batches against A's single rays, ray by ray. */
+        batch_run(b, 1, ao, 0, n_ao, batch_occ, NULL);
+        for (size_t i = 0; i < n_ao; i++)
+            ao_diff += (batch_occ[i] != 0) != (any_a(&ao[i], NULL) != 0);
+        batch_run(b, 0, primary, 0, pixels, NULL, batch_hits);
+        for (size_t i = 0; i < pixels; i++) {
+            rtk_hit ha;
+            int hit_a = closest_a(&primary[i], &ha), hit_b = batch_hits[i].prim != RTK_INVALID_ID;
+            primary_diff += hit_a != hit_b || (hit_a && (ha.prim != batch_hits[i].prim || ha.t != batch_hits[i].t));
+        }
+    }
     printf("%s, %s: %zu primary rays, %zu AO rays (%zu occluded); answers differing: %zu primary, %zu AO\n", mesh,
            accel, pixels, n_ao, occluded, primary_diff, ao_diff);
     if (!embree_mode)
@@ -316,7 +382,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "ab: the two tracers answer differently; not timing them\n");
         return 1;
     }
-    const size_t ao_chunk = n_ao / 8, pr_chunk = pixels / 4;
+    const size_t ao_chunk = n_ao / 8 / AO_PER_HIT * AO_PER_HIT, pr_chunk = pixels / 4; /* whole hits */
     double ta = 0, tb = 0, pa = 0, pb = 0;
     size_t sink = 0;
     for (int r = 0; r < rounds; r++) {

@@ -17,11 +17,12 @@
 # AB_DIFFERENT=1), AB_WRAP=COMMAND (run the program under it: perf
 # record, valgrind), AB_CFLAGS (more flags for the variant's compilation,
 # after the kernel's), AB_AO_SCALE=F (AO rays' tfar times F), AB_REPEAT=K
-# (each ray traced K times in a row); AB_DIFFERENT=1 also times tracers
-# that answer differently. Prints the median and quartiles over ROUNDS
-# (default 400) of B's time over A's.
+# (each ray traced K times in a row), AB_BATCH=N (B traces N rays to a
+# call through its batch functions), AB_BATCH_A=N (the same for A);
+# AB_DIFFERENT=1 also times tracers that answer differently. Prints the
+# median and quartiles over ROUNDS (default 400) of B's time over A's.
 set -euo pipefail
-[ $# -ge 3 ] || { sed -n '2,22p' "$0" >&2; exit 2; }
+[ $# -ge 3 ] || { sed -n '2,23p' "$0" >&2; exit 2; }
 . "$(dirname "$0")/../ab-harness.sh"
 variant=$3
 [ "$variant" = embree ] && variant=$src/kernel/accel/bvh_wide_trace.c
