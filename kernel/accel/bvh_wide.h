@@ -131,8 +131,9 @@ int rtk_wide_any(const rtk_scene *s, rtk_simd_path path, const rtk_ray *ray, rtk
  * wide path, as rtk_wide_closest / rtk_wide_any give them one by one
  * (hits[i].prim RTK_INVALID_ID on a miss, occluded[i] 0 or 1): rays
  * whose directions and origins agree are traced as packets sharing each
- * node's visit, the others as streams (each node visited once for all
- * the rays that reach it). [any thread] */
+ * node's visit, occlusion rays eight at a time from one origin as origin
+ * groups, the others as streams (each node visited once for all the rays
+ * that reach it). [any thread] */
 void rtk_wide_closest_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count,
                             rtk_hit *hits);
 void rtk_wide_any_batch(const rtk_scene *s, rtk_simd_path path, const rtk_ray *rays, uint32_t count,

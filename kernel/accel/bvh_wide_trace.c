@@ -402,6 +402,13 @@ RTK_INLINE void tri_prepare(const rtk_ray *ray, tri_ray *r)
     r->oz = _mm_set1_ps(o[kz]);
 }
 
+/* The constants of tri_test4's error bound (see there). */
+#define TRI_K0 (12.0f * (3.0f * 0.5f * FLT_EPSILON / (1.0f - 3.0f * 0.5f * FLT_EPSILON)) * (1.0f + 1.0f / 1048576.0f))
+#define TRI_G25                                                                                                 \
+    ((2.0f * 0.5f * FLT_EPSILON / (1.0f - 2.0f * 0.5f * FLT_EPSILON)) +                                         \
+     2.0f * (5.0f * 0.5f * FLT_EPSILON / (1.0f - 5.0f * 0.5f * FLT_EPSILON)))
+#define TRI_G5 (5.0f * 0.5f * FLT_EPSILON / (1.0f - 5.0f * 0.5f * FLT_EPSILON))
+
 /* Lanes of block b hit within [tmin, tmax] (bit mask), with t, u, v; the
  * arithmetic is rtk_intersect_triangle's, lane by lane. Lanes the scalar
  * test decides in double (on an edge in float, or a hit too near the
@@ -458,11 +465,7 @@ RTK_INLINE int tri_test4(const rtk_wide_tris *b, const tri_ray *r, float tmin, f
      * largest of |U|, |V|, |W|, is not computed: they share a sign, so
      * mE <= |det| and mE |rcp| <= 1 + 2^-24, and
      * 6 |rcp| (2 g3 mE mZ + dE mZ) <= mZ (12 g3 (1 + 2^-20) + 12 |rcp| dE / 2). */
-    const __m128 k0 = _mm_set1_ps(12.0f * (3.0f * 0.5f * FLT_EPSILON / (1.0f - 3.0f * 0.5f * FLT_EPSILON)) *
-                                  (1.0f + 1.0f / 1048576.0f));
-    const __m128 g25 = _mm_set1_ps((2.0f * 0.5f * FLT_EPSILON / (1.0f - 2.0f * 0.5f * FLT_EPSILON)) +
-                                   2.0f * (5.0f * 0.5f * FLT_EPSILON / (1.0f - 5.0f * 0.5f * FLT_EPSILON)));
-    const __m128 g5 = _mm_set1_ps(5.0f * 0.5f * FLT_EPSILON / (1.0f - 5.0f * 0.5f * FLT_EPSILON));
+    const __m128 k0 = _mm_set1_ps(TRI_K0), g25 = _mm_set1_ps(TRI_G25), g5 = _mm_set1_ps(TRI_G5);
     const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
 #define RTK_ABS(x) _mm_and_ps(x, abs_mask)
 #define RTK_MAX3(a, b, c) _mm_max_ps(RTK_ABS(a), _mm_max_ps(RTK_ABS(b), RTK_ABS(c)))
@@ -716,6 +719,21 @@ typedef struct packet_entry {
     float t;
     uint32_t lanes;
 } packet_entry;
+
+/* An origin group's constants (group_any): per ray (lane), the box
+ * test's reciprocals and interval, the triangle test's shear, and the
+ * shared origin. */
+typedef struct wide_group {
+    RTK_ALIGN32 int32_t kx[RTK_WIDE]; /* shear axes */
+    RTK_ALIGN32 int32_t ky[RTK_WIDE];
+    RTK_ALIGN32 int32_t kz[RTK_WIDE];
+    RTK_ALIGN32 float sx[RTK_WIDE]; /* d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz] */
+    RTK_ALIGN32 float sy[RTK_WIDE];
+    RTK_ALIGN32 float sz[RTK_WIDE];
+    RTK_ALIGN32 float tmin[RTK_WIDE];
+    RTK_ALIGN32 float tmax[RTK_WIDE];
+    float org[3];
+} wide_group;
 
 /* A ray of an occlusion stream: its single-ray box constants (the
  * node loop's, for rays where box_int_ok holds). */

@@ -395,14 +395,16 @@ static void compare_paths(rtk_scene *s, const char *mesh, const char *builder, i
  * rays on every path, bit for bit: a pinhole camera's rays from outside
  * the mesh (coherent: the AVX paths trace most of them as frustum
  * packets), the same cut short (finite tmax), eight rays from each of
- * some hits in random directions, short and long (streams) and shadow
- * rays from the hits towards one point, each set alone and all
- * interleaved. */
+ * some hits in random directions, short and long (origin groups), shadow
+ * rays from the hits towards one point, and eight rays from each of those
+ * points aimed at a triangle's corners, edge midpoints and centroid
+ * (origin groups whose lanes reach the triangle test's edge cases), each
+ * set alone and all interleaved (streams). */
 static void compare_batches(rtk_scene *s, const char *mesh, const char *builder)
 {
     if (!s->wide)
         return;
-    enum { W = 48, H = 32, N = 4 * W * H };
+    enum { W = 48, H = 32, SETS = 5, N = SETS * W * H };
     rtk_ray *rays = malloc(sizeof(rtk_ray) * N), *mixed = malloc(sizeof(rtk_ray) * N);
     rtk_hit *single = malloc(sizeof(rtk_hit) * N), *batch = malloc(sizeof(rtk_hit) * N);
     uint8_t *occ_single = malloc(N), *occ_batch = malloc(N);
@@ -455,10 +457,25 @@ static void compare_batches(rtk_scene *s, const char *mesh, const char *builder)
             sh->dir = rtk_vec3_sub(light, at);
             sh->tmin = 1e-4f;
             sh->tmax = 1.0f;
+            /* From the same point: corners, edge midpoints, centroid, and
+             * the corner again with tmax ending on it. */
+            rtk_vec3 v[3];
+            rtk_scene_triangle(s, (i / 8 * 7919u) % s->triangle_count, &v[0], &v[1], &v[2]);
+            const rtk_vec3 aims[8] = {v[0], v[1], v[2],
+                                      rtk_vec3_scale(rtk_vec3_add(v[0], v[1]), 0.5f),
+                                      rtk_vec3_scale(rtk_vec3_add(v[1], v[2]), 0.5f),
+                                      rtk_vec3_scale(rtk_vec3_add(v[2], v[0]), 0.5f),
+                                      rtk_vec3_scale(rtk_vec3_add(rtk_vec3_add(v[0], v[1]), v[2]), 1.0f / 3.0f),
+                                      v[0]};
+            rtk_ray *aim = &rays[n + 2 * W * H + i];
+            aim->org = at;
+            aim->dir = rtk_vec3_sub(aims[i % 8], at);
+            aim->tmin = 0.0f;
+            aim->tmax = i % 8 == 7 ? 1.0f : INFINITY;
         }
         /* All interleaved: a camera ray, a random one, a shadow ray, ... */
         for (uint32_t i = 0; i < (uint32_t)N; i++)
-            mixed[i] = rays[(i % 4) * (W * H) + i / 4];
+            mixed[i] = rays[(i % SETS) * (W * H) + i / SETS];
         for (int set = 0; set < 2; set++) {
             const rtk_ray *in = set ? mixed : rays;
             int bad_closest = 0, bad_any = 0;
@@ -481,17 +498,18 @@ static void compare_batches(rtk_scene *s, const char *mesh, const char *builder)
             check(bad_closest == 0 && bad_any == 0,
                   "%s / %s: %s batches = single rays, bit for bit, %s (%d rays, %llu of closest and any in packets): "
                   "%d closest and %d occlusion results differ",
-                  mesh, builder, rtk_simd_name((rtk_simd_path)p), set ? "interleaved" : "camera, short, random, shadow",
+                  mesh, builder, rtk_simd_name((rtk_simd_path)p), set ? "interleaved" : "camera, short, random, shadow, aimed",
                   N, (unsigned long long)packed, bad_closest, bad_any);
             if (p >= RTK_SIMD_AVX2 && !set) {
-                /* The random rays alone: closest hit and occlusion trace them all in streams. */
+                /* The random rays alone: closest hit traces them all in streams, occlusion in
+                 * origin groups. */
                 uint64_t mark = rtk_wide_packet_rays();
                 rtk_wide_closest_batch(s, (rtk_simd_path)p, rays + 2 * W * H, W * H, batch);
                 rtk_wide_any_batch(s, (rtk_simd_path)p, rays + 2 * W * H, W * H, occ_batch);
                 uint64_t streamed = rtk_wide_packet_rays() - mark;
                 check(packed >= (uint64_t)W * H && streamed == 2u * W * H,
                       "%s / %s: %s traces the camera rays as packets (%llu rays in packets) and the random "
-                      "rays in streams (%llu of 2 x %d, closest and any)",
+                      "rays in streams and origin groups (%llu of 2 x %d, closest and any)",
                       mesh, builder, rtk_simd_name((rtk_simd_path)p), (unsigned long long)packed,
                       (unsigned long long)streamed, W * H);
             }
