@@ -337,7 +337,7 @@ typedef struct bench_pass {
 typedef struct pass_thread {
     bench_pass *pass;
     double cpu_seconds;
-    uint64_t packet_rays;    /* rays its batches traced in packets or streams */
+    uint64_t packet_rays;    /* rays its batches traced in packets, origin groups or streams */
 } pass_thread;
 
 static double cpu_now(clockid_t clock)
@@ -453,7 +453,8 @@ typedef struct bench_row {
     double primary_cpu_ms, ao_cpu_ms;      /* CPU time of the tracing threads */
     double primary_batch_ms, ao_batch_ms;  /* the same rays, each image row one batch (wall clock) */
     double primary_batch_cpu_ms, ao_batch_cpu_ms;
-    uint64_t primary_packet_rays, ao_packet_rays; /* of a batch pass, rays the kernel traced in packets or streams */
+    /* Of a batch pass, rays the kernel traced in packets, origin groups or streams. */
+    uint64_t primary_packet_rays, ao_packet_rays;
     uint64_t primary_hits, ao_rays, ao_unoccluded;
     int has_tree;             /* kernel nodes exist: the statistics below are valid */
     uint32_t nodes, leaves, depth;
@@ -1307,11 +1308,11 @@ static void print_report(const bench *b, const char *path, FILE *out)
                 (unsigned long long)r->ao_unoccluded, mean_ao(r), r->build_ms + r->primary_ms + r->ao_ms);
     }
     /* The same rays with each image row traced as one batch: the kernel's
-     * packets and streams, or an accelerator's own batch functions
+     * packets, origin groups and streams, or an accelerator's own batch functions
      * (embree: its packets of 8 or 16 consecutive rays). */
     fprintf(out, "\nbatches: each image row's rays in one call (rtk_bvh_closest_batch / rtk_bvh_any_batch), the same "
             "hits; Mrays/s wall clock; speed-up against one ray at a time per CPU-second of the tracing threads; "
-            "packets: share of the rays rtk's kernel traced in packets or streams\n");
+            "packets: share of the rays rtk's kernel traced in packets, origin groups or streams\n");
     fprintf(out, "%-*s %7s %13s %13s %8s %8s %9s %9s %8s %8s\n", w, "accelerator", "threads", "primary_mrays",
             "primary_batch", "speed-up", "packets", "ao_mrays", "ao_batch", "speed-up", "packets");
     for (size_t i = 0; i < b->accel_count * b->thread_count; i++) {

@@ -2155,7 +2155,7 @@ static void batch_check(rtk_conform_runner *r, const rtk_scene *s, dvec lo, dvec
     packed = rtk_wide_packet_rays() - packed;
     snprintf(name, sizeof name,
              "batches of 1, 7, 8, 9, 64, 256 rays = single rays bit for bit, closest and any: %s, %u rays (%llu hits, "
-             "%llu occluded; %llu of 2 x %u traced in the kernel's packets or streams) [%s]",
+             "%llu occluded; %llu of 2 x %u traced in the kernel's packets, origin groups or streams) [%s]",
              what, count, (unsigned long long)got, (unsigned long long)blocked, (unsigned long long)packed, count,
              label);
     tally_check(r, &tl, name);
