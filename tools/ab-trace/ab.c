@@ -321,7 +321,8 @@ int main(int argc, char **argv)
     }
     const size_t pixels = (size_t)WIDTH * HEIGHT;
     /* In huge pages, as rtk bench keeps its rays (docs/bench-vs-embree.md). */
-    rtk_ray *primary = rtk_alloc_large(sizeof *primary * pixels), *ao = rtk_alloc_large(sizeof *ao * pixels * AO_PER_HIT);
+    rtk_ray *primary = rtk_alloc_large(sizeof *primary * pixels);
+    rtk_ray *ao = rtk_alloc_large(sizeof *ao * pixels * AO_PER_HIT);
     rtk_hit *hits = rtk_alloc_large(sizeof *hits * pixels);
     double *ratio_ao = malloc(sizeof(double) * rounds), *ratio_pr = malloc(sizeof(double) * rounds);
     if (!primary || !ao || !hits || !ratio_ao || !ratio_pr) {
