@@ -151,7 +151,8 @@ static const cli_command commands[] = {
      "With -v (--verbose) the report ends with each build's phases: median ms over the\n"
      "runs, share of the build, whether each ran on one thread or several, and on more\n"
      "than one thread the serial fraction (time in one-thread phases over the same\n"
-     "accelerator's one-thread build; give 1 among --threads)",
+     "accelerator's one-thread build; give 1 among --threads), then the speed-up over\n"
+     "that build and the CPU time against its CPU time",
      run_bench},
     {"diff", "A B [options]", "compare an image with a reference: RMSE, relMSE, PSNR and more per channel",
      diff_options,

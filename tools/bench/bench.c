@@ -1208,7 +1208,8 @@ static double median_of(const double *v, uint32_t n, double *tmp)
 /* With --verbose: each row's build phases (median ms over the rounds,
  * share of the row's median build, where each ran) and, on more than
  * one thread, the serial fraction: the phases' time on one thread over
- * the same accelerator's one-thread build. */
+ * the same accelerator's one-thread build; then the speed-up over that
+ * build and the CPU time against its CPU time. */
 static void print_phases(const bench *b, FILE *out, int w)
 {
     const uint32_t runs = b->opt.runs;
@@ -1252,7 +1253,12 @@ static void print_phases(const bench *b, FILE *out, int w)
         else
             fprintf(out, "  serial fraction: needs a 1-thread row (--threads 1,...); %.2f ms on one thread\n", serial);
         if (unknown >= 0.005)
-            fprintf(out, "  and %.2f ms on threads not known (a builder's unmarked time, an instanced top level)\n", unknown);
+            fprintf(out, "  and %.2f ms on threads not known (a builder's unmarked time, an instanced top level)\n",
+                    unknown);
+        if (one && one->build_ms > 0.0 && row->build_ms > 0.0 && one->build_cpu_ms > 0.0)
+            fprintf(out, "  speed-up %.2fx over one thread; CPU time %.2fx the 1-thread build's (%.2f / %.2f ms)\n",
+                    one->build_ms / row->build_ms, row->build_cpu_ms / one->build_cpu_ms, row->build_cpu_ms,
+                    one->build_cpu_ms);
     }
     free(tmp);
 }

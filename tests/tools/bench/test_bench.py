@@ -166,6 +166,31 @@ def test_recipe(rtk):
                     "primary 1.000 nodes, 1.000 triangles; AO 1.000 nodes, 0.000 triangles")
             line = "bench: %s, 1 threads: work per ray: %s" % (a, want)
             check(proc.returncode == 0 and line in proc.stderr, "wall: -v logs %s's work per ray: %s" % (a, want))
+        # -v on 1 and 2 threads: each 2-thread row's phases end with its
+        # speed-up and CPU time against the 1-thread row, the CSV's figures.
+        rows, proc = bench(rtk, [room, "-v", "--threads", "1,2", "--width", "16", "--height", "12"], tmp, "phases")
+        if rows is not None:
+            for a in accels:
+                one = [r for r in rows if r["accelerator"] == a and r["threads"] == "1"][0]
+                two = [r for r in rows if r["accelerator"] == a and r["threads"] == "2"][0]
+                b1, b2 = float(one["build_ms"]), float(two["build_ms"])
+                c1, c2 = float(one["build_cpu_ms"]), float(two["build_cpu_ms"])
+                speed, cpu = b1 / b2, c2 / c1
+                # a's 2-thread block: its header and the indented lines under it.
+                after = proc.stdout.split("\n%s, 2 threads: build" % a, 1)[-1].split("\n")[1:]
+                block = "\n".join(ln for ln in after[:next((i for i, ln in enumerate(after)
+                                                            if not ln.startswith("  ")), len(after))])
+                m = re.search(r"speed-up ([0-9.]+)x over one thread; CPU time ([0-9.]+)x the 1-thread build's "
+                              r"\(([0-9.]+) / ([0-9.]+) ms\)", block)
+                # Printed to 2 decimals (0.005) from the medians the CSV rounds
+                # to 4 (5e-5 each, so a ratio x / y within x / y (5e-5 / x + 5e-5 / y)).
+                def near(printed, value, x=None, y=None):
+                    slack = value * (5e-5 / x + 5e-5 / y) if x else 5e-5
+                    return abs(float(printed) - value) <= 0.005 + slack + 1e-9
+                ok = (m is not None and b2 > 0 and c1 > 0 and near(m.group(1), speed, b1, b2)
+                      and near(m.group(2), cpu, c2, c1) and near(m.group(3), c2) and near(m.group(4), c1))
+                check(ok, "phases: %s on 2 threads reports speed-up %.3f and CPU time %.3f against 1 thread (%s)"
+                      % (a, speed, cpu, m.group(0) if m else "no such line"))
         # Bad files are refused with file:line.
         bad = [("f 1 2 9", "bad.obj:4:"), ("v 1 2", "bad.obj:1:"), ("f 1 2", "no triangles"), ("f 1 0 2", "bad.obj:4:"),
                ("f 1 x 2", "bad.obj:4:")]
