@@ -498,7 +498,8 @@ static void compare_batches(rtk_scene *s, const char *mesh, const char *builder)
             check(bad_closest == 0 && bad_any == 0,
                   "%s / %s: %s batches = single rays, bit for bit, %s (%d rays, %llu of closest and any in packets): "
                   "%d closest and %d occlusion results differ",
-                  mesh, builder, rtk_simd_name((rtk_simd_path)p), set ? "interleaved" : "camera, short, random, shadow, aimed",
+                  mesh, builder, rtk_simd_name((rtk_simd_path)p),
+                  set ? "interleaved" : "camera, short, random, shadow, aimed",
                   N, (unsigned long long)packed, bad_closest, bad_any);
             if (p >= RTK_SIMD_AVX2 && !set) {
                 /* The random rays alone: closest hit traces them all in streams, occlusion in
