@@ -20,10 +20,11 @@
  * tracing dominates.
  *
  * The sort is stable, so equal codes keep index order whichever way it
- * runs: least significant digit first over the whole array below 2^17
- * primitives (in cache), and above, one pass by the top digit over
- * memory, then each of its 2048 buckets by the remaining bits where it
- * stays in cache: one pass over memory instead of three.
+ * runs: on one thread below 2^17 primitives, least significant digit
+ * first over the whole array (in cache); otherwise one pass by the top
+ * digit, then each of its 2048 buckets by the remaining bits where it
+ * stays in cache: one pass over memory, or between the cores' caches,
+ * instead of three.
  *
  * Depth is at most the code bits plus 33 levels of halving. The tree does
  * not depend on thread_count. Its slots hold the children pairs in
@@ -66,9 +67,9 @@
 #define LBVH_PART 4096
 /* Bits of the radix sort's digits. */
 #define LBVH_DIGIT 11
-/* From this many primitives on (their codes and ids outgrow a core's L2)
- * the sort goes over memory once, by the top digit, and sorts each
- * bucket by the rest where it stays in cache. */
+/* From this many primitives on (their codes and ids outgrow a core's L2),
+ * and at any size on threads, the sort goes over memory once, by the top
+ * digit, and sorts each bucket by the rest where it stays in cache. */
 #define LBVH_MSD_MIN (1u << 17)
 /* Buckets a thread takes at a time; buckets at most this small are
  * sorted by insertion. */
@@ -419,12 +420,13 @@ static inline __attribute__((always_inline)) void sort_bucket(void *ks, uint32_t
     }
 }
 
-/* The same order as sort_codes_width for large inputs, with one pass over
- * memory instead of three (and a copy back): every thread counts and
- * scatters its part by the top digit (stably: a thread's elements of a
- * digit follow the earlier threads'), then the threads take buckets and
- * sort each by the lower bits in cache (sort_bucket). A stable sort by
- * the whole code gives one order, so the tree is the same either way. */
+/* The same order as sort_codes_width for large inputs and on threads,
+ * with one pass over memory instead of three (and a copy back): every
+ * thread counts and scatters its part by the top digit (stably: a
+ * thread's elements of a digit follow the earlier threads'), then the
+ * threads take buckets and sort each by the lower bits in cache
+ * (sort_bucket). A stable sort by the whole code gives one order, so the
+ * tree is the same either way. */
 static inline __attribute__((always_inline)) void sort_codes_msd(build *b, rtk_team *team, uint32_t t, uint32_t size,
                                                                  int wide)
 {
@@ -449,9 +451,9 @@ static inline __attribute__((always_inline)) void sort_codes_msd(build *b, rtk_t
     rtk_team_sync(team);
 }
 
-/* The large inputs' sort, out of line, so that it does not change how
- * the small inputs' sort is compiled. */
-static __attribute__((noinline)) void sort_codes_large(build *b, rtk_team *team, uint32_t t, uint32_t size)
+/* The sort by the top digit first, out of line, so that it does not
+ * change how the LSD sort is compiled. */
+static __attribute__((noinline)) void sort_codes_top(build *b, rtk_team *team, uint32_t t, uint32_t size)
 {
     if (b->opt->bits == 63)
         sort_codes_msd(b, team, t, size, 1);
@@ -459,10 +461,12 @@ static __attribute__((noinline)) void sort_codes_large(build *b, rtk_team *team,
         sort_codes_msd(b, team, t, size, 0);
 }
 
+/* On threads every LSD pass would move each code and id between the
+ * members' caches, the first pass by the top digit moves them once. */
 static void sort_codes(build *b, rtk_team *team, uint32_t t, uint32_t size)
 {
-    if (b->a->prim_count >= LBVH_MSD_MIN)
-        sort_codes_large(b, team, t, size);
+    if (b->a->prim_count >= LBVH_MSD_MIN || size > 1)
+        sort_codes_top(b, team, t, size);
     else if (b->opt->bits == 63)
         sort_codes_width(b, team, t, size, 1);
     else

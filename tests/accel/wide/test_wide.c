@@ -615,28 +615,29 @@ static void set_bounds(rtk_scene *s)
     s->bounds = b;
 }
 
-/* 150,000 random triangles, bounds set for a build. */
-static rtk_scene *large_soup(void)
+/* count random triangles, bounds set for a build. */
+static rtk_scene *soup(uint32_t count)
 {
     rtk_pcg32 rng;
-    rtk_pcg32_seed(&rng, 150000u, 7u);
-    rtk_scene *s = rtk_scene_new("large soup", 0);
-    add_soup(s, &rng, 150000, .02f);
+    rtk_pcg32_seed(&rng, count, 7u);
+    rtk_scene *s = rtk_scene_new("soup", 0);
+    add_soup(s, &rng, (int)count, .02f);
     set_bounds(s);
     return s;
 }
 
-/* A builder on 150,000 triangles, enough for every threaded path (the
- * builders' parts and queues, the kernel's inputs, validation, leaf check
- * and collapse plan): the same binary tree, leaf order and wide tree on 1,
- * 2 and 3 threads, byte for byte. With key set, its parameter key is value. */
-static void check_builder_threads(const rtk_plugin *p, const char *key, const char *value)
+/* A builder on count triangles (150,000 are enough for every threaded
+ * path: the builders' parts and queues, the kernel's inputs, validation,
+ * leaf check and collapse plan): the same binary tree, leaf order and wide
+ * tree on 1, 2 and 3 threads, byte for byte. With key set, its parameter
+ * key is value. */
+static void check_builder_threads(const rtk_plugin *p, uint32_t count, const char *key, const char *value)
 {
     rtk_scene *first = NULL;
     int same = 1, built = 1;
     uint32_t nodes = 0;
     for (uint32_t t = 1; t <= 3; t++) {
-        rtk_scene *s = large_soup();
+        rtk_scene *s = soup(count);
         rtk_params *params = rtk_params_defaults(p);
         if (key && params)
             rtk_params_set_text(params, key, value);
@@ -662,9 +663,9 @@ static void check_builder_threads(const rtk_plugin *p, const char *key, const ch
     snprintf(name, sizeof name, "%s%s%s%s", p->name, key ? " " : "", key ? key : "", key ? "=" : "");
     if (key)
         strncat(name, value, sizeof name - strlen(name) - 1);
-    check(built, "150,000 triangles / %s: builds on 1, 2 and 3 threads", name);
-    check(built && same, "150,000 triangles / %s: the same tree (%u nodes), leaf order and wide tree on 1, 2 and 3 "
-          "threads", name, nodes);
+    check(built, "%u triangles / %s: builds on 1, 2 and 3 threads", count, name);
+    check(built && same, "%u triangles / %s: the same tree (%u nodes), leaf order and wide tree on 1, 2 and 3 "
+          "threads", count, name, nodes);
     if (first)
         rtk_scene_free(first);
 }
@@ -719,25 +720,25 @@ static uint32_t morton_disorder(const rtk_scene *s, uint32_t bits)
 }
 
 /* lbvh's leaf order against codes recomputed here, on both sides of its
- * sort's switch to a first pass by the top digit (2^17 primitives), on
- * random triangles and on copies of a few (equal codes: index order),
- * with 30- and 63-bit codes, on 1 and 2 threads. */
+ * one-thread sort's switch to a first pass by the top digit (2^17
+ * primitives), on random triangles and on copies of a few (equal codes:
+ * index order), with 30- and 63-bit codes, on 1 and 2 threads. */
 static void check_lbvh_order(const rtk_plugin *p)
 {
-    for (int kind = 0; kind < 3; kind++) {
+    for (int kind = 0; kind < 4; kind++) {
         for (uint32_t bits = 30; bits <= 63; bits += 33) {
             for (uint32_t t = 1; t <= 2; t++) {
                 rtk_pcg32 rng;
                 rtk_pcg32_seed(&rng, 17u + (uint32_t)kind, 3u);
                 rtk_scene *s = rtk_scene_new("morton", 0);
-                const int count = kind == 1 ? 20000 : 150000;
-                if (kind == 2) {
-                    /* 30,000 triangles, each 5 times on average, in random
-                     * order: equal codes in buckets of every size. */
+                const int count = kind % 2 ? 20000 : 150000, distinct = count / 5;
+                if (kind >= 2) {
+                    /* count / 5 triangles, each 5 times on average, in
+                     * random order: equal codes in buckets of every size. */
                     rtk_scene *few = rtk_scene_new("few", 0);
-                    add_soup(few, &rng, 30000, .02f);
+                    add_soup(few, &rng, distinct, .02f);
                     for (int i = 0; i < count; i++) {
-                        const uint32_t *idx = few->indices + 3 * (size_t)(rtk_pcg32_next(&rng) % 30000u);
+                        const uint32_t *idx = few->indices + 3 * (size_t)(rtk_pcg32_next(&rng) % (uint32_t)distinct);
                         rtk_vec3 v[3];
                         for (int k = 0; k < 3; k++)
                             v[k] = rtk_vec3_make(few->positions[3 * idx[k]], few->positions[3 * idx[k] + 1],
@@ -755,7 +756,8 @@ static void check_lbvh_order(const rtk_plugin *p)
                 uint32_t bad = st == RTK_OK ? morton_disorder(s, bits) : UINT32_MAX;
                 check(bad == 0, "lbvh morton=%u, %u thread%s, %d %s: the leaf order is the codes' stable sort "
                       "(%u slots out of order)", bits, t, t == 1 ? "" : "s", count,
-                      kind == 2 ? "copies of 30,000 triangles" : "random triangles", bad);
+                      kind == 2 ? "copies of 30,000 triangles" : kind == 3 ? "copies of 4,000 triangles"
+                                                                            : "random triangles", bad);
                 rtk_params_destroy(params);
                 rtk_scene_free(s);
             }
@@ -918,15 +920,18 @@ int main(void)
     for (int bi = 0; bi < nb; bi++) {
         if (builders[bi] == &one_leaf || builders[bi] == &chain)
             continue;
-        check_builder_threads(builders[bi], NULL, NULL);
+        check_builder_threads(builders[bi], 150000, NULL, NULL);
         if (strcmp(builders[bi]->name, "sah") == 0) /* the gap closing serves both modes */
-            check_builder_threads(builders[bi], "mode", "sweep");
+            check_builder_threads(builders[bi], 150000, "mode", "sweep");
         if (strcmp(builders[bi]->name, "lbvh") == 0) {
             /* Subtrees built in place (sizes counted first) by default, and
              * filled then moved down when collapsing. */
-            check_builder_threads(builders[bi], "collapse", "true");
-            check_builder_threads(builders[bi], "max_leaf", "1");
-            check_builder_threads(builders[bi], "morton", "63");
+            check_builder_threads(builders[bi], 150000, "collapse", "true");
+            check_builder_threads(builders[bi], 150000, "max_leaf", "1");
+            check_builder_threads(builders[bi], 150000, "morton", "63");
+            /* Below 2^17 the sort is LSD on one thread and by the top digit first on threads. */
+            check_builder_threads(builders[bi], 20000, NULL, NULL);
+            check_builder_threads(builders[bi], 20000, "morton", "63");
             check_lbvh_order(builders[bi]);
         }
     }
