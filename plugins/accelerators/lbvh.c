@@ -72,9 +72,10 @@
  * digit, and sorts each bucket by the rest where it stays in cache. */
 #define LBVH_MSD_MIN (1u << 17)
 /* Buckets a thread takes at a time; buckets at most this small are
- * sorted by insertion. */
+ * sorted by insertion; from the third, in the fewest LSD passes. */
 #define LBVH_BUCKET_GRAB 16
 #define LBVH_SMALL_BUCKET 48
+#define LBVH_LARGE_BUCKET 512
 /* Slots ahead whose bounds a leaf prefetches. */
 #define LBVH_PREFETCH 16
 /* Nodes the top-level planner keeps pending (> the depth bound, 96). */
@@ -395,10 +396,13 @@ static inline __attribute__((always_inline)) void sort_bucket(void *ks, uint32_t
         }
         return;
     }
-    /* LSD by digits of up to LBVH_DIGIT bits, an odd number of passes
-     * so that the last writes (ks, is). */
+    /* LSD by digits of up to LBVH_DIGIT bits. A small bucket takes an
+     * odd number of passes, so that the last writes (ks, is); a large one
+     * the fewest, then a copy back where they are even: a pass over it
+     * costs more than counting the wider digits (30-bit codes: two passes
+     * of 10 bits, not three of 7). */
     uint32_t passes = (low + LBVH_DIGIT - 1) / LBVH_DIGIT;
-    passes += passes % 2 == 0;
+    passes += m < LBVH_LARGE_BUCKET && passes % 2 == 0;
     const uint32_t width = (low + passes - 1) / passes, digits = 1u << width;
     uint32_t count[1 << LBVH_DIGIT];
     void *src_k = kt, *dst_k = ks;
@@ -417,6 +421,11 @@ static inline __attribute__((always_inline)) void sort_bucket(void *ks, uint32_t
         src_k = dst_k, dst_k = tk;
         uint32_t *ti = src_i;
         src_i = dst_i, dst_i = ti;
+    }
+    if (src_k != ks) {
+        const size_t key_bytes = wide ? sizeof(uint64_t) : sizeof(uint32_t);
+        memcpy((char *)ks + key_bytes * lo, (const char *)src_k + key_bytes * lo, key_bytes * m);
+        memcpy(is + lo, src_i + lo, sizeof *is * m);
     }
 }
 

@@ -721,18 +721,34 @@ static uint32_t morton_disorder(const rtk_scene *s, uint32_t bits)
 
 /* lbvh's leaf order against codes recomputed here, on both sides of its
  * one-thread sort's switch to a first pass by the top digit (2^17
- * primitives), on random triangles and on copies of a few (equal codes:
- * index order), with 30- and 63-bit codes, on 1 and 2 threads. */
+ * primitives), on random triangles, on copies of a few (equal codes:
+ * index order) and on a cluster (top-digit buckets of thousands, sorted
+ * in the fewest passes), with 30- and 63-bit codes, on 1 and 2 threads. */
 static void check_lbvh_order(const rtk_plugin *p)
 {
-    for (int kind = 0; kind < 4; kind++) {
+    static const char *const kinds[] = {"random triangles", "random triangles", "copies of 30,000 triangles",
+                                        "copies of 4,000 triangles", "triangles, 9 in 10 in a cluster"};
+    for (int kind = 0; kind < 5; kind++) {
         for (uint32_t bits = 30; bits <= 63; bits += 33) {
             for (uint32_t t = 1; t <= 2; t++) {
                 rtk_pcg32 rng;
                 rtk_pcg32_seed(&rng, 17u + (uint32_t)kind, 3u);
                 rtk_scene *s = rtk_scene_new("morton", 0);
                 const int count = kind % 2 ? 20000 : 150000, distinct = count / 5;
-                if (kind >= 2) {
+                if (kind == 4) {
+                    /* A cube a twentieth of the scene's side holds 135,000. */
+                    add_soup(s, &rng, count / 10, .02f);
+                    for (int i = count / 10; i < count; i++) {
+                        const rtk_vec3 c = rtk_vec3_make(frand(&rng, .25f, .35f), frand(&rng, .25f, .35f),
+                                                         frand(&rng, .25f, .35f));
+                        rtk_vec3 v[3];
+                        for (int k = 0; k < 3; k++)
+                            v[k] = rtk_vec3_add(c, rtk_vec3_make(frand(&rng, -.002f, .002f),
+                                                                 frand(&rng, -.002f, .002f),
+                                                                 frand(&rng, -.002f, .002f)));
+                        add_tri(s, v[0], v[1], v[2]);
+                    }
+                } else if (kind >= 2) {
                     /* count / 5 triangles, each 5 times on average, in
                      * random order: equal codes in buckets of every size. */
                     rtk_scene *few = rtk_scene_new("few", 0);
@@ -755,9 +771,7 @@ static void check_lbvh_order(const rtk_plugin *p)
                 rtk_status st = rtk_bvh_build(s, p, params, t);
                 uint32_t bad = st == RTK_OK ? morton_disorder(s, bits) : UINT32_MAX;
                 check(bad == 0, "lbvh morton=%u, %u thread%s, %d %s: the leaf order is the codes' stable sort "
-                      "(%u slots out of order)", bits, t, t == 1 ? "" : "s", count,
-                      kind == 2 ? "copies of 30,000 triangles" : kind == 3 ? "copies of 4,000 triangles"
-                                                                            : "random triangles", bad);
+                      "(%u slots out of order)", bits, t, t == 1 ? "" : "s", count, kinds[kind], bad);
                 rtk_params_destroy(params);
                 rtk_scene_free(s);
             }
