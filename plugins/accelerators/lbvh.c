@@ -71,8 +71,9 @@
  * and at any size on threads, the sort goes over memory once, by the top
  * digit, and sorts each bucket by the rest where it stays in cache. */
 #define LBVH_MSD_MIN (1u << 17)
-/* Buckets a thread takes at a time; buckets at most this small are
- * sorted by insertion; from the third, in the fewest LSD passes. */
+/* Buckets a thread takes at a time; buckets at most LBVH_SMALL_BUCKET
+ * are sorted by insertion, from LBVH_LARGE_BUCKET in the fewest LSD
+ * passes (sort_bucket). */
 #define LBVH_BUCKET_GRAB 16
 #define LBVH_SMALL_BUCKET 48
 #define LBVH_LARGE_BUCKET 512
@@ -311,6 +312,15 @@ static inline __attribute__((always_inline)) void scatter(const void *ks, const 
     }
 }
 
+/* Copies (ks, is)[from, to) to the same slots of (kd, id). */
+static inline __attribute__((always_inline)) void copy_codes(const void *ks, const uint32_t *is, void *kd, uint32_t *id,
+                                                             uint32_t from, uint32_t to, int wide)
+{
+    const size_t key_bytes = wide ? sizeof(uint64_t) : sizeof(uint32_t);
+    memcpy((char *)kd + key_bytes * from, (const char *)ks + key_bytes * from, key_bytes * (to - from));
+    memcpy(id + from, is + from, sizeof *is * (to - from));
+}
+
 /* Counts the digits (key >> shift) & (2^LBVH_DIGIT - 1) of thread t's
  * part [begin, end) of ks, waits for every thread's counts, and gives
  * thread t's first slot for each digit in offset (all smaller digits,
@@ -350,7 +360,6 @@ static inline __attribute__((always_inline)) void sort_codes_width(build *b, rtk
                                                                    int wide)
 {
     const uint32_t n = b->a->prim_count, digits = 1u << LBVH_DIGIT;
-    const size_t key_bytes = wide ? sizeof(uint64_t) : sizeof(uint32_t);
     uint32_t begin, end;
     part(n, t, size, &begin, &end);
     void *ks = b->codes, *kd = b->codes_tmp;
@@ -367,8 +376,7 @@ static inline __attribute__((always_inline)) void sort_codes_width(build *b, rtk
         rtk_team_sync(team);
     }
     if (ks != b->codes) {
-        memcpy((char *)b->codes + key_bytes * begin, (const char *)ks + key_bytes * begin, key_bytes * (end - begin));
-        memcpy(b->a->prim_order + begin, is + begin, sizeof *is * (end - begin));
+        copy_codes(ks, is, b->codes, b->a->prim_order, begin, end, wide);
         rtk_team_sync(team);
     }
 }
@@ -422,11 +430,8 @@ static inline __attribute__((always_inline)) void sort_bucket(void *ks, uint32_t
         uint32_t *ti = src_i;
         src_i = dst_i, dst_i = ti;
     }
-    if (src_k != ks) {
-        const size_t key_bytes = wide ? sizeof(uint64_t) : sizeof(uint32_t);
-        memcpy((char *)ks + key_bytes * lo, (const char *)src_k + key_bytes * lo, key_bytes * m);
-        memcpy(is + lo, src_i + lo, sizeof *is * m);
-    }
+    if (src_k != ks)
+        copy_codes(src_k, src_i, ks, is, lo, hi, wide);
 }
 
 /* The same order as sort_codes_width for large inputs and on threads,

@@ -30,17 +30,24 @@ static void add_tri(rtk_scene *s, rtk_vec3 a, rtk_vec3 b, rtk_vec3 c)
     rtk_scene_add_triangle(s, i0, i1, i2, NULL, NULL, RTK_INVALID_ID);
 }
 
-/* count random triangles in [-1, 1]^3, corners within size of a centre. */
-static void add_soup(rtk_scene *s, rtk_pcg32 *rng, int count, float size)
+/* count random triangles centred in [lo, hi]^3, corners within size of
+ * the centre. */
+static void add_soup_in(rtk_scene *s, rtk_pcg32 *rng, int count, float lo, float hi, float size)
 {
     for (int i = 0; i < count; i++) {
-        rtk_vec3 c = rtk_vec3_make(frand(rng, -1, 1), frand(rng, -1, 1), frand(rng, -1, 1));
+        rtk_vec3 c = rtk_vec3_make(frand(rng, lo, hi), frand(rng, lo, hi), frand(rng, lo, hi));
         rtk_vec3 v[3];
         for (int k = 0; k < 3; k++)
             v[k] = rtk_vec3_add(c, rtk_vec3_make(frand(rng, -size, size), frand(rng, -size, size),
                                                  frand(rng, -size, size)));
         add_tri(s, v[0], v[1], v[2]);
     }
+}
+
+/* count random triangles in [-1, 1]^3, corners within size of a centre. */
+static void add_soup(rtk_scene *s, rtk_pcg32 *rng, int count, float size)
+{
+    add_soup_in(s, rng, count, -1, 1, size);
 }
 
 /* Axis-aligned box [lo, hi] as 12 triangles. */
@@ -738,16 +745,7 @@ static void check_lbvh_order(const rtk_plugin *p)
                 if (kind == 4) {
                     /* A cube a twentieth of the scene's side holds 135,000. */
                     add_soup(s, &rng, count / 10, .02f);
-                    for (int i = count / 10; i < count; i++) {
-                        const rtk_vec3 c = rtk_vec3_make(frand(&rng, .25f, .35f), frand(&rng, .25f, .35f),
-                                                         frand(&rng, .25f, .35f));
-                        rtk_vec3 v[3];
-                        for (int k = 0; k < 3; k++)
-                            v[k] = rtk_vec3_add(c, rtk_vec3_make(frand(&rng, -.002f, .002f),
-                                                                 frand(&rng, -.002f, .002f),
-                                                                 frand(&rng, -.002f, .002f)));
-                        add_tri(s, v[0], v[1], v[2]);
-                    }
+                    add_soup_in(s, &rng, count - count / 10, .25f, .35f, .002f);
                 } else if (kind >= 2) {
                     /* count / 5 triangles, each 5 times on average, in
                      * random order: equal codes in buckets of every size. */
