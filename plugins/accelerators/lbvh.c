@@ -22,15 +22,16 @@
  * The sort is stable, so equal codes keep index order whichever way it
  * runs: on one thread below 2^17 primitives, least significant digit
  * first over the whole array (in cache); otherwise one pass by the top
- * digit, then each of its 2048 buckets by the remaining bits where it
- * stays in cache: one pass over memory, or between the cores' caches,
- * instead of three.
+ * digit, then each of its buckets (2048; fewer for small inputs on many
+ * threads) by the remaining bits where it stays in cache: one pass over
+ * memory, or between the cores' caches, instead of three.
  *
  * Depth is at most the code bits plus 33 levels of halving. The tree does
  * not depend on thread_count. Its slots hold the children pairs in
  * depth-first order, left first, which is the order a build on one
  * thread fills them from the root. On several threads the top of the
- * tree is split into subtrees of at most 4096 primitives, a node over m
+ * tree is split into subtrees of at most 4096 primitives (fewer for small
+ * inputs: about 8 subtrees a thread, at least 512), a node over m
  * primitives owning the 2m - 2 slots of its region. Without collapse,
  * the threads first count each subtree's nodes (its splits alone, from
  * its codes: no bounds are read), the calling thread lays the
@@ -61,8 +62,12 @@
 #endif
 
 /* Subtrees at most this large are built by one thread; larger ones are
- * split first (only when several threads build). */
+ * split first (only when several threads build). Smaller inputs take a
+ * grain of their size over LBVH_TASKS subtrees a thread, at least
+ * LBVH_MIN_GRAIN, so that threads that finish early find work. */
 #define LBVH_GRAIN 4096
+#define LBVH_TASKS 8
+#define LBVH_MIN_GRAIN 512
 /* Fewest primitives worth a thread of their own. */
 #define LBVH_PART 4096
 /* Bits of the radix sort's digits. */
@@ -71,9 +76,16 @@
  * and at any size on threads, the sort goes over memory once, by the top
  * digit, and sorts each bucket by the rest where it stays in cache. */
 #define LBVH_MSD_MIN (1u << 17)
-/* Buckets a thread takes at a time; buckets at most LBVH_SMALL_BUCKET
- * are sorted by insertion, from LBVH_LARGE_BUCKET in the fewest LSD
- * passes (sort_bucket). */
+/* The top digit has fewer bits where a thread's share of a bucket would
+ * average under LBVH_RUN codes (a cache line of ids), down to
+ * LBVH_MIN_TOP: threads scattering into one bucket write the lines at
+ * its part boundaries both. */
+#define LBVH_RUN 16
+#define LBVH_MIN_TOP 4
+/* Buckets a thread takes at a time, at most (fewer where there are few
+ * buckets a thread); buckets at most LBVH_SMALL_BUCKET are sorted by
+ * insertion, from LBVH_LARGE_BUCKET in the fewest LSD passes
+ * (sort_bucket). */
 #define LBVH_BUCKET_GRAB 16
 #define LBVH_SMALL_BUCKET 48
 #define LBVH_LARGE_BUCKET 512
@@ -113,12 +125,13 @@ typedef struct build {
     uint32_t *ids_tmp;             /* ids of the other sort buffer */
     uint32_t (*hist)[1 << LBVH_DIGIT]; /* per thread: digit counts */
     task *tasks;                   /* subtrees for the threads, in slot order */
-    uint32_t task_count;
+    uint32_t task_count, grain;    /* subtrees of at most grain primitives */
     uint32_t gap_total;            /* the slots all subtrees leave unused */
     atomic_uint next_task, next_fix, next_bucket, next_size;
     atomic_uint planned, shifted;  /* set by member 0: tasks planned, their shifts summed */
     task *tops;                    /* inner nodes above the subtrees, parents first (slot order) */
-    uint32_t top_count;
+    uint32_t top_count, task_cap, top_cap;
+    int failed;                    /* set by member 0 before planned: out of memory */
     move *moves;                   /* closing the gaps, in slot order */
     uint32_t move_count;
     atomic_uint next_move, moved;  /* the next move to take; the moves all done before it */
@@ -321,19 +334,19 @@ static inline __attribute__((always_inline)) void copy_codes(const void *ks, con
     memcpy(id + from, is + from, sizeof *is * (to - from));
 }
 
-/* Counts the digits (key >> shift) & (2^LBVH_DIGIT - 1) of thread t's
- * part [begin, end) of ks, waits for every thread's counts, and gives
+/* Counts the digits (key >> shift) & (2^width - 1) of thread t's part
+ * [begin, end) of ks, waits for every thread's counts, and gives
  * thread t's first slot for each digit in offset (all smaller digits,
  * then this digit in the threads before) and, with start, each digit's
  * first slot of all. Returns the largest count of one digit. */
 static inline __attribute__((always_inline)) uint32_t digit_offsets(build *b, rtk_team *team, uint32_t t,
                                                                     uint32_t size, const void *ks, uint32_t begin,
-                                                                    uint32_t end, uint32_t shift, uint32_t *offset,
-                                                                    uint32_t *start, int wide)
+                                                                    uint32_t end, uint32_t shift, uint32_t width,
+                                                                    uint32_t *offset, uint32_t *start, int wide)
 {
-    const uint32_t digits = 1u << LBVH_DIGIT;
+    const uint32_t digits = 1u << width;
     uint32_t *hist = b->hist[t];
-    memset(hist, 0, sizeof b->hist[0]);
+    memset(hist, 0, sizeof *hist * digits);
     for (uint32_t i = begin; i < end; i++)
         hist[code_at(ks, wide, i) >> shift & (digits - 1)]++;
     rtk_team_sync(team);
@@ -366,7 +379,7 @@ static inline __attribute__((always_inline)) void sort_codes_width(build *b, rtk
     uint32_t *is = b->a->prim_order, *id = b->ids_tmp;
     for (uint32_t shift = 0; shift < b->opt->bits; shift += LBVH_DIGIT) {
         uint32_t offset[1 << LBVH_DIGIT];
-        if (digit_offsets(b, team, t, size, ks, begin, end, shift, offset, NULL, wide) < n) {
+        if (digit_offsets(b, team, t, size, ks, begin, end, shift, LBVH_DIGIT, offset, NULL, wide) < n) {
             scatter(ks, is, kd, id, begin, end, shift, digits - 1, offset, wide);
             void *tk = ks;
             ks = kd, kd = tk;
@@ -434,6 +447,22 @@ static inline __attribute__((always_inline)) void sort_bucket(void *ks, uint32_t
         copy_codes(src_k, src_i, ks, is, lo, hi, wide);
 }
 
+/* Bits of the top digit for n codes on size threads (LBVH_RUN). */
+static uint32_t top_digit_bits(uint32_t n, uint32_t size)
+{
+    uint32_t width = LBVH_DIGIT;
+    while (width > LBVH_MIN_TOP && n >> width < LBVH_RUN * size)
+        width--;
+    return width;
+}
+
+/* Buckets a thread takes at a time: about LBVH_TASKS grabs a thread. */
+static uint32_t bucket_grab(uint32_t digits, uint32_t size)
+{
+    const uint32_t grab = digits / (LBVH_TASKS * size);
+    return grab < 1 ? 1 : grab > LBVH_BUCKET_GRAB ? LBVH_BUCKET_GRAB : grab;
+}
+
 /* The same order as sort_codes_width for large inputs and on threads,
  * with one pass over memory instead of three (and a copy back): every
  * thread counts and scatters its part by the top digit (stably: a
@@ -444,21 +473,22 @@ static inline __attribute__((always_inline)) void sort_bucket(void *ks, uint32_t
 static inline __attribute__((always_inline)) void sort_codes_msd(build *b, rtk_team *team, uint32_t t, uint32_t size,
                                                                  int wide)
 {
-    const uint32_t n = b->a->prim_count, digits = 1u << LBVH_DIGIT, low = b->opt->bits - LBVH_DIGIT;
+    const uint32_t n = b->a->prim_count, width = top_digit_bits(n, size), digits = 1u << width;
+    const uint32_t low = b->opt->bits - width, grab = bucket_grab(digits, size);
     uint32_t begin, end;
     part(n, t, size, &begin, &end);
     void *ks = b->codes, *kt = b->codes_tmp;
     uint32_t *is = b->a->prim_order, *it = b->ids_tmp;
     uint32_t offset[1 << LBVH_DIGIT], start[(1 << LBVH_DIGIT) + 1];
-    digit_offsets(b, team, t, size, ks, begin, end, low, offset, start, wide);
+    digit_offsets(b, team, t, size, ks, begin, end, low, width, offset, start, wide);
     start[digits] = n;
     scatter(ks, is, kt, it, begin, end, low, digits - 1, offset, wide);
     rtk_team_sync(team);
     for (;;) {
-        const uint32_t first = atomic_fetch_add(&b->next_bucket, LBVH_BUCKET_GRAB);
+        const uint32_t first = atomic_fetch_add(&b->next_bucket, grab);
         if (first >= digits)
             break;
-        const uint32_t last = first + LBVH_BUCKET_GRAB < digits ? first + LBVH_BUCKET_GRAB : digits;
+        const uint32_t last = first + grab < digits ? first + grab : digits;
         for (uint32_t d = first; d < last; d++)
             sort_bucket(ks, is, kt, it, start[d], start[d + 1], low, wide);
     }
@@ -583,10 +613,26 @@ static float emit(const build *b, uint32_t slot, uint32_t begin, uint32_t end, u
     return cost;
 }
 
+/* Appends t to the array *list of *count, growing its capacity *cap;
+ * 0 when out of memory. */
+static int push_task(task **list, uint32_t *count, uint32_t *cap, task t)
+{
+    if (*count == *cap) {
+        const uint32_t grown = *cap ? 2 * *cap : 64;
+        task *more = realloc(*list, sizeof *more * grown);
+        if (!more)
+            return 0;
+        *list = more, *cap = grown;
+    }
+    (*list)[(*count)++] = t;
+    return 1;
+}
+
 /* Splits the top of the tree into subtrees of at most grain primitives;
- * records the inner nodes above them, parents first. Capacity: a level
- * of the tree holds at most prim_count / grain such inner nodes. */
-static void plan(build *b, uint32_t grain)
+ * records the inner nodes above them, parents first, and with collapse
+ * makes room for the moves (one per subtree and per node above them at
+ * most). 0 when out of memory. */
+static int plan(build *b, uint32_t grain)
 {
     task pending[LBVH_PENDING];
     uint32_t top = 0;
@@ -596,15 +642,23 @@ static void plan(build *b, uint32_t grain)
     while (top > 0) {
         task t = pending[--top];
         if (t.end - t.begin <= grain || top + 2 > LBVH_PENDING) {
-            b->tasks[b->task_count++] = t;
+            if (!push_task(&b->tasks, &b->task_count, &b->task_cap, t))
+                return 0;
             continue;
         }
         uint32_t mid = split_at(b, t.begin, t.end);
-        b->tops[b->top_count++] = t;
+        if (!push_task(&b->tops, &b->top_count, &b->top_cap, t))
+            return 0;
         pending[top++] =
             (task){.slot = t.region + 1, .begin = mid, .end = t.end, .region = t.region + 2 * (mid - t.begin)};
         pending[top++] = (task){.slot = t.region, .begin = t.begin, .end = mid, .region = t.region + 2};
     }
+    if (!b->opt->collapse)
+        return 1;
+    const size_t moves = (size_t)b->task_count + b->top_count;
+    b->moves = malloc(sizeof *b->moves * moves);
+    b->move_done = malloc(sizeof *b->move_done * moves);
+    return b->moves && b->move_done;
 }
 
 /* Slots the descendants of a node over sorted primitives [begin, end)
@@ -882,11 +936,13 @@ static void run(void *ctx, rtk_team *team, uint32_t t, uint32_t size)
     sort_codes(b, team, t, size);
     if (t == 0) {
         rtk_build_phase(b->a, "lbvh: top splits", 0);
-        plan(b, size > 1 ? LBVH_GRAIN : UINT32_MAX);
+        b->failed = !plan(b, size > 1 ? b->grain : UINT32_MAX);
         atomic_store_explicit(&b->planned, 1, memory_order_release);
     } else {
         wait_for(&b->planned);
     }
+    if (b->failed)
+        return;
     if (b->opt->collapse)
         run_collapsed(b, team, t, size);
     else
@@ -902,9 +958,9 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
         threads = n / LBVH_PART;
     if (threads < 1)
         threads = 1;
-    build b = {.opt = state, .a = a};
-    /* Inner nodes above the subtrees: at most n / grain per level. */
-    size_t plan_cap = ((size_t)n / LBVH_GRAIN + 1) * (LBVH_PENDING + 2);
+    uint32_t grain = n / (LBVH_TASKS * threads);
+    grain = grain < LBVH_MIN_GRAIN ? LBVH_MIN_GRAIN : grain > LBVH_GRAIN ? LBVH_GRAIN : grain;
+    build b = {.opt = state, .a = a, .grain = grain};
     b.cbounds = malloc(sizeof *b.cbounds * threads);
     b.hist = malloc(sizeof *b.hist * threads);
     /* The sort's arrays (12 or 20 bytes a primitive) in the kernel's scratch
@@ -921,10 +977,6 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
         b.codes_tmp = malloc(key_bytes * n);
         b.ids_tmp = malloc(sizeof *b.ids_tmp * n);
     }
-    b.tasks = malloc(sizeof *b.tasks * plan_cap);
-    b.tops = malloc(sizeof *b.tops * plan_cap);
-    b.moves = malloc(sizeof *b.moves * 2 * plan_cap);
-    b.move_done = malloc(sizeof *b.move_done * 2 * plan_cap);
     atomic_init(&b.next_task, 0);
     atomic_init(&b.next_fix, 0);
     atomic_init(&b.next_bucket, 0);
@@ -932,12 +984,13 @@ static rtk_status lbvh_build(void *state, rtk_build_args *a)
     atomic_init(&b.planned, 0);
     atomic_init(&b.shifted, 0);
     rtk_status st = RTK_OK;
-    if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp || !b.tasks || !b.tops || !b.moves ||
-        !b.move_done) {
+    if (!b.cbounds || !b.hist || !b.codes || !b.codes_tmp || !b.ids_tmp) {
         st = rtk_error(RTK_ERR_NOMEM, "lbvh: out of memory");
         goto done;
     }
     rtk_team_run(threads, run, &b);
+    if (b.failed)
+        st = rtk_error(RTK_ERR_NOMEM, "lbvh: out of memory planning the subtrees");
 done:
     free(b.cbounds);
     free(b.hist);

@@ -636,14 +636,17 @@ static rtk_scene *soup(uint32_t count)
 /* A builder on count triangles (150,000 are enough for every threaded
  * path: the builders' parts and queues, the kernel's inputs, validation,
  * leaf check and collapse plan): the same binary tree, leaf order and wide
- * tree on 1, 2 and 3 threads, byte for byte. With key set, its parameter
+ * tree on 1, 2, 3 and 16 threads (lbvh's narrower top digits and smaller
+ * subtrees there), byte for byte. With key set, its parameter
  * key is value. */
 static void check_builder_threads(const rtk_plugin *p, uint32_t count, const char *key, const char *value)
 {
     rtk_scene *first = NULL;
     int same = 1, built = 1;
     uint32_t nodes = 0;
-    for (uint32_t t = 1; t <= 3; t++) {
+    static const uint32_t threads[] = {1, 2, 3, 16};
+    for (size_t ti = 0; ti < sizeof threads / sizeof *threads; ti++) {
+        const uint32_t t = threads[ti];
         rtk_scene *s = soup(count);
         rtk_params *params = rtk_params_defaults(p);
         if (key && params)
@@ -670,9 +673,9 @@ static void check_builder_threads(const rtk_plugin *p, uint32_t count, const cha
     snprintf(name, sizeof name, "%s%s%s%s", p->name, key ? " " : "", key ? key : "", key ? "=" : "");
     if (key)
         strncat(name, value, sizeof name - strlen(name) - 1);
-    check(built, "%u triangles / %s: builds on 1, 2 and 3 threads", count, name);
-    check(built && same, "%u triangles / %s: the same tree (%u nodes), leaf order and wide tree on 1, 2 and 3 "
-          "threads", count, name, nodes);
+    check(built, "%u triangles / %s: builds on 1, 2, 3 and 16 threads", count, name);
+    check(built && same, "%u triangles / %s: the same tree (%u nodes), leaf order and wide tree on 1, 2, 3 and "
+          "16 threads", count, name, nodes);
     if (first)
         rtk_scene_free(first);
 }
@@ -730,14 +733,16 @@ static uint32_t morton_disorder(const rtk_scene *s, uint32_t bits)
  * one-thread sort's switch to a first pass by the top digit (2^17
  * primitives), on random triangles, on copies of a few (equal codes:
  * index order) and on a cluster (top-digit buckets of thousands, sorted
- * in the fewest passes), with 30- and 63-bit codes, on 1 and 2 threads. */
+ * in the fewest passes), with 30- and 63-bit codes, on 1, 2 and 16
+ * threads (a narrower top digit). */
 static void check_lbvh_order(const rtk_plugin *p)
 {
     static const char *const kinds[] = {"random triangles", "random triangles", "copies of 30,000 triangles",
                                         "copies of 4,000 triangles", "triangles, 9 in 10 in a cluster"};
     for (int kind = 0; kind < 5; kind++) {
         for (uint32_t bits = 30; bits <= 63; bits += 33) {
-            for (uint32_t t = 1; t <= 2; t++) {
+            for (int ti = 0; ti < 3; ti++) {
+                const uint32_t t = ti == 0 ? 1 : ti == 1 ? 2 : 16;
                 rtk_pcg32 rng;
                 rtk_pcg32_seed(&rng, 17u + (uint32_t)kind, 3u);
                 rtk_scene *s = rtk_scene_new("morton", 0);
