@@ -85,6 +85,11 @@ int rtk_edit_distance(const char *a, const char *b);
 void rtk_warn_once(const char *key, const char *fmt, ...) RTK_PRINTF(2, 3);
 /* Whether lines of this level are printed: to skip work done only for them. */
 RTK_KERNEL_API int rtk_log_enabled(rtk_log_level level);
+/* While held (calls nest), lines wait in memory and are written, in
+ * order, when the last hold is released: a timed span's own debug lines
+ * (a write to a pipe wakes its reader) stay out of its time. */
+RTK_KERNEL_API void rtk_log_hold(void);
+RTK_KERNEL_API void rtk_log_release(void);
 
 /* ---- params (params.c) ---- */
 

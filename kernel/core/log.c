@@ -37,17 +37,62 @@ static void format_safe(char *out, size_t cap, const char *fmt, va_list ap)
     out[o] = '\0';
 }
 
+/* Lines waiting while the log is held; under log_lock. */
+static struct {
+    unsigned depth;
+    char *text;
+    size_t len, cap;
+} held;
+
+/* Writes the held lines; log_lock is held. */
+static void flush_held(void)
+{
+    if (held.len)
+        fwrite(held.text, 1, held.len, stderr);
+    free(held.text);
+    held.text = NULL;
+    held.len = held.cap = 0;
+}
+
 static void log_va(rtk_log_level level, const char *fmt, va_list ap)
 {
     if (level > log_level)
         return;
-    char line[4096];
+    char line[4096], out[4200];
     format_safe(line, sizeof line, fmt, ap);
+    int n = level == RTK_LOG_INFO ? snprintf(out, sizeof out, "rtk: %s\n", line)
+                                  : snprintf(out, sizeof out, "rtk: %s: %s\n", level_names[level], line);
+    const size_t len = n < 0 ? 0 : (size_t)n < sizeof out ? (size_t)n : sizeof out - 1;
     pthread_mutex_lock(&log_lock);
-    if (level == RTK_LOG_INFO)
-        fprintf(stderr, "rtk: %s\n", line);
-    else
-        fprintf(stderr, "rtk: %s: %s\n", level_names[level], line);
+    if (held.depth && held.len + len > held.cap) {
+        const size_t cap = 2 * (held.len + len) + 4096;
+        char *more = realloc(held.text, cap);
+        if (more)
+            held.text = more, held.cap = cap;
+        else
+            flush_held(); /* out of memory: written now, in order */
+    }
+    if (held.depth && held.len + len <= held.cap) {
+        memcpy(held.text + held.len, out, len);
+        held.len += len;
+    } else {
+        fwrite(out, 1, len, stderr);
+    }
+    pthread_mutex_unlock(&log_lock);
+}
+
+void rtk_log_hold(void)
+{
+    pthread_mutex_lock(&log_lock);
+    held.depth++;
+    pthread_mutex_unlock(&log_lock);
+}
+
+void rtk_log_release(void)
+{
+    pthread_mutex_lock(&log_lock);
+    if (held.depth && --held.depth == 0)
+        flush_held();
     pthread_mutex_unlock(&log_lock);
 }
 

@@ -827,18 +827,21 @@ static void log_work(const bench *b, const bench_accel *a, uint32_t threads, con
 
 /* One timed build of row's accelerator on row's threads: wall-clock and
  * process CPU seconds into *wall and *cpu, its phases into log (NULL:
- * not recorded). The previous tree is torn down outside the timed span. */
+ * not recorded). The previous tree is torn down outside the timed span,
+ * and the build's log lines (-v) are written after it. */
 static rtk_status timed_build(bench *b, const bench_row *row, double *wall, double *cpu, rtk_build_log *log)
 {
     rtk_scene *s = b->scene;
     const bench_accel *a = row->accel;
     rtk_bvh_release(s);
     s->build_log = log;
+    rtk_log_hold();
     double c0 = cpu_now(CLOCK_PROCESS_CPUTIME_ID), t0 = rtk_now();
     rtk_status st = s->instance_count ? rtk_instances_build(s, a->plugin, a->params, row->threads, NULL, NULL)
                                       : rtk_bvh_build(s, a->plugin, a->params, row->threads);
     *wall = rtk_now() - t0;
     *cpu = cpu_now(CLOCK_PROCESS_CPUTIME_ID) - c0;
+    rtk_log_release();
     s->build_log = NULL;
     return st;
 }
