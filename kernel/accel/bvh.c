@@ -423,10 +423,11 @@ static rtk_status walk_tree(tree_walk *w, uint32_t root, uint32_t root_depth, ui
 
 #undef WALK_FAIL
 
-/* The subtrees left by the top walk, taken one at a time by each thread. */
+/* The subtrees left by the top walk, taken in runs by the threads
+ * (rtk_take_run: neighbours mark neighbouring bytes). */
 typedef struct walk_job {
     const tree_walk *top;
-    uint32_t next;                        /* next root pair, atomic */
+    uint32_t next, workers;               /* the next root pair, atomic; threads */
     uint32_t max_depth, covered, reached; /* sums and maximum, atomic */
     int failed;                           /* atomic */
 } walk_job;
@@ -449,15 +450,14 @@ static void walk_worker(void *ctx, uint32_t begin, uint32_t end)
     tree_walk w = *j->top;
     w.stop_depth = 0, w.roots = NULL, w.root_count = 0, w.quiet = 1;
     rtk_tree_tally_init(&w.check, begin + 1, &w.tally);
-    for (;;) {
-        uint32_t k = __atomic_fetch_add(&j->next, 2, __ATOMIC_RELAXED);
-        if (k >= j->top->root_count || __atomic_load_n(&j->failed, __ATOMIC_RELAXED))
-            break;
-        if (walk_tree(&w, j->top->roots[k], j->top->roots[k + 1], stack) != RTK_OK) {
-            __atomic_store_n(&j->failed, 1, __ATOMIC_RELAXED);
-            break;
-        }
-    }
+    const uint32_t pairs = j->top->root_count / 2;
+    int ok = 1;
+    for (uint32_t first, run; ok && !__atomic_load_n(&j->failed, __ATOMIC_RELAXED) &&
+                              (run = rtk_take_run(&j->next, pairs, j->workers, &first)) > 0;)
+        for (uint32_t k = first; ok && k < first + run; k++)
+            ok = walk_tree(&w, j->top->roots[2 * k], j->top->roots[2 * k + 1], stack) == RTK_OK;
+    if (!ok)
+        __atomic_store_n(&j->failed, 1, __ATOMIC_RELAXED);
     rtk_tree_tally_add(&w.tally, &j->covered, &j->reached, &j->max_depth);
 }
 
@@ -542,7 +542,7 @@ rtk_status rtk_bvh_validate(const rtk_build_args *a, int leaf_bounds, uint32_t *
         w.quiet = 1, w.stop_depth = VALIDATION_ROOTS_DEPTH, w.roots = roots;
         int ok = walk_tree(&w, 0, 1, stack) == RTK_OK;
         if (ok) {
-            walk_job job = {&w, 0, w.tally.max_depth, w.tally.covered, w.tally.reached, 0};
+            walk_job job = {&w, 0, threads, w.tally.max_depth, w.tally.covered, w.tally.reached, 0};
             rtk_parallel_ranges(threads, threads, 1, walk_worker, &job);
             ok = !job.failed && rtk_tree_check_whole(&w.check, job.reached, job.covered);
             w.tally.max_depth = job.max_depth;

@@ -421,17 +421,10 @@ typedef struct plan_job {
     const uint32_t *ids;
     double *costs;
     uint32_t count, workers;
-    atomic_uint next;
+    uint32_t next; /* rtk_take_run's */
     atomic_int failed;
     uint32_t covered, reached, max_depth; /* of the checks' walks, atomic */
 } plan_job;
-
-/* Frontier subtrees lie in slot order, so a worker takes a run of them
- * at a time (guided: a share of what is left, 1 / (PLAN_GUIDE * workers)):
- * workers taking neighbours one by one would write the same lines of
- * the plan and the checks' marks, which then move between their caches
- * on nearly every node. */
-#define PLAN_GUIDE 2
 
 static void plan_worker(void *ctx, uint32_t begin, uint32_t end)
 {
@@ -440,18 +433,12 @@ static void plan_worker(void *ctx, uint32_t begin, uint32_t end)
     plan_scratch w;
     plan_scratch_init(&w, job->c, begin + 1);
     int ok = 1;
-    for (uint32_t k = atomic_load(&job->next);;) {
-        const uint32_t left = k < job->count ? job->count - k : 0, share = left / (PLAN_GUIDE * job->workers);
-        if (left == 0)
-            break;
-        const uint32_t take = share ? share : 1;
-        if (!atomic_compare_exchange_weak(&job->next, &k, k + take))
-            continue;
-        for (uint32_t i = k; ok && i < k + take; i++)
+    /* Frontier subtrees lie in slot order: taken one at a time, neighbours
+     * would write the same lines of the plan and the checks' marks. */
+    for (uint32_t first, run; ok && (run = rtk_take_run(&job->next, job->count, job->workers, &first)) > 0;)
+        for (uint32_t i = first; ok && i < first + run; i++)
             ok = plan_walk(job->c, &w, job->ids[i], PLAN_FRONTIER, UINT32_MAX, NULL, NULL,
                            &job->costs[RTK_WIDE * (size_t)i]);
-        k = atomic_load(&job->next);
-    }
     if (!ok)
         atomic_store(&job->failed, 1);
     if (ok && job->c->check)
@@ -478,10 +465,8 @@ static int plan_tree(collapser *c, uint32_t threads, uint32_t *depth)
         costs = count ? rtk_alloc(sizeof *costs * RTK_WIDE * count) : NULL;
         ok = ok && (count == 0 || costs);
         if (ok && count) {
-            job.ids = ids, job.costs = costs, job.count = count;
-            atomic_init(&job.next, 0u);
+            job.ids = ids, job.costs = costs, job.count = count, job.workers = threads, job.next = 0;
             atomic_init(&job.failed, 0);
-            job.workers = threads;
             rtk_parallel_ranges(threads, threads, 1, plan_worker, &job);
             ok = !atomic_load(&job.failed);
         }

@@ -50,6 +50,12 @@ void rtk_release_tail(void *block, size_t used, size_t size);
  * returns when all are done. Ranges below min_chunk items are not cut. */
 typedef void (*rtk_range_fn)(void *ctx, uint32_t begin, uint32_t end);
 void rtk_parallel_ranges(uint32_t n, uint32_t threads, uint32_t min_chunk, rtk_range_fn fn, void *ctx);
+/* The next run [*first, *first + run) of count items that workers take
+ * from the shared counter *next (atomic): half of what is left over the
+ * workers, at least 1 (guided), so that neighbouring items, which
+ * mostly write neighbouring memory, go to one worker. Returns run, 0
+ * when none is left. */
+uint32_t rtk_take_run(uint32_t *next, uint32_t count, uint32_t workers, uint32_t *first);
 /* A file written through a temporary sibling (name.tmp<pid>-<n>.ext, see
  * output.h) and renamed over path only when complete, so that a failed or
  * interrupted write never leaves a half-written file under path. */

@@ -294,6 +294,20 @@ static void ranges_member(void *ctx, rtk_team *team, uint32_t index, uint32_t si
         j->fn(j->ctx, (uint32_t)((uint64_t)j->n * i / j->parts), (uint32_t)((uint64_t)j->n * (i + 1) / j->parts));
 }
 
+uint32_t rtk_take_run(uint32_t *next, uint32_t count, uint32_t workers, uint32_t *first)
+{
+    uint32_t k = __atomic_load_n(next, __ATOMIC_RELAXED);
+    for (;;) {
+        if (k >= count)
+            return 0;
+        const uint32_t share = (count - k) / (2 * (workers ? workers : 1)), run = share ? share : 1;
+        if (__atomic_compare_exchange_n(next, &k, k + run, 1, __ATOMIC_RELAXED, __ATOMIC_RELAXED)) {
+            *first = k;
+            return run;
+        }
+    }
+}
+
 void rtk_parallel_ranges(uint32_t n, uint32_t threads, uint32_t min_chunk, rtk_range_fn fn, void *ctx)
 {
     enum { max_ranges = 64 };

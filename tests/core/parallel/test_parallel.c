@@ -153,6 +153,36 @@ static int covered_once(uint32_t n, uint32_t threads, uint32_t min_chunk)
     return ok;
 }
 
+/* Runs that workers take from one counter (rtk_take_run): every item
+ * once; with count the runs taken. */
+typedef struct take {
+    cover c;
+    uint32_t next, workers;
+    atomic_uint runs;
+} take;
+
+static void take_runs(void *ctx, uint32_t begin, uint32_t end)
+{
+    (void)begin, (void)end;
+    take *t = ctx;
+    for (uint32_t first, run; (run = rtk_take_run(&t->next, t->c.n, t->workers, &first)) > 0;) {
+        cover_range(&t->c, first, first + run);
+        atomic_fetch_add(&t->runs, 1);
+    }
+}
+
+static int taken_once(uint32_t n, uint32_t workers, uint32_t *runs)
+{
+    take t = {{n, calloc(n ? n : 1, 1)}, 0, workers, 0};
+    rtk_parallel_ranges(workers, workers, 1, take_runs, &t);
+    int ok = 1;
+    for (uint32_t i = 0; i < n; i++)
+        ok &= atomic_load(&t.c.hits[i]) == 1;
+    free((void *)t.c.hits);
+    *runs = atomic_load(&t.runs);
+    return ok;
+}
+
 /* Two outside threads running teams at the same time. */
 typedef struct racer {
     uint32_t teams, wanted;
@@ -211,6 +241,16 @@ int main(void)
             for (uint32_t chunk = 0; chunk <= 1000; chunk += 500)
                 ranges_ok &= covered_once(sizes[i], threads, chunk);
     check(ranges_ok, "rtk_parallel_ranges covers every item once (0-100,003 items, 0-70 threads, chunks 0-1000)");
+
+    int taken_ok = 1;
+    uint32_t runs = 0;
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++)
+        for (uint32_t workers = 1; workers <= 33; workers += 8)
+            taken_ok &= taken_once(sizes[i], workers, &runs);
+    check(taken_ok, "rtk_take_run hands out every item once (0-100,003 items, 1-33 workers)");
+    /* Guided: about 2 workers ln(n / (2 workers)) runs, then one item each. */
+    const int four = taken_once(100003, 4, &runs);
+    check(four && runs < 200, "100,003 items to 4 workers in few runs (%u)", runs);
 
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
