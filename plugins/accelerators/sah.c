@@ -29,9 +29,11 @@
  * closing the gaps moves only those runs. Closed, the slots hold the
  * children pairs in depth-first order, left first: a build on one thread
  * fills them in that order from the root and has no gaps to close. The
- * root is binned and partitioned by a team (its bins do not depend on how
- * its primitives are divided, its partition goes by fixed chunks, on one
- * thread too), a thread without a subtree spins a while for the next before it sleeps,
+ * top of the tree (the team nodes, down to depth 8) is partitioned by
+ * fixed chunks, on one thread too, and on threads split a level at a time
+ * by the whole team (bins do not depend on how the primitives are
+ * divided), as long as a level has fewer than two nodes a thread; a
+ * thread without a subtree spins a while for the next before it sleeps,
  * and the runs are moved on the threads, each once the runs whose slots
  * it overwrites have been read.
  */
@@ -57,11 +59,11 @@
 /* Nodes split by a team of threads (team_node), on any number of threads
  * so that the tree does not depend on it: the root of SAH_SPAWN_MIN or
  * more primitives, and the nodes down to depth SAH_TEAM_DEPTH of
- * SAH_TEAM_MIN or more. On threads the queue then starts with up to
- * 2^SAH_TEAM_DEPTH subtrees, not two, so no member waits while a large
- * node near the root is split on one thread. */
-#define SAH_TEAM_DEPTH 5
-#define SAH_TEAM_MIN 32768
+ * SAH_TEAM_MIN or more. On threads the queue then starts with subtrees
+ * of a few thousand primitives, so that no member waits while a node of
+ * a quarter or an eighth of the scene is split on one thread. */
+#define SAH_TEAM_DEPTH 8
+#define SAH_TEAM_MIN 4096
 
 typedef struct sah {
     int sweep;
@@ -140,8 +142,7 @@ typedef struct vbox {
 typedef struct job {
     vbox geom, cent;
     uint32_t slot, begin, end, region, depth;
-    uint32_t dense;    /* 1: below a node under SAH_SPAWN_MIN primitives */
-    uint32_t presplit; /* 1: split by the build's team into build.pre */
+    uint32_t dense; /* 1: below a node under SAH_SPAWN_MIN primitives */
 } job;
 
 /* Jobs shared between workers; pending counts queued and running ones. */
@@ -174,14 +175,15 @@ typedef struct binning {
     uint32_t count[3][256];
 } binning;
 
-/* A node's split made by a team: the split; when it separates the
- * primitives (parted), the first right slot and the children's bounds. */
-typedef struct presplit {
+/* A team node's split (team_node): the split, the first right slot and
+ * the children's bounds. */
+typedef struct team_split {
     split s;
     uint32_t mid;
-    int parted;
     job sides[2];
-} presplit;
+} team_split;
+
+struct top_levels;
 
 /* One build: options, arguments, scratch arrays and the queue. */
 typedef struct build {
@@ -197,12 +199,9 @@ typedef struct build {
     atomic_uint *seg_count; /* how many: the next is taken with an atomic add */
     uint32_t dense_end; /* one thread: the slots the tree fills, [0, dense_end) */
     queue *q;         /* NULL when building on one thread */
-    presplit pre;     /* threads: the split of the job that says presplit */
-    /* Scratch of team splits (binned mode, from SAH_SPAWN_MIN primitives):
-     * per member its bins and its sides' bounds, per chunk its left refs. */
-    binning (*team_bins)[2];
-    job *team_sides;
-    uint32_t *team_lefts;
+    struct top_levels *top; /* threads, binned mode: the team's levels */
+    uint32_t *lefts;  /* binned mode from SAH_SPAWN_MIN primitives: split_alone's scratch, */
+    uint32_t lefts_stride; /* this many a thread */
 } build;
 
 static rtk_status sah_create(const rtk_params *params, void **state)
@@ -735,17 +734,16 @@ static int team_node(const sah *o, const job *j)
            (j->depth == 1 || count >= SAH_TEAM_MIN);
 }
 
-static void team_split(const build *b, const job *j, uint32_t threads, presplit *out, int mark);
+static void split_alone(const build *b, const job *j, uint32_t *lefts, team_split *out);
 
-/* Builds the subtree of root, handing large subtrees to the queue, or
- * with root_only splits root alone and queues both its children.
- * Returns the next slot after a dense root's subtree. A node's left
- * child is built next in place of the node (j), its right child waits
- * on the stack, written where it waits: a job's fields are stored one
- * by one, and copying a job just stored loads each 16 bytes from stores
- * of 4, which must reach the cache first (the same holds for a split,
- * passed by pointer). */
-static uint32_t build_subtree(const build *b, const job *root, int root_only)
+/* Builds the subtree of root, handing large subtrees to the queue (on
+ * threads); lefts: split_alone's scratch. Returns the next slot after a
+ * dense root's subtree. A node's left child is built next in place of
+ * the node (j), its right child waits on the stack, written where it
+ * waits: a job's fields are stored one by one, and copying a job just
+ * stored loads each 16 bytes from stores of 4, which must reach the
+ * cache first (the same holds for a split, passed by pointer). */
+static uint32_t build_subtree(const build *b, const job *root, uint32_t *lefts)
 {
     const sah *o = b->opt;
     rtk_build_args *a = b->a;
@@ -763,16 +761,13 @@ static uint32_t build_subtree(const build *b, const job *root, int root_only)
         split s;
         s.axis = -1;
         s.cost = INFINITY;
-        /* A team's split: made before on threads, here on one. */
-        presplit ps;
-        const int team = j.presplit || (!b->q && team_node(o, &j));
-        if (j.presplit)
-            ps = b->pre;
-        else if (team)
-            team_split(b, &j, 1, &ps, 0);
-        if (team)
+        /* A team node: split here as a team splits it. */
+        team_split ps;
+        const int team = team_node(o, &j);
+        if (team) {
+            split_alone(b, &j, lefts, &ps);
             s = ps.s;
-        else if (count > 1 && j.depth < SAH_HALVING_DEPTH && o->sweep)
+        } else if (count > 1 && j.depth < SAH_HALVING_DEPTH && o->sweep)
             find_sweep(b, &j, &s);
         else if (count > 1 && j.depth < SAH_HALVING_DEPTH)
             count <= SAH_SMALL ? find_small(b, &j, &s) : find_binned(b, &j, &s);
@@ -806,9 +801,13 @@ static uint32_t build_subtree(const build *b, const job *root, int root_only)
         const uint32_t first = dense ? bump : j.region;
         bump += dense ? 2 : 0;
         job l, *r = &stack[top];
-        r->slot = first + 1, r->end = j.end, r->depth = j.depth + 1, r->dense = dense, r->presplit = 0;
+        r->slot = first + 1, r->end = j.end, r->depth = j.depth + 1, r->dense = dense;
         uint32_t mid;
-        if (s.axis < 0) {
+        if (team) {
+            mid = ps.mid;
+            l.geom = ps.sides[0].geom, l.cent = ps.sides[0].cent;
+            r->geom = ps.sides[1].geom, r->cent = ps.sides[1].cent;
+        } else if (s.axis < 0) {
             /* Nothing separates the centroids, or too deep: halve. */
             mid = j.begin + count / 2;
             if (o->sweep) {
@@ -822,28 +821,20 @@ static uint32_t build_subtree(const build *b, const job *root, int root_only)
             partition_sweep(b, &j, &s);
         } else if (count <= SAH_SMALL) {
             mid = partition_small(b, &j, &s, &l, r);
-        } else if (team && ps.parted) {
-            mid = ps.mid;
-            l.geom = ps.sides[0].geom, l.cent = ps.sides[0].cent;
-            r->geom = ps.sides[1].geom, r->cent = ps.sides[1].cent;
         } else {
             mid = partition_binned(b, &j, &s, &l, r);
         }
         r->begin = mid;
         r->region = j.region + 2 * (mid - j.begin);
         write_node(&a->nodes[j.slot], &j.geom, first, 0);
-        if (b->q && (root_only || r->end - r->begin >= SAH_SPAWN_MIN))
+        if (b->q && r->end - r->begin >= SAH_SPAWN_MIN)
             queue_push(b->q, r);
         else
             top++;
         /* The left child (sweep mode's bounds come from its orders). */
         if (!o->sweep)
             j.geom = l.geom, j.cent = l.cent;
-        j.slot = first, j.end = mid, j.region += 2, j.depth++, j.dense = dense, j.presplit = 0;
-        if (root_only) {
-            queue_push(b->q, &j);
-            break;
-        }
+        j.slot = first, j.end = mid, j.region += 2, j.depth++, j.dense = dense;
     }
     return bump;
 }
@@ -883,7 +874,7 @@ static void spin_for_job(queue *q)
 /* Takes jobs from the queue until every job is done (rtk_team_fn). */
 static void work(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
 {
-    (void)team, (void)index, (void)size;
+    (void)team, (void)size;
     const build *b = ctx;
     queue *q = b->q;
     for (;;) {
@@ -897,7 +888,7 @@ static void work(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
         }
         job j = q->jobs[atomic_fetch_sub(&q->count, 1u) - 1];
         pthread_mutex_unlock(&q->lock);
-        build_subtree(b, &j, 0);
+        build_subtree(b, &j, b->lefts ? b->lefts + (size_t)b->lefts_stride * index : NULL);
         pthread_mutex_lock(&q->lock);
         if (atomic_fetch_sub(&q->pending, 1u) == 1)
             pthread_cond_broadcast(&q->wake);
@@ -911,44 +902,39 @@ static uint32_t build_threads(const rtk_build_args *a)
     return a->thread_count < a->prim_count / SAH_SPAWN_MIN ? a->thread_count : a->prim_count / SAH_SPAWN_MIN;
 }
 
-/* A node's bins by a team, one part of its refs per member. */
-typedef struct team_binning {
-    const build *b;
-    const job *node;
-} team_binning;
+/* Team nodes (team_node) are partitioned by fixed chunks of
+ * SAH_PART_CHUNK refs from the node's first, each partitioned as
+ * partition_range does, then the right refs before the split and the
+ * left refs from it swapped pairwise in slot order: an order that
+ * depends on the chunks alone, so that the tree does not depend on how
+ * many threads share the work. On threads one team splits the team nodes
+ * of a level together, in one rtk_team_run for the top of the tree, while
+ * a level has fewer than SAH_TEAM_QUEUE nodes a member; the queue takes
+ * the rest, and a thread splits such a node alone (split_alone), as one
+ * thread's build splits them all. The team bins each member's equal share
+ * of the level's refs (its nodes' ranges one after another) into a store
+ * per node and member, which the node's bins add up: any division of the
+ * refs gives the same bins. */
+#define SAH_PART_CHUNK 1024u
+#define SAH_TEAM_QUEUE 2
+/* Most team nodes at one depth: 2^(depth - 1) at most. */
+#define SAH_TEAM_WIDTH (1u << (SAH_TEAM_DEPTH - 1))
 
-static void bin_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
+static uint32_t chunks_of(const job *j)
 {
-    (void)team;
-    const team_binning *r = ctx;
-    const uint32_t begin = r->node->begin, n = r->node->end - begin;
-    bin_refs(r->b, r->node, begin + (uint32_t)((uint64_t)n * index / size),
-             begin + (uint32_t)((uint64_t)n * (index + 1) / size), r->b->team_bins[index]);
+    return (j->end - j->begin + SAH_PART_CHUNK - 1) / SAH_PART_CHUNK;
 }
 
-/* A node's partition by a team, in place and the same for any number of
- * members: each chunk of SAH_PART_CHUNK refs is partitioned as
- * partition_range does, then the right refs left of the split and the
- * left refs right of it are swapped pairwise, in slot order. */
-#define SAH_PART_CHUNK 8192u
-
-typedef struct team_parting {
-    const build *b;
-    const job *node;
-    uint32_t *lefts; /* per chunk: its left refs */
-    job *sides;      /* per member: bounds of its chunks' left [2i] and right [2i + 1] refs */
-    int k;
-    float clo, scl, at;
-} team_parting;
-
-/* Chunk c's misplaced refs once every chunk is partitioned: its right
- * refs before slot split (right_of 0) or its left refs from split on
- * (right_of 1), a run of slots from *first; returns how many. */
-static uint32_t misplaced(const team_parting *r, uint32_t c, uint32_t split, int right_of, uint32_t *first)
+/* Chunk c of node j's misplaced refs once every chunk is partitioned
+ * (lefts: each chunk's left refs): its right refs before slot split
+ * (right_of 0) or its left refs from split on (right_of 1), a run of slots
+ * from *first; returns how many. */
+static uint32_t misplaced(const job *j, const uint32_t *lefts, uint32_t c, uint32_t split, int right_of,
+                          uint32_t *first)
 {
-    const uint32_t cs = r->node->begin + c * SAH_PART_CHUNK;
-    const uint32_t ce = r->node->end - cs < SAH_PART_CHUNK ? r->node->end : cs + SAH_PART_CHUNK;
-    const uint32_t cm = cs + r->lefts[c];
+    const uint32_t cs = j->begin + c * SAH_PART_CHUNK;
+    const uint32_t ce = j->end - cs < SAH_PART_CHUNK ? j->end : cs + SAH_PART_CHUNK;
+    const uint32_t cm = cs + lefts[c];
     const uint32_t from = right_of ? (cs > split ? cs : split) : cm;
     const uint32_t to = right_of ? cm : (ce < split ? ce : split);
     *first = from;
@@ -957,11 +943,11 @@ static uint32_t misplaced(const team_parting *r, uint32_t c, uint32_t split, int
 
 /* The slot of the k-th misplaced ref of one side, its chunk in *c and the
  * end of that chunk's run in *run_end. */
-static uint32_t misplaced_at(const team_parting *r, uint32_t chunks, uint32_t split, int right_of, uint32_t k,
-                             uint32_t *c, uint32_t *run_end)
+static uint32_t misplaced_at(const job *j, const uint32_t *lefts, uint32_t split, int right_of, uint32_t k, uint32_t *c,
+                             uint32_t *run_end)
 {
-    for (*c = 0; *c < chunks; (*c)++) {
-        uint32_t first, len = misplaced(r, *c, split, right_of, &first);
+    for (*c = 0; *c < chunks_of(j); (*c)++) {
+        uint32_t first, len = misplaced(j, lefts, *c, split, right_of, &first);
         if (k < len) {
             *run_end = first + len;
             return first + k;
@@ -972,158 +958,383 @@ static uint32_t misplaced_at(const team_parting *r, uint32_t chunks, uint32_t sp
     return 0;
 }
 
-/* The next misplaced ref of one side after slot at, moving on to the next
- * chunk's run at the end of the current one. */
-static uint32_t misplaced_next(const team_parting *r, uint32_t chunks, uint32_t split, int right_of, uint32_t at,
-                               uint32_t *c, uint32_t *run_end)
+/* The first slot of one side's next run of misplaced refs after chunk
+ * *c's, its chunk in *c and its end in *run_end. */
+static uint32_t misplaced_next(const job *j, const uint32_t *lefts, uint32_t split, int right_of, uint32_t *c,
+                               uint32_t *run_end)
 {
-    if (++at < *run_end)
-        return at;
-    while (++*c < chunks) {
-        uint32_t first, len = misplaced(r, *c, split, right_of, &first);
+    while (++*c < chunks_of(j)) {
+        uint32_t first, len = misplaced(j, lefts, *c, split, right_of, &first);
         if (len) {
             *run_end = first + len;
             return first;
         }
     }
-    return at;
+    return *run_end;
 }
 
-static void part_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
+/* The first right slot of node j once its chunks are partitioned. */
+static uint32_t chunked_mid(const job *j, const uint32_t *lefts)
 {
-    const team_parting *r = ctx;
-    ref *refs = r->b->refs;
-    const uint32_t begin = r->node->begin, end = r->node->end;
-    const uint32_t chunks = (end - begin + SAH_PART_CHUNK - 1) / SAH_PART_CHUNK;
-    job *l = &r->sides[2 * index], *rt = &r->sides[2 * index + 1];
-    box_empty(&l->geom), box_empty(&l->cent), box_empty(&rt->geom), box_empty(&rt->cent);
-    for (uint32_t c = (uint32_t)((uint64_t)chunks * index / size); c < (uint64_t)chunks * (index + 1) / size; c++) {
-        const uint32_t cs = begin + c * SAH_PART_CHUNK, ce = end - cs < SAH_PART_CHUNK ? end : cs + SAH_PART_CHUNK;
-        const uint32_t cm = partition_range(refs, cs, ce, r->k, r->clo, r->scl, r->at);
-        r->lefts[c] = cm - cs;
-        /* Each side's bounds in a local first, kept in registers. */
-        job side;
-        bounds_of_refs(r->b, cs, cm, &side);
-        box_grow(&l->geom, side.geom.lo, side.geom.hi), box_grow(&l->cent, side.cent.lo, side.cent.hi);
-        bounds_of_refs(r->b, cm, ce, &side);
-        box_grow(&rt->geom, side.geom.lo, side.geom.hi), box_grow(&rt->cent, side.cent.lo, side.cent.hi);
-    }
-    rtk_team_sync(team);
-    uint32_t split = begin, swaps = 0;
-    for (uint32_t c = 0; c < chunks; c++)
-        split += r->lefts[c];
-    for (uint32_t c = 0, first; c < chunks; c++)
-        swaps += misplaced(r, c, split, 0, &first);
-    const uint32_t k0 = (uint32_t)((uint64_t)swaps * index / size), k1 = (uint32_t)((uint64_t)swaps * (index + 1) / size);
-    if (k0 == k1)
+    uint32_t mid = j->begin;
+    for (uint32_t c = 0; c < chunks_of(j); c++)
+        mid += lefts[c];
+    return mid;
+}
+
+/* Node j's swaps: its right refs before the split (as many as its left
+ * refs from it). */
+static uint32_t chunked_swaps(const job *j, const uint32_t *lefts, uint32_t split)
+{
+    uint32_t swaps = 0, first;
+    for (uint32_t c = 0; c < chunks_of(j); c++)
+        swaps += misplaced(j, lefts, c, split, 0, &first);
+    return swaps;
+}
+
+/* Swaps [k0, k1) of node j's misplaced pairs, a run of pairs at a time
+ * (to the nearer end of the two runs). */
+static void swap_misplaced(ref *refs, const job *j, const uint32_t *lefts, uint32_t split, uint32_t k0, uint32_t k1)
+{
+    if (k0 >= k1)
         return;
     uint32_t ca, cb, a_end, b_end;
-    uint32_t a = misplaced_at(r, chunks, split, 0, k0, &ca, &a_end);
-    uint32_t bs = misplaced_at(r, chunks, split, 1, k0, &cb, &b_end);
-    for (uint32_t k = k0; k < k1; k++) {
-        const ref x = refs[a];
-        refs[a] = refs[bs];
-        refs[bs] = x;
-        if (k + 1 < k1) {
-            a = misplaced_next(r, chunks, split, 0, a, &ca, &a_end);
-            bs = misplaced_next(r, chunks, split, 1, bs, &cb, &b_end);
+    uint32_t a = misplaced_at(j, lefts, split, 0, k0, &ca, &a_end);
+    uint32_t bs = misplaced_at(j, lefts, split, 1, k0, &cb, &b_end);
+    for (uint32_t k = k0; k < k1;) {
+        uint32_t len = a_end - a < b_end - bs ? a_end - a : b_end - bs;
+        len = len < k1 - k ? len : k1 - k;
+        for (uint32_t i = 0; i < len; i++) {
+            const ref x = refs[a + i];
+            refs[a + i] = refs[bs + i];
+            refs[bs + i] = x;
         }
+        k += len, a += len, bs += len;
+        if (k < k1 && a == a_end)
+            a = misplaced_next(j, lefts, split, 0, &ca, &a_end);
+        if (k < k1 && bs == b_end)
+            bs = misplaced_next(j, lefts, split, 1, &cb, &b_end);
     }
 }
 
-/* Splits node j on a team of up to threads, on any thread count the
- * same: bins as find_binned's (bins do not depend on how the primitives
- * are divided among members) and, when the split separates them, the
- * team's partition (part_member). mark: record the build's phases. */
-static void team_split(const build *b, const job *j, uint32_t threads, presplit *out, int mark)
+/* Partition parameters of node j's split s: its axis's lower centroid
+ * bound and bin scale. */
+static void part_params(const build *b, const job *j, const split *s, float *clo, float *scl)
 {
-    if (mark)
-        rtk_build_phase(b->a, "sah: top bins", threads > 1);
-    team_binning tb = {b, j};
-    uint32_t size = rtk_team_run(threads, bin_member, &tb);
-    const uint32_t nb = node_bins(b->opt, j->end - j->begin);
-    for (uint32_t t = 1; t < size; t++)
-        binning_merge(&b->team_bins[0][0], &b->team_bins[t][0], nb);
-    best_binned(b, j, &b->team_bins[0][0], &out->s);
-    out->parted = 0;
-    if (out->s.axis < 0)
-        return;
     v4 scale, last;
     bin_setup(b->opt, j, &scale, &last);
     float lo[4], sc[4];
     v4_store(lo, j->cent.lo);
     v4_store(sc, scale);
-    const int k = out->s.axis;
-    team_parting tp = {b, j, b->team_lefts, b->team_sides, k, lo[k], sc[k], (float)out->s.at};
-    if (mark)
-        rtk_build_phase(b->a, "sah: top partition", threads > 1);
-    size = rtk_team_run(threads, part_member, &tp);
-    const job *sides = b->team_sides;
-    job *l = &out->sides[0], *r = &out->sides[1];
-    *l = sides[0], *r = sides[1];
-    for (uint32_t t = 1; t < size; t++) {
-        box_grow(&l->geom, sides[2 * t].geom.lo, sides[2 * t].geom.hi);
-        box_grow(&l->cent, sides[2 * t].cent.lo, sides[2 * t].cent.hi);
-        box_grow(&r->geom, sides[2 * t + 1].geom.lo, sides[2 * t + 1].geom.hi);
-        box_grow(&r->cent, sides[2 * t + 1].cent.lo, sides[2 * t + 1].cent.hi);
-    }
-    const uint32_t chunks = (j->end - j->begin + SAH_PART_CHUNK - 1) / SAH_PART_CHUNK;
-    out->mid = j->begin;
-    for (uint32_t c = 0; c < chunks; c++)
-        out->mid += b->team_lefts[c];
-    out->parted = 1;
+    *clo = lo[s->axis], *scl = sc[s->axis];
 }
 
-/* On threads, before the queue is worked: the root, then every queued
- * node a team splits (team_node), each split by all threads and written
- * here, its children queued. */
-static void split_top(build *b, const job *root, uint32_t threads)
+/* Partitions chunk c of node j by split s (axis -1: halves the node by
+ * count, the chunk left as it is); returns its left refs, its sides'
+ * bounds and centroid bounds in side[0, 1] and side[2, 3]. */
+static uint32_t part_chunk(const build *b, const job *j, const split *s, float clo, float scl, uint32_t c, vbox side[4])
 {
-    queue *q = b->q;
-    job j = *root;
-    for (;;) {
-        if (team_node(b->opt, &j)) {
-            team_split(b, &j, threads, &b->pre, 1);
-            j.presplit = 1;
-        }
-        rtk_build_phase(b->a, "sah: top nodes", 0);
-        build_subtree(b, &j, 1);
-        uint32_t count = atomic_load(&q->count), i = 0;
-        while (i < count && !team_node(b->opt, &q->jobs[i]))
-            i++;
-        if (i == count)
-            return;
-        j = q->jobs[i];
-        q->jobs[i] = q->jobs[count - 1];
-        atomic_store(&q->count, count - 1);
-        atomic_fetch_sub(&q->pending, 1u);
+    const uint32_t cs = j->begin + c * SAH_PART_CHUNK;
+    const uint32_t ce = j->end - cs < SAH_PART_CHUNK ? j->end : cs + SAH_PART_CHUNK;
+    uint32_t cm;
+    if (s->axis >= 0) {
+        cm = partition_range(b->refs, cs, ce, s->axis, clo, scl, (float)s->at);
+    } else {
+        const uint32_t half = j->begin + (j->end - j->begin) / 2;
+        cm = half < cs ? cs : half > ce ? ce : half;
     }
+    job part;
+    bounds_of_refs(b, cs, cm, &part);
+    side[0] = part.geom, side[1] = part.cent;
+    bounds_of_refs(b, cm, ce, &part);
+    side[2] = part.geom, side[3] = part.cent;
+    return cm - cs;
+}
+
+static void grow_sides(team_split *out, const vbox side[4])
+{
+    box_grow(&out->sides[0].geom, side[0].lo, side[0].hi);
+    box_grow(&out->sides[0].cent, side[1].lo, side[1].hi);
+    box_grow(&out->sides[1].geom, side[2].lo, side[2].hi);
+    box_grow(&out->sides[1].cent, side[3].lo, side[3].hi);
+}
+
+static void empty_sides(team_split *out)
+{
+    for (int s = 0; s < 2; s++)
+        box_empty(&out->sides[s].geom), box_empty(&out->sides[s].cent);
+}
+
+/* Splits team node j on this thread alone; lefts: scratch for its chunks. */
+static void split_alone(const build *b, const job *j, uint32_t *lefts, team_split *out)
+{
+    float clo = 0.0f, scl = 0.0f;
+    find_binned(b, j, &out->s);
+    if (out->s.axis >= 0)
+        part_params(b, j, &out->s, &clo, &scl);
+    empty_sides(out);
+    for (uint32_t c = 0; c < chunks_of(j); c++) {
+        vbox side[4];
+        lefts[c] = part_chunk(b, j, &out->s, clo, scl, c, side);
+        grow_sides(out, side);
+    }
+    out->mid = chunked_mid(j, lefts);
+    swap_misplaced(b->refs, j, lefts, out->mid, 0, chunked_swaps(j, lefts, out->mid));
+}
+
+/* A team node of a level: its job, split and partition parameters, and
+ * the level's refs and chunks before its own. */
+typedef struct top_node {
+    job j;
+    split s;
+    float clo, scl;
+    uint32_t refs_before, chunks_before;
+} top_node;
+
+/* The team's levels (alternating) and scratch. */
+typedef struct top_levels {
+    build *b;
+    top_node *level[2];
+    uint32_t count[2], refs[2], chunks[2];
+    binning (*member_bins)[2]; /* per member: bin_refs's two sets */
+    vbox *part_box;            /* per node and member: nb_max boxes per axis */
+    uint32_t *part_count;      /* and counts */
+    uint32_t nb_max;
+    uint32_t *lefts;           /* per chunk: its left refs */
+    vbox (*sides)[4];          /* per chunk: part_chunk's bounds */
+    atomic_uint next_chunk;
+} top_levels;
+
+/* The last of nodes[0, count) whose refs (or chunks) before it are at
+ * most at. */
+static uint32_t node_at(const top_node *nodes, uint32_t count, uint32_t at, int chunks)
+{
+    uint32_t lo = 0, hi = count;
+    while (hi - lo > 1) {
+        const uint32_t mid = (lo + hi) / 2;
+        if ((chunks ? nodes[mid].chunks_before : nodes[mid].refs_before) <= at)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+/* Member index's share [lo, hi) of total. */
+static void share_of(uint32_t total, uint32_t index, uint32_t size, uint32_t *lo, uint32_t *hi)
+{
+    *lo = (uint32_t)((uint64_t)total * index / size);
+    *hi = (uint32_t)((uint64_t)total * (index + 1) / size);
+}
+
+/* The store of node i's part binned by member index: i + index (the
+ * nodes a member's share meets come after those of the members before). */
+static size_t store_at(const top_levels *t, uint32_t i, uint32_t index, int k)
+{
+    return (((size_t)i + index) * 3 + (size_t)k) * t->nb_max;
+}
+
+/* Bins member index's share of the level's refs. */
+static void top_bin(top_levels *t, const top_node *nodes, uint32_t count, uint32_t total, uint32_t index, uint32_t size)
+{
+    uint32_t lo, hi;
+    share_of(total, index, size, &lo, &hi);
+    if (lo == hi)
+        return;
+    const binning *bn = &t->member_bins[index][0];
+    for (uint32_t i = node_at(nodes, count, lo, 0); i < count && nodes[i].refs_before < hi; i++) {
+        const job *j = &nodes[i].j;
+        const uint32_t m = j->end - j->begin, at = nodes[i].refs_before, nb = node_bins(t->b->opt, m);
+        const uint32_t from = lo > at ? lo - at : 0, to = hi - at < m ? hi - at : m;
+        bin_refs(t->b, j, j->begin + from, j->begin + to, t->member_bins[index]);
+        for (int k = 0; k < 3; k++) {
+            memcpy(&t->part_box[store_at(t, i, index, k)], bn->box[k], sizeof *t->part_box * nb);
+            memcpy(&t->part_count[store_at(t, i, index, k)], bn->count[k], sizeof *t->part_count * nb);
+        }
+    }
+}
+
+/* Member index's nodes (every size-th) get their splits from the stores
+ * of every member whose share meets them. */
+static void top_choose(top_levels *t, top_node *nodes, uint32_t count, uint32_t total, uint32_t index, uint32_t size)
+{
+    binning *bn = &t->member_bins[index][0];
+    for (uint32_t i = index; i < count; i += size) {
+        top_node *n = &nodes[i];
+        const uint32_t m = n->j.end - n->j.begin, nb = node_bins(t->b->opt, m);
+        binning_clear(bn, nb);
+        for (uint32_t p = 0; p < size; p++) {
+            uint32_t lo, hi;
+            share_of(total, p, size, &lo, &hi);
+            if ((lo > n->refs_before ? lo : n->refs_before) >= (hi < n->refs_before + m ? hi : n->refs_before + m))
+                continue;
+            for (int k = 0; k < 3; k++) {
+                const vbox *box = &t->part_box[store_at(t, i, p, k)];
+                const uint32_t *cnt = &t->part_count[store_at(t, i, p, k)];
+                for (uint32_t c = 0; c < nb; c++) {
+                    box_grow(&bn->box[k][c], box[c].lo, box[c].hi);
+                    bn->count[k][c] += cnt[c];
+                }
+            }
+        }
+        best_binned(t->b, &n->j, bn, &n->s);
+        if (n->s.axis >= 0)
+            part_params(t->b, &n->j, &n->s, &n->clo, &n->scl);
+    }
+}
+
+/* Partitions the level's chunks, taken one at a time. */
+static void top_part(top_levels *t, const top_node *nodes, uint32_t count, uint32_t chunks)
+{
+    for (;;) {
+        const uint32_t c = atomic_fetch_add(&t->next_chunk, 1u);
+        if (c >= chunks)
+            return;
+        const top_node *n = &nodes[node_at(nodes, count, c, 1)];
+        t->lefts[c] = part_chunk(t->b, &n->j, &n->s, n->clo, n->scl, c - n->chunks_before, t->sides[c]);
+    }
+}
+
+/* Member index's share of the level's swaps, the nodes' one after another. */
+static void top_swap(top_levels *t, const top_node *nodes, uint32_t count, uint32_t index, uint32_t size)
+{
+    uint32_t total = 0;
+    for (uint32_t i = 0; i < count; i++) {
+        const uint32_t *lefts = &t->lefts[nodes[i].chunks_before];
+        total += chunked_swaps(&nodes[i].j, lefts, chunked_mid(&nodes[i].j, lefts));
+    }
+    uint32_t lo, hi;
+    share_of(total, index, size, &lo, &hi);
+    for (uint32_t i = 0, before = 0; i < count && before < hi; i++) {
+        const job *j = &nodes[i].j;
+        const uint32_t *lefts = &t->lefts[nodes[i].chunks_before];
+        const uint32_t split = chunked_mid(j, lefts), swaps = chunked_swaps(j, lefts, split);
+        const uint32_t k0 = lo > before ? lo - before : 0, k1 = hi - before < swaps ? hi - before : swaps;
+        swap_misplaced(t->b->refs, j, lefts, split, k0, k1);
+        before += swaps;
+    }
+}
+
+/* After a level's partition (the calling thread, while the others swap):
+ * writes its nodes as build_subtree writes a node of SAH_SPAWN_MIN or more
+ * primitives and takes their children that are team nodes into the next
+ * level, unless there would be SAH_TEAM_QUEUE a member; the queue takes
+ * the others. */
+static void top_next(top_levels *t, uint32_t level, uint32_t size)
+{
+    const build *b = t->b;
+    const top_node *nodes = t->level[level & 1];
+    top_node *next = t->level[(level + 1) & 1];
+    uint32_t count = 0, refs = 0, chunks = 0;
+    for (uint32_t i = 0; i < t->count[level & 1]; i++) {
+        const job *j = &nodes[i].j;
+        team_split ps;
+        empty_sides(&ps);
+        for (uint32_t c = 0; c < chunks_of(j); c++)
+            grow_sides(&ps, t->sides[nodes[i].chunks_before + c]);
+        ps.mid = chunked_mid(j, &t->lefts[nodes[i].chunks_before]);
+        add_segment(b, j->region, 2, 0);
+        write_node(&b->a->nodes[j->slot], &j->geom, j->region, 0);
+        const job kids[2] = {
+            {ps.sides[0].geom, ps.sides[0].cent, j->region, j->begin, ps.mid, j->region + 2, j->depth + 1, 0},
+            {ps.sides[1].geom, ps.sides[1].cent, j->region + 1, ps.mid, j->end, j->region + 2 * (ps.mid - j->begin),
+             j->depth + 1, 0},
+        };
+        for (int k = 0; k < 2; k++) {
+            if (!team_node(b->opt, &kids[k])) {
+                queue_push(b->q, &kids[k]);
+                continue;
+            }
+            next[count++] = (top_node){.j = kids[k], .refs_before = refs, .chunks_before = chunks};
+            refs += kids[k].end - kids[k].begin;
+            chunks += chunks_of(&kids[k]);
+        }
+    }
+    if (count >= SAH_TEAM_QUEUE * size) {
+        for (uint32_t i = 0; i < count; i++)
+            queue_push(b->q, &next[i].j);
+        count = 0;
+    }
+    t->count[(level + 1) & 1] = count, t->refs[(level + 1) & 1] = refs, t->chunks[(level + 1) & 1] = chunks;
+    atomic_store(&t->next_chunk, 0u);
+}
+
+/* The top of the tree on threads, a level at a time (rtk_team_fn). */
+static void top_member(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
+{
+    top_levels *t = ctx;
+    for (uint32_t level = 0; t->count[level & 1] > 0; level++) {
+        top_node *nodes = t->level[level & 1];
+        const uint32_t count = t->count[level & 1], refs = t->refs[level & 1], chunks = t->chunks[level & 1];
+        top_bin(t, nodes, count, refs, index, size);
+        rtk_team_sync(team);
+        top_choose(t, nodes, count, refs, index, size);
+        rtk_team_sync(team);
+        top_part(t, nodes, count, chunks);
+        rtk_team_sync(team);
+        top_swap(t, nodes, count, index, size);
+        if (index == 0)
+            top_next(t, level, size);
+        rtk_team_sync(team);
+    }
+}
+
+static void top_free(top_levels *t)
+{
+    if (!t)
+        return;
+    free(t->level[0]), free(t->level[1]), free(t->member_bins), free(t->part_box), free(t->part_count);
+    free(t->lefts), free(t->sides), free(t);
+}
+
+/* The team's scratch for up to members members, or NULL. */
+static top_levels *top_new(build *b, uint32_t members)
+{
+    const uint32_t n = b->a->prim_count;
+    const size_t stores = (size_t)SAH_TEAM_WIDTH + members;
+    const size_t chunks = (n + SAH_PART_CHUNK - 1) / SAH_PART_CHUNK + (size_t)SAH_TEAM_WIDTH;
+    top_levels *t = calloc(1, sizeof *t);
+    if (!t)
+        return NULL;
+    t->b = b;
+    t->nb_max = node_bins(b->opt, n);
+    t->level[0] = malloc(sizeof *t->level[0] * SAH_TEAM_WIDTH);
+    t->level[1] = malloc(sizeof *t->level[1] * SAH_TEAM_WIDTH);
+    t->member_bins = malloc(sizeof *t->member_bins * members);
+    t->part_box = malloc(sizeof *t->part_box * stores * 3 * t->nb_max);
+    t->part_count = malloc(sizeof *t->part_count * stores * 3 * t->nb_max);
+    t->lefts = malloc(sizeof *t->lefts * chunks);
+    t->sides = malloc(sizeof *t->sides * chunks);
+    if (!t->level[0] || !t->level[1] || !t->member_bins || !t->part_box || !t->part_count || !t->lefts || !t->sides) {
+        top_free(t);
+        return NULL;
+    }
+    atomic_init(&t->next_chunk, 0u);
+    return t;
 }
 
 /* Builds from root on the build's threads (the caller's included). */
 static rtk_status run_build(build *b, const job *root)
 {
     const uint32_t threads = build_threads(b->a), n = b->a->prim_count;
-    const uint32_t members = threads > 1 ? threads : 1;
     rtk_status st = RTK_OK;
-    if (!b->opt->sweep && n >= SAH_SPAWN_MIN) {
-        b->team_bins = malloc(sizeof *b->team_bins * members);
-        b->team_sides = malloc(sizeof *b->team_sides * 2 * members);
-        b->team_lefts = malloc(sizeof *b->team_lefts * ((n + SAH_PART_CHUNK - 1) / SAH_PART_CHUNK));
-        if (!b->team_bins || !b->team_sides || !b->team_lefts) {
+    if (team_node(b->opt, root)) {
+        b->lefts_stride = chunks_of(root);
+        b->lefts = malloc(sizeof *b->lefts * b->lefts_stride * (threads > 1 ? threads : 1));
+        if (!b->lefts || (threads > 1 && !(b->top = top_new(b, threads)))) {
             st = rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
             goto done;
         }
     }
     if (threads <= 1) {
         rtk_build_phase(b->a, "sah: tree", 0);
-        b->dense_end = build_subtree(b, root, 0);
+        b->dense_end = build_subtree(b, root, b->lefts);
         goto done;
     }
     queue q;
     /* Queued jobs cover disjoint ranges of at least SAH_SPAWN_MIN, but
-     * for both children of each node split_top splits. */
-    q.jobs = malloc(sizeof *q.jobs * (n / SAH_SPAWN_MIN + 2 * ((size_t)2 << SAH_TEAM_DEPTH)));
+     * for the children of team nodes (fewer than 2^SAH_TEAM_DEPTH). */
+    q.jobs = malloc(sizeof *q.jobs * (n / SAH_SPAWN_MIN + 2 * ((size_t)1 << SAH_TEAM_DEPTH)));
     if (!q.jobs) {
         st = rtk_error(RTK_ERR_NOMEM, "sah: out of memory");
         goto done;
@@ -1133,7 +1344,15 @@ static rtk_status run_build(build *b, const job *root)
     atomic_init(&q.count, 0u);
     atomic_init(&q.pending, 0u);
     b->q = &q;
-    split_top(b, root, threads);
+    top_levels *t = b->top;
+    if (t) {
+        t->level[0][0] = (top_node){.j = *root};
+        t->count[0] = 1, t->refs[0] = n, t->chunks[0] = chunks_of(root), t->count[1] = 0;
+        rtk_build_phase(b->a, "sah: top levels", 1);
+        rtk_team_run(threads, top_member, t);
+    } else {
+        queue_push(&q, root);
+    }
     rtk_build_phase(b->a, "sah: subtrees", 1);
     rtk_team_run(threads, work, b);
     pthread_cond_destroy(&q.wake);
@@ -1141,9 +1360,9 @@ static rtk_status run_build(build *b, const job *root)
     free(q.jobs);
     b->q = NULL;
 done:
-    free(b->team_bins);
-    free(b->team_sides);
-    free(b->team_lefts);
+    top_free(b->top);
+    free(b->lefts);
+    b->top = NULL, b->lefts = NULL;
     return st;
 }
 
