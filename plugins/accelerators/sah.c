@@ -333,15 +333,20 @@ static void binning_clear(binning *bn, uint32_t nb)
     }
 }
 
+/* Adds nb bins of one axis (boxes and counts) to those of another. */
+static void bins_add(vbox *to_box, uint32_t *to_count, const vbox *box, const uint32_t *count, uint32_t nb)
+{
+    for (uint32_t c = 0; c < nb; c++) {
+        box_grow(&to_box[c], box[c].lo, box[c].hi);
+        to_count[c] += count[c];
+    }
+}
+
 /* Adds the bins of from to those of to. */
 static void binning_merge(binning *to, const binning *from, uint32_t nb)
 {
-    for (int k = 0; k < 3; k++) {
-        for (uint32_t c = 0; c < nb; c++) {
-            box_grow(&to->box[k][c], from->box[k][c].lo, from->box[k][c].hi);
-            to->count[k][c] += from->count[k][c];
-        }
-    }
+    for (int k = 0; k < 3; k++)
+        bins_add(to->box[k], to->count[k], from->box[k], from->count[k], nb);
 }
 
 /* Adds a ref to its bins bi (one per axis) of bn. */
@@ -1168,14 +1173,9 @@ static void top_choose(top_levels *t, top_node *nodes, uint32_t count, uint32_t 
             share_of(total, p, size, &lo, &hi);
             if ((lo > n->refs_before ? lo : n->refs_before) >= (hi < n->refs_before + m ? hi : n->refs_before + m))
                 continue;
-            for (int k = 0; k < 3; k++) {
-                const vbox *box = &t->part_box[store_at(t, i, p, k)];
-                const uint32_t *cnt = &t->part_count[store_at(t, i, p, k)];
-                for (uint32_t c = 0; c < nb; c++) {
-                    box_grow(&bn->box[k][c], box[c].lo, box[c].hi);
-                    bn->count[k][c] += cnt[c];
-                }
-            }
+            for (int k = 0; k < 3; k++)
+                bins_add(bn->box[k], bn->count[k], &t->part_box[store_at(t, i, p, k)],
+                         &t->part_count[store_at(t, i, p, k)], nb);
         }
         best_binned(t->b, &n->j, bn, &n->s);
         if (n->s.axis >= 0)
