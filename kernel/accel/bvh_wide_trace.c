@@ -805,8 +805,8 @@ uint64_t rtk_wide_packet_rays(void)
 #define PACKET_MIN 3u
 /* Fewest occlusion rays of a batch worth a stream. */
 #define STREAM_MIN 16u
-/* A stream's or a packet's subtree entered by this many rays or fewer is
- * traced by each ray's own traversal from there. */
+/* A stream's, a packet's or an origin group's subtree entered by this
+ * many rays or fewer is traced by each ray's own traversal from there. */
 #define HANDOFF_RAYS 2u
 
 /* The node loop of bvh_wide_isa.inc, once per target: RTK_AVX names
