@@ -724,6 +724,8 @@ typedef struct packet_entry {
  * test's reciprocals and interval, the triangle test's shear, and the
  * shared origin. */
 typedef struct wide_group {
+    RTK_ALIGN32 float ninv[3][RTK_WIDE]; /* wide_ray's -1 / d and its widening */
+    RTK_ALIGN32 float ninv_far[3][RTK_WIDE];
     RTK_ALIGN32 int32_t kx[RTK_WIDE]; /* shear axes */
     RTK_ALIGN32 int32_t ky[RTK_WIDE];
     RTK_ALIGN32 int32_t kz[RTK_WIDE];
@@ -734,6 +736,27 @@ typedef struct wide_group {
     RTK_ALIGN32 float tmax[RTK_WIDE];
     float org[3];
 } wide_group;
+
+/* The constants wide_prepare and tri_prepare make for ray, lane l of
+ * origin group g, from the group's own (the same divisions, lane by
+ * lane). */
+RTK_INLINE void group_lane(const wide_group *g, const rtk_ray *ray, int l, wide_ray *p, tri_ray *t)
+{
+    const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
+    for (int k = 0; k < 3; k++) {
+        p->org[k] = g->org[k];
+        p->ninv[k] = g->ninv[k][l];
+        p->ninv_far[k] = g->ninv_far[k][l];
+        p->near[k] = 2 * k + (signbit(d[k]) != 0);
+        p->far[k] = p->near[k] ^ 1;
+    }
+    p->ninv[3] = p->ninv_far[3] = 0.0f; /* unused */
+    const int kx = g->kx[l], ky = g->ky[l], kz = g->kz[l];
+    t->rx = (size_t)kx * sizeof(float[RTK_WIDE_TRIS]), t->ry = (size_t)ky * sizeof(float[RTK_WIDE_TRIS]),
+    t->rz = (size_t)kz * sizeof(float[RTK_WIDE_TRIS]);
+    t->sx = _mm_set1_ps(g->sx[l]), t->sy = _mm_set1_ps(g->sy[l]), t->sz = _mm_set1_ps(g->sz[l]);
+    t->ox = _mm_set1_ps(g->org[kx]), t->oy = _mm_set1_ps(g->org[ky]), t->oz = _mm_set1_ps(g->org[kz]);
+}
 
 /* A ray of an occlusion stream: its single-ray box constants (the
  * node loop's, for rays where box_int_ok holds). */
