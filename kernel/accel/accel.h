@@ -201,7 +201,7 @@ typedef struct rtk_tree_check {
     const uint32_t *prim_order;
     uint32_t node_count, prim_count;
     uint8_t *seen_node, *seen_slot;
-    uint64_t *prim_bits; /* sets bit sets of words each */
+    uint64_t *prim_bits; /* sets bit sets of words each; the block that holds the marks too */
     size_t words;
     uint32_t sets;
 } rtk_tree_check;
@@ -211,9 +211,10 @@ typedef struct rtk_tree_tally {
     uint32_t reached, covered, max_depth;
 } rtk_tree_tally;
 /* Marks for a tree of node_count >= 1 nodes and walks with sets bit sets
- * (at most RTK_TREE_CHECK_MAX_SETS). 0 when out of memory. */
+ * (at most RTK_TREE_CHECK_MAX_SETS), zeroed on up to threads threads.
+ * 0 when out of memory. */
 int rtk_tree_check_init(rtk_tree_check *check, const rtk_bvh_node *nodes, uint32_t node_count,
-                        const uint32_t *prim_order, uint32_t prim_count, uint32_t sets);
+                        const uint32_t *prim_order, uint32_t prim_count, uint32_t sets, uint32_t threads);
 void rtk_tree_check_free(rtk_tree_check *check);
 /* A walk's tally, with bit set number set. [one walk a set] */
 void rtk_tree_tally_init(const rtk_tree_check *check, uint32_t set, rtk_tree_tally *tally);

@@ -498,7 +498,7 @@ static rtk_status plan_validated(collapser *c, uint32_t threads, int validate, u
         return plan_tree(c, threads, depth) ? RTK_OK : rtk_error(RTK_ERR_NOMEM, "wide BVH: out of memory planning");
     rtk_tree_check check;
     uint32_t seen = 0;
-    int ok = rtk_tree_check_init(&check, s->nodes, s->node_count, s->prim_ids, s->triangle_count, threads + 1);
+    int ok = rtk_tree_check_init(&check, s->nodes, s->node_count, s->prim_ids, s->triangle_count, threads + 1, threads);
     if (ok) {
         c->check = &check;
         ok = plan_tree(c, threads, &seen);
