@@ -280,20 +280,6 @@ static int mark_bit(uint64_t *bits, uint32_t i)
     return was;
 }
 
-/* Zeroes [begin, end) of a check's block, in TREE_CHECK_CHUNK pieces. */
-#define TREE_CHECK_CHUNK ((size_t)64 << 10)
-typedef struct check_zero {
-    uint8_t *block;
-    size_t bytes;
-} check_zero;
-
-static void zero_worker(void *ctx, uint32_t begin, uint32_t end)
-{
-    const check_zero *z = ctx;
-    const size_t from = (size_t)begin * TREE_CHECK_CHUNK, to = (size_t)end * TREE_CHECK_CHUNK;
-    memset(z->block + from, 0, (to < z->bytes ? to : z->bytes) - from);
-}
-
 int rtk_tree_check_init(rtk_tree_check *c, const rtk_bvh_node *nodes, uint32_t node_count, const uint32_t *prim_order,
                         uint32_t prim_count, uint32_t sets, uint32_t threads)
 {
@@ -302,20 +288,14 @@ int rtk_tree_check_init(rtk_tree_check *c, const rtk_bvh_node *nodes, uint32_t n
     c->prim_order = prim_order, c->prim_count = prim_count;
     c->words = ((size_t)prim_count + 63) / 64;
     c->sets = sets;
-    /* One block, bit sets first (8-byte words), then the byte marks.
-     * Zeroed by writes, not calloc's untouched pages: a mark is read
-     * before it is set, and a read maps the shared zero page, so the
-     * write after it copies the page and flushes the TLB of every core
-     * running the process, an interrupt per page for each of them. */
-    const size_t bytes = sizeof *c->prim_bits * (c->words * sets + 1) + (size_t)node_count + prim_count + 2;
-    uint8_t *block = rtk_alloc(bytes);
+    /* One block (rtk_alloc_zeroed: marks are read before they are set),
+     * bit sets first (8-byte words), then the byte marks. */
+    const size_t words = c->words * sets + 1;
+    uint8_t *block = rtk_alloc_zeroed(sizeof *c->prim_bits * words + (size_t)node_count + prim_count + 2, 1, threads);
     if (!block)
         return 0;
-    check_zero z = {block, bytes};
-    const size_t chunks = (bytes + TREE_CHECK_CHUNK - 1) / TREE_CHECK_CHUNK;
-    rtk_parallel_ranges((uint32_t)chunks, threads ? threads : 1, 4, zero_worker, &z);
     c->prim_bits = (uint64_t *)(void *)block;
-    c->seen_node = block + sizeof *c->prim_bits * (c->words * sets + 1);
+    c->seen_node = block + sizeof *c->prim_bits * words;
     c->seen_slot = c->seen_node + node_count + 1;
     return 1;
 }

@@ -56,6 +56,12 @@ void rtk_parallel_ranges(uint32_t n, uint32_t threads, uint32_t min_chunk, rtk_r
  * mostly write neighbouring memory, go to one worker. Returns run, 0
  * when none is left. */
 uint32_t rtk_take_run(uint32_t *next, uint32_t count, uint32_t workers, uint32_t *first);
+/* rtk_calloc for arrays read before they are written (sums and marks
+ * added to), zeroed by writes on up to threads threads; freed with free().
+ * calloc's untouched pages would be read first, which maps the shared
+ * zero page, and the write after it copies the page and flushes the TLB
+ * of every core running the process: an interrupt per page for each. */
+RTK_KERNEL_API void *rtk_alloc_zeroed(size_t count, size_t size, uint32_t threads);
 /* A file written through a temporary sibling (name.tmp<pid>-<n>.ext, see
  * output.h) and renamed over path only when complete, so that a failed or
  * interrupted write never leaves a half-written file under path. */

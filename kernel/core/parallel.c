@@ -15,7 +15,9 @@
 
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stdint.h>
 #include <stdlib.h>
+#include <string.h>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -323,4 +325,37 @@ void rtk_parallel_ranges(uint32_t n, uint32_t threads, uint32_t min_chunk, rtk_r
     }
     ranges_job j = {n, parts, fn, ctx};
     rtk_team_run(parts, ranges_member, &j);
+}
+
+/* rtk_alloc_zeroed's pieces: 64 KiB, at least four a thread. */
+#define ZERO_CHUNK ((size_t)64 << 10)
+typedef struct zero_job {
+    unsigned char *block;
+    size_t bytes;
+} zero_job;
+
+static void zero_range(void *ctx, uint32_t begin, uint32_t end)
+{
+    const zero_job *z = ctx;
+    const size_t from = (size_t)begin * ZERO_CHUNK, to = (size_t)end * ZERO_CHUNK;
+    memset(z->block + from, 0, (to < z->bytes ? to : z->bytes) - from);
+}
+
+void *rtk_alloc_zeroed(size_t count, size_t size, uint32_t threads)
+{
+    if (size && count > SIZE_MAX / size) {
+        rtk_error(RTK_ERR_NOMEM, "array of %zu x %zu bytes is too large", count, size);
+        return NULL;
+    }
+    const size_t bytes = count && size ? count * size : 1;
+    zero_job z = {rtk_alloc(bytes), bytes};
+    if (!z.block)
+        return NULL;
+    const size_t chunks = (bytes + ZERO_CHUNK - 1) / ZERO_CHUNK;
+    if (chunks > UINT32_MAX) {
+        memset(z.block, 0, bytes);
+        return z.block;
+    }
+    rtk_parallel_ranges((uint32_t)chunks, threads ? threads : 1, 4, zero_range, &z);
+    return z.block;
 }

@@ -7,18 +7,20 @@
 #include <stdlib.h>
 #include <string.h>
 
-rtk_status rtk_film_init(rtk_film *film, uint32_t width, uint32_t height, uint32_t channels, int track_abs)
+rtk_status rtk_film_init(rtk_film *film, uint32_t width, uint32_t height, uint32_t channels, int track_abs,
+                         uint32_t threads)
 {
     memset(film, 0, sizeof *film);
     film->width = width;
     film->height = height;
     film->channels = channels;
     size_t pixels = (size_t)width * height;
-    film->sum = rtk_calloc(pixels * channels, sizeof(double));
-    film->weight = rtk_calloc(pixels, sizeof(double));
+    /* Tiles are added to the film (rtk_film_merge): rtk_alloc_zeroed. */
+    film->sum = rtk_alloc_zeroed(pixels * channels, sizeof(double), threads);
+    film->weight = rtk_alloc_zeroed(pixels, sizeof(double), threads);
     if (track_abs) {
-        film->abs_sum = rtk_calloc(pixels * channels, sizeof(double));
-        film->abs_weight = rtk_calloc(pixels, sizeof(double));
+        film->abs_sum = rtk_alloc_zeroed(pixels * channels, sizeof(double), threads);
+        film->abs_weight = rtk_alloc_zeroed(pixels, sizeof(double), threads);
     }
     if (!film->sum || !film->weight || (track_abs && (!film->abs_sum || !film->abs_weight))) {
         rtk_film_free(film);

@@ -77,8 +77,10 @@ typedef struct rtk_film_tile {
     double *abs_sum, *abs_weight; /* when the film has them */
 } rtk_film_tile;
 
-/* track_abs: also keep |weight| sums (filters with negative lobes). */
-RTK_KERNEL_API rtk_status rtk_film_init(rtk_film *film, uint32_t width, uint32_t height, uint32_t channels, int track_abs);
+/* track_abs: also keep |weight| sums (filters with negative lobes); the
+ * sums are zeroed on up to threads threads. */
+RTK_KERNEL_API rtk_status rtk_film_init(rtk_film *film, uint32_t width, uint32_t height, uint32_t channels, int track_abs,
+                                        uint32_t threads);
 RTK_KERNEL_API void rtk_film_free(rtk_film *film);
 /* Buffer for pixels [x0, x1) x [y0, y1) padded by the filter radius. */
 RTK_KERNEL_API rtk_status rtk_film_tile_init(rtk_film_tile *tile, const rtk_film *film, uint32_t x0, uint32_t y0, uint32_t x1,

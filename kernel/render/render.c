@@ -422,7 +422,7 @@ rtk_status rtk_render_film(const rtk_film_render *r, float *pixels, rtk_render_s
     /* Negative lobes (and importance sampling, whose weights f / pdf take
      * the sign of f) can cancel a pixel's weights: keep |weight| sums. */
     st = rtk_film_init(&job.film, r->camera->width, r->camera->height, RTK_FILM_CHANNELS,
-                       rtk_filter_has_negative_lobes(r->filter, r->filter_state, job.radius));
+                       rtk_filter_has_negative_lobes(r->filter, r->filter_state, job.radius), r->threads);
     if (st != RTK_OK)
         goto done;
     job.scene = r->scene;

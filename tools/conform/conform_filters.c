@@ -107,7 +107,7 @@ static void note_weight_sums(rtk_conform_runner *r, const rtk_filter_fns *f, voi
     rtk_film_tile tile[2];
     int ready = 0;
     for (; ready < 2; ready++) {
-        if (rtk_film_init(&film[ready], w, h, 1, 0) != RTK_OK)
+        if (rtk_film_init(&film[ready], w, h, 1, 0, 1) != RTK_OK)
             break;
         if (rtk_film_tile_init(&tile[ready], &film[ready], 0, 0, w, h, rad) != RTK_OK) {
             rtk_film_free(&film[ready]);

@@ -196,7 +196,7 @@ static void test_cancel(void)
     /* One pixel, samples 1.0 (weight 1) and 0.0 (weight -0.97): signed,
      * 1 / 0.03 = 33; with |weights| 1 / 1.97. */
     rtk_film film;
-    if (rtk_film_init(&film, 1, 1, 1, 1) != RTK_OK) {
+    if (rtk_film_init(&film, 1, 1, 1, 1, 1) != RTK_OK) {
         check(0, "film init");
         return;
     }
@@ -213,7 +213,7 @@ static void test_cancel(void)
     rtk_film_tile_free(&tile);
     rtk_film_free(&film);
     /* Weights (1, -0.5): the signed average 2, kept (0.5 > 1.5 / 16). */
-    rtk_film_init(&film, 1, 1, 1, 1);
+    rtk_film_init(&film, 1, 1, 1, 1, 1);
     rtk_film_tile_init(&tile, &film, 0, 0, 1, 1, 0.5f);
     rtk_film_tile_add(&tile, 0, 0, 1.0f, &one);
     rtk_film_tile_add(&tile, 0, 0, -0.5f, &zero);
