@@ -252,6 +252,27 @@ int main(void)
     const int four = taken_once(100003, 4, &runs);
     check(four && runs < 200, "100,003 items to 4 workers in few runs (%u)", runs);
 
+    /* Zeroed arrays: heap blocks of these sizes filled with 0xa5 and
+     * freed first, so that a block handed back unzeroed shows. */
+    int zero_ok = 1;
+    const size_t zero_sizes[] = {0, 1, 4095, 65536 * 4 + 3, (size_t)5 << 20};
+    for (size_t i = 0; i < sizeof zero_sizes / sizeof zero_sizes[0]; i++) {
+        for (uint32_t threads = 0; threads <= 5; threads += 1 + 2 * (threads > 0)) {
+            unsigned char *dirty = malloc(zero_sizes[i] + 1);
+            if (dirty)
+                memset(dirty, 0xa5, zero_sizes[i] + 1);
+            free(dirty);
+            unsigned char *z = rtk_alloc_zeroed(zero_sizes[i], 1, threads);
+            zero_ok &= z != NULL;
+            for (size_t k = 0; z && k < zero_sizes[i]; k++)
+                zero_ok &= z[k] == 0;
+            free(z);
+        }
+    }
+    check(zero_ok, "rtk_alloc_zeroed gives zeros (0 B to 5 MiB, 0-4 threads)");
+    check(rtk_alloc_zeroed(SIZE_MAX / 2, 3, 2) == NULL && strstr(rtk_error_message(), "too large") != NULL,
+          "rtk_alloc_zeroed refuses a size that overflows: %s", rtk_error_message());
+
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }
