@@ -226,8 +226,9 @@ int rtk_tree_check_node(const rtk_tree_check *check, rtk_tree_tally *tally, uint
 /* Adds a tally's counts to sums and a maximum shared by walks (atomic). */
 void rtk_tree_tally_add(const rtk_tree_tally *tally, uint32_t *covered, uint32_t *reached, uint32_t *max_depth);
 /* After the walks, whether their counts and marks cover the tree exactly:
- * every node and slot once, the primitives' bit sets a partition. */
-int rtk_tree_check_whole(const rtk_tree_check *check, uint32_t reached, uint32_t covered);
+ * every node and slot once, the primitives' bit sets a partition; the
+ * marks scanned on up to threads threads. */
+int rtk_tree_check_whole(const rtk_tree_check *check, uint32_t reached, uint32_t covered, uint32_t threads);
 /* The leaf check left out above, for triangles: every leaf of s's tree
  * (its structure validated) against its triangles' corners. Leaves are
  * split over threads; the lowest failing leaf is reported. */

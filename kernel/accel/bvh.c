@@ -479,12 +479,13 @@ static int all_set(const uint8_t *seen, uint32_t n)
     return all == 0x0101010101010101ull && tail;
 }
 
-/* Whether the sets of bits (count of them, words each) are disjoint and
- * together hold every one of bits 0 .. n - 1 (and none above). */
-static int bits_partition(const uint64_t *bits, uint32_t count, size_t words, uint32_t n)
+/* Whether words [k0, k1) of the sets of bits (count of them, words each)
+ * are disjoint and together hold every one of bits 0 .. n - 1 there (and
+ * none above). */
+static int bits_partition(const uint64_t *bits, uint32_t count, size_t words, uint32_t n, size_t k0, size_t k1)
 {
     uint64_t overlap = 0, missing = 0;
-    for (size_t k = 0; k < words; k++) {
+    for (size_t k = k0; k < k1; k++) {
         uint64_t all = 0;
         for (uint32_t t = 0; t < count; t++) {
             overlap |= all & bits[t * words + k];
@@ -496,10 +497,46 @@ static int bits_partition(const uint64_t *bits, uint32_t count, size_t words, ui
     return !overlap && !missing;
 }
 
-int rtk_tree_check_whole(const rtk_tree_check *c, uint32_t reached, uint32_t covered)
+/* The end scan in pieces over threads: WHOLE_PIECE marks of the nodes,
+ * then of the slots, then WHOLE_PIECE / 8 words of every bit set. */
+#define WHOLE_PIECE 65536u
+typedef struct whole_job {
+    const rtk_tree_check *c;
+    uint32_t node_pieces, slot_pieces;
+    int bad; /* atomic */
+} whole_job;
+
+static void whole_range(void *ctx, uint32_t begin, uint32_t end)
 {
-    return reached == c->node_count && covered == c->prim_count && all_set(c->seen_node, c->node_count) &&
-           all_set(c->seen_slot, c->prim_count) && bits_partition(c->prim_bits, c->sets, c->words, c->prim_count);
+    whole_job *j = ctx;
+    const rtk_tree_check *c = j->c;
+    int ok = 1;
+    for (uint32_t p = begin; ok && p < end; p++) {
+        if (p < j->node_pieces) {
+            const uint32_t at = p * WHOLE_PIECE, left = c->node_count - at;
+            ok = all_set(c->seen_node + at, left < WHOLE_PIECE ? left : WHOLE_PIECE);
+        } else if (p < j->node_pieces + j->slot_pieces) {
+            const uint32_t at = (p - j->node_pieces) * WHOLE_PIECE, left = c->prim_count - at;
+            ok = all_set(c->seen_slot + at, left < WHOLE_PIECE ? left : WHOLE_PIECE);
+        } else {
+            const size_t k0 = (size_t)(p - j->node_pieces - j->slot_pieces) * (WHOLE_PIECE / 8);
+            const size_t k1 = k0 + WHOLE_PIECE / 8 < c->words ? k0 + WHOLE_PIECE / 8 : c->words;
+            ok = bits_partition(c->prim_bits, c->sets, c->words, c->prim_count, k0, k1);
+        }
+    }
+    if (!ok)
+        __atomic_store_n(&j->bad, 1, __ATOMIC_RELAXED);
+}
+
+int rtk_tree_check_whole(const rtk_tree_check *c, uint32_t reached, uint32_t covered, uint32_t threads)
+{
+    if (reached != c->node_count || covered != c->prim_count)
+        return 0;
+    whole_job j = {c, (c->node_count + WHOLE_PIECE - 1) / WHOLE_PIECE, (c->prim_count + WHOLE_PIECE - 1) / WHOLE_PIECE,
+                   0};
+    const uint32_t pieces = j.node_pieces + j.slot_pieces + (uint32_t)((c->words + WHOLE_PIECE / 8 - 1) / (WHOLE_PIECE / 8));
+    rtk_parallel_ranges(pieces, threads, 4, whole_range, &j);
+    return !j.bad;
 }
 
 /* Below this many nodes the walk stays on one thread. */
@@ -545,7 +582,7 @@ rtk_status rtk_bvh_validate(const rtk_build_args *a, int leaf_bounds, uint32_t *
         if (ok) {
             walk_job job = {&w, 0, threads, w.tally.max_depth, w.tally.covered, w.tally.reached, 0};
             rtk_parallel_ranges(threads, threads, 1, walk_worker, &job);
-            ok = !job.failed && rtk_tree_check_whole(&w.check, job.reached, job.covered);
+            ok = !job.failed && rtk_tree_check_whole(&w.check, job.reached, job.covered, threads);
             w.tally.max_depth = job.max_depth;
         }
         if (ok) {

@@ -475,7 +475,7 @@ static int plan_tree(collapser *c, uint32_t threads, uint32_t *depth)
         ok = plan_walk(c, &w, 0, 0, count ? PLAN_FRONTIER : UINT32_MAX, costs, &next, root);
     if (ok && c->check) {
         rtk_tree_tally_add(&w.tally, &job.covered, &job.reached, &job.max_depth);
-        ok = rtk_tree_check_whole(c->check, job.reached, job.covered);
+        ok = rtk_tree_check_whole(c->check, job.reached, job.covered, threads);
         *depth = job.max_depth;
     }
     free(ids);
