@@ -150,10 +150,18 @@ void rtk_film_merge(rtk_film *film, const rtk_film_tile *t)
     }
 }
 
-void rtk_film_resolve(const rtk_film *film, float *out)
+typedef struct resolve_job {
+    const rtk_film *film;
+    float *out;
+} resolve_job;
+
+/* Rows [begin, end) of rtk_film_resolve. */
+static void resolve_rows(void *ctx, uint32_t begin, uint32_t end)
 {
-    size_t pixels = (size_t)film->width * film->height;
-    for (size_t i = 0; i < pixels; i++) {
+    const resolve_job *j = ctx;
+    const rtk_film *film = j->film;
+    const size_t last = (size_t)end * film->width;
+    for (size_t i = (size_t)begin * film->width; i < last; i++) {
         double w = film->weight[i];
         const double *sum = film->sum + i * film->channels;
         if (film->abs_sum && !(w > RTK_FILM_CANCEL * film->abs_weight[i])) {
@@ -161,8 +169,14 @@ void rtk_film_resolve(const rtk_film *film, float *out)
             sum = film->abs_sum + i * film->channels;
         }
         for (uint32_t c = 0; c < film->channels; c++)
-            out[i * film->channels + c] = w != 0.0 ? (float)(sum[c] / w) : 0.0f;
+            j->out[i * film->channels + c] = w != 0.0 ? (float)(sum[c] / w) : 0.0f;
     }
+}
+
+void rtk_film_resolve(const rtk_film *film, float *out, uint32_t threads)
+{
+    resolve_job j = {film, out};
+    rtk_parallel_ranges(film->height, threads, 16, resolve_rows, &j);
 }
 
 int rtk_filter_has_negative_lobes(const rtk_filter_fns *filter, const void *state, float radius)

@@ -96,8 +96,8 @@ void rtk_film_tile_add(rtk_film_tile *tile, int px, int py, float w, const float
 RTK_KERNEL_API void rtk_film_merge(rtk_film *film, const rtk_film_tile *tile);
 /* Weighted averages, channels floats per pixel; 0 where no weight
  * arrived; |weight| averages where signed weights cancel
- * (RTK_FILM_CANCEL). */
-void rtk_film_resolve(const rtk_film *film, float *out);
+ * (RTK_FILM_CANCEL). Rows on up to threads threads. */
+void rtk_film_resolve(const rtk_film *film, float *out, uint32_t threads);
 
 /* Filter importance sampling (Ernst et al. 2006; pbrt-v4's FilterSampler):
  * |f| tabulated on a grid over the support, sampled cell by cell through

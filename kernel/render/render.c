@@ -448,7 +448,7 @@ rtk_status rtk_render_film(const rtk_film_render *r, float *pixels, rtk_render_s
     st = run_workers(&job, r->threads ? r->threads : 1, r->progress);
     if (st != RTK_OK)
         goto done;
-    rtk_film_resolve(&job.film, pixels);
+    rtk_film_resolve(&job.film, pixels, r->threads);
     if (stats) {
         stats->rays = job.rays;
         stats->invalid_rays = job.invalid_rays;

@@ -207,7 +207,7 @@ static void test_cancel(void)
     rtk_film_tile_add(&tile, 0, 0, -0.97f, &zero);
     rtk_film_merge(&film, &tile);
     float out;
-    rtk_film_resolve(&film, &out);
+    rtk_film_resolve(&film, &out, 1);
     check(fabsf(out - 1.0f / 1.97f) < 1e-6f, "cancelling weights (1, -0.97) resolve with |weights|: %.6f within [0, 1]",
           out);
     rtk_film_tile_free(&tile);
@@ -218,7 +218,7 @@ static void test_cancel(void)
     rtk_film_tile_add(&tile, 0, 0, 1.0f, &one);
     rtk_film_tile_add(&tile, 0, 0, -0.5f, &zero);
     rtk_film_merge(&film, &tile);
-    rtk_film_resolve(&film, &out);
+    rtk_film_resolve(&film, &out, 1);
     check(fabsf(out - 2.0f) < 1e-6f, "weights (1, -0.5) keep the signed average: %.6f", out);
     rtk_film_tile_free(&tile);
     rtk_film_free(&film);
