@@ -351,11 +351,7 @@ void *rtk_alloc_zeroed(size_t count, size_t size, uint32_t threads)
     zero_job z = {rtk_alloc(bytes), bytes};
     if (!z.block)
         return NULL;
-    const size_t chunks = (bytes + ZERO_CHUNK - 1) / ZERO_CHUNK;
-    if (chunks > UINT32_MAX) {
-        memset(z.block, 0, bytes);
-        return z.block;
-    }
-    rtk_parallel_ranges((uint32_t)chunks, threads ? threads : 1, 4, zero_range, &z);
+    /* A block allocated has fewer than 2^32 chunks (256 TiB). */
+    rtk_parallel_ranges((uint32_t)((bytes + ZERO_CHUNK - 1) / ZERO_CHUNK), threads ? threads : 1, 4, zero_range, &z);
     return z.block;
 }
