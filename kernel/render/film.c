@@ -1,6 +1,7 @@
 /* Film: filtered sample accumulation in double precision. Each tile
- * splats into its own padded buffer; buffers are merged into the film in
- * tile order, so the image is the same whatever the thread count. */
+ * splats into its own padded buffer; every pixel gets the buffers that
+ * reach it in tile order (render.c), so the image is the same whatever
+ * the thread count. */
 #include "render.h"
 
 #include <math.h>
@@ -38,11 +39,16 @@ void rtk_film_free(rtk_film *film)
     film->sum = film->weight = film->abs_sum = film->abs_weight = NULL;
 }
 
+int rtk_film_tile_pad(float radius)
+{
+    return (int)ceilf(radius + 0.5f);
+}
+
 rtk_status rtk_film_tile_init(rtk_film_tile *t, const rtk_film *film, uint32_t x0, uint32_t y0, uint32_t x1,
                               uint32_t y1, float radius)
 {
     memset(t, 0, sizeof *t);
-    int pad = (int)ceilf(radius + 0.5f);
+    int pad = rtk_film_tile_pad(radius);
     t->x0 = (int)x0 - pad;
     t->y0 = (int)y0 - pad;
     t->w = (int)(x1 - x0) + 2 * pad;

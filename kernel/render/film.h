@@ -82,7 +82,10 @@ typedef struct rtk_film_tile {
 RTK_KERNEL_API rtk_status rtk_film_init(rtk_film *film, uint32_t width, uint32_t height, uint32_t channels, int track_abs,
                                         uint32_t threads);
 RTK_KERNEL_API void rtk_film_free(rtk_film *film);
-/* Buffer for pixels [x0, x1) x [y0, y1) padded by the filter radius. */
+/* The pixels a tile's buffer reaches past its own on each side for a
+ * filter of this radius. */
+int rtk_film_tile_pad(float radius);
+/* Buffer for pixels [x0, x1) x [y0, y1) padded by rtk_film_tile_pad. */
 RTK_KERNEL_API rtk_status rtk_film_tile_init(rtk_film_tile *tile, const rtk_film *film, uint32_t x0, uint32_t y0, uint32_t x1,
                                              uint32_t y1, float radius);
 RTK_KERNEL_API void rtk_film_tile_free(rtk_film_tile *tile);

@@ -38,11 +38,16 @@ typedef struct render_job {
     uint32_t tiles_x, tiles_y, tile_count;
     atomic_uint next_tile;
     atomic_uint tiles_done;
-    /* Deterministic merge: finished tiles wait here for their turn. */
+    /* Deterministic merge (merge_tiles): a finished tile waits in pending
+     * until every lower-numbered tile that shares a pixel with it has been
+     * merged. Under merge_lock: state, waits_on, the queue. */
     pthread_mutex_t merge_lock;
     rtk_film_tile *pending;
-    uint8_t *ready;
-    uint32_t merge_cursor;
+    uint8_t *state;      /* TILE_RENDERING, TILE_PENDING, TILE_QUEUED */
+    uint32_t *waits_on;  /* lower-numbered tiles sharing pixels, not yet merged */
+    uint32_t *queue;     /* tiles free to merge: [queue_head, queue_tail) */
+    uint32_t queue_head, queue_tail;
+    uint32_t reach;      /* tiles further apart in x or y share no pixel */
     rtk_status status; /* first failure, under merge_lock */
     atomic_int failed;  /* set with status, read by workers without the lock */
     char error[1024];
@@ -50,14 +55,69 @@ typedef struct render_job {
     uint64_t rays, invalid_rays, bad_samples;
 } render_job;
 
-static void merge_ready(render_job *job)
+enum { TILE_RENDERING, TILE_PENDING, TILE_QUEUED };
+
+/* Under merge_lock: a tile that tile u waits on is merged. */
+static void release(render_job *job, uint32_t u)
 {
-    while (job->merge_cursor < job->tile_count && job->ready[job->merge_cursor]) {
-        rtk_film_tile *t = &job->pending[job->merge_cursor];
-        rtk_film_merge(&job->film, t);
-        rtk_film_tile_free(t);
-        job->merge_cursor++;
+    if (--job->waits_on[u] == 0 && job->state[u] == TILE_PENDING) {
+        job->state[u] = TILE_QUEUED;
+        job->queue[job->queue_tail++] = u;
     }
+}
+
+/* release() for every tile after tile t within job->reach of it. */
+static void release_later(render_job *job, uint32_t t)
+{
+    const uint32_t tx = t % job->tiles_x, ty = t / job->tiles_x, r = job->reach;
+    const uint32_t x0 = tx > r ? tx - r : 0, x1 = tx + r < job->tiles_x - 1 ? tx + r : job->tiles_x - 1;
+    const uint32_t y1 = ty + r < job->tiles_y - 1 ? ty + r : job->tiles_y - 1;
+    for (uint32_t x = tx + 1; x <= x1; x++)
+        release(job, ty * job->tiles_x + x);
+    for (uint32_t y = ty + 1; y <= y1; y++)
+        for (uint32_t x = x0; x <= x1; x++)
+            release(job, y * job->tiles_x + x);
+}
+
+/* Each tile's count of lower-numbered tiles whose padded buffers overlap
+ * its own: buffers reach pad pixels past tiles of TILE_SIZE, so tiles
+ * (TILE_SIZE + 2 pad) / TILE_SIZE or more apart share none. */
+static void init_merge(render_job *job)
+{
+    const uint32_t pad = (uint32_t)rtk_film_tile_pad(job->radius);
+    const uint32_t r = job->reach = (TILE_SIZE + 2 * pad - 1) / TILE_SIZE;
+    for (uint32_t t = 0; t < job->tile_count; t++) {
+        const uint32_t tx = t % job->tiles_x, ty = t / job->tiles_x;
+        const uint32_t x0 = tx > r ? tx - r : 0, x1 = tx + r < job->tiles_x - 1 ? tx + r : job->tiles_x - 1;
+        const uint32_t y0 = ty > r ? ty - r : 0;
+        job->waits_on[t] = (ty - y0) * (x1 - x0 + 1) + (tx - x0); /* rows above, then the left of its own */
+    }
+    job->queue_head = job->queue_tail = 0;
+}
+
+/* Under merge_lock, after tiles were made TILE_PENDING: merges every tile
+ * free to merge, outside the lock, until none is left; returns with the
+ * lock held. Two tiles that share a pixel are never merged at once (the
+ * later waits on the earlier), so each pixel sums its tiles in tile order
+ * whatever the threads, and tiles apart merge on several threads. */
+static void merge_tiles(render_job *job)
+{
+    while (job->queue_head < job->queue_tail) {
+        const uint32_t t = job->queue[job->queue_head++];
+        pthread_mutex_unlock(&job->merge_lock);
+        rtk_film_merge(&job->film, &job->pending[t]);
+        rtk_film_tile_free(&job->pending[t]);
+        pthread_mutex_lock(&job->merge_lock);
+        release_later(job, t);
+    }
+}
+
+/* Under merge_lock: tile t is rendered into job->pending[t]. */
+static void tile_done(render_job *job, uint32_t t)
+{
+    job->state[t] = job->waits_on[t] == 0 ? TILE_QUEUED : TILE_PENDING;
+    if (job->state[t] == TILE_QUEUED)
+        job->queue[job->queue_tail++] = t;
 }
 
 static void fail(render_job *job, rtk_status st)
@@ -236,9 +296,9 @@ static void render_tiles_on_device(render_job *job, uint32_t first, uint32_t end
     pthread_mutex_lock(&job->merge_lock);
     for (uint32_t k = 0; k < made; k++) {
         job->pending[first + k] = tiles[k];
-        job->ready[first + k] = 1;
+        tile_done(job, first + k);
     }
-    merge_ready(job);
+    merge_tiles(job);
     pthread_mutex_unlock(&job->merge_lock);
     atomic_fetch_add(&job->tiles_done, made);
 }
@@ -297,8 +357,8 @@ static void render_tile(render_job *job, uint32_t index, rtk_ctx *ctx, sample_ba
         flush_batch(job, ctx, batch, n, &tile, bad);
     pthread_mutex_lock(&job->merge_lock);
     job->pending[index] = tile;
-    job->ready[index] = 1;
-    merge_ready(job);
+    tile_done(job, index);
+    merge_tiles(job);
     pthread_mutex_unlock(&job->merge_lock);
     atomic_fetch_add(&job->tiles_done, 1);
 }
@@ -359,16 +419,34 @@ static void draw_progress(uint32_t done, uint32_t total, double elapsed)
     fflush(stderr);
 }
 
+/* Frees the merge's state and the tiles a failed render left pending. */
+static void free_merge(render_job *job)
+{
+    if (job->pending && job->state)
+        for (uint32_t i = 0; i < job->tile_count; i++)
+            if (job->state[i] == TILE_PENDING)
+                rtk_film_tile_free(&job->pending[i]);
+    free(job->pending);
+    free(job->state);
+    free(job->waits_on);
+    free(job->queue);
+    job->pending = NULL, job->state = NULL, job->waits_on = NULL, job->queue = NULL;
+}
+
 /* Renders job->film on threads; main thread draws the progress bar. */
 static rtk_status run_workers(render_job *job, uint32_t threads, int progress)
 {
     pthread_t *ids = rtk_calloc(threads, sizeof *ids);
     job->pending = rtk_calloc(job->tile_count, sizeof *job->pending);
-    job->ready = rtk_calloc(job->tile_count, 1);
-    if (!ids || !job->pending || !job->ready) {
+    job->state = rtk_calloc(job->tile_count, 1);
+    job->waits_on = rtk_calloc(job->tile_count, sizeof *job->waits_on);
+    job->queue = rtk_calloc(job->tile_count, sizeof *job->queue);
+    if (!ids || !job->pending || !job->state || !job->waits_on || !job->queue) {
         free(ids);
+        free_merge(job);
         return RTK_ERR_NOMEM;
     }
+    init_merge(job);
     uint32_t started = 0;
     for (; started < threads; started++)
         if (pthread_create(&ids[started], NULL, worker, job) != 0)
@@ -392,13 +470,7 @@ static rtk_status run_workers(render_job *job, uint32_t threads, int progress)
         fputc('\n', stderr);
     }
     free(ids);
-    for (uint32_t i = job->merge_cursor; i < job->tile_count; i++)
-        if (job->ready[i])
-            rtk_film_tile_free(&job->pending[i]);
-    free(job->pending);
-    free(job->ready);
-    job->pending = NULL;
-    job->ready = NULL;
+    free_merge(job);
     if (job->status != RTK_OK)
         return rtk_error(job->status, "%s", job->error);
     return RTK_OK;

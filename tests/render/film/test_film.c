@@ -7,7 +7,9 @@
  *   filters are symmetric), within 5 standard errors over 16 seeds;
  * - a pixel whose signed weights cancel resolves with |weights|: never
  *   outside the range of its samples;
- * - the filter sampler's weights f / pdf average to the filter's integral. */
+ * - the filter sampler's weights f / pdf average to the filter's integral;
+ * - the image is the same, bit for bit, on 1 to 8 threads, with filters
+ *   whose tiles' buffers reach one and two tiles over. */
 #include "config/config.h"
 #include "render/render.h"
 
@@ -44,26 +46,69 @@ static void poisoned_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk
 
 static rtk_camera camera;
 
-/* Radiance 1 + 0.25 fx - 0.125 fy at the film position the ray came
- * through (recovered from its direction: forward, right and up are
- * orthogonal). */
-static void ramp_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
+/* The film position (fx, fy) a ray came through, recovered from its
+ * direction: forward, right and up are orthogonal. */
+static void film_position(const rtk_ray *ray, double *fx, double *fy)
 {
-    (void)state, (void)ctx;
     double d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
     const rtk_vec3 *f = &camera.forward, *r = &camera.right, *u = &camera.up;
     double df = (d[0] * f->x + d[1] * f->y + d[2] * f->z) / ((double)f->x * f->x + (double)f->y * f->y + (double)f->z * f->z);
     double dr = (d[0] * r->x + d[1] * r->y + d[2] * r->z) / ((double)r->x * r->x + (double)r->y * r->y + (double)r->z * r->z);
     double du = (d[0] * u->x + d[1] * u->y + d[2] * u->z) / ((double)u->x * u->x + (double)u->y * u->y + (double)u->z * u->z);
     double sx = dr / df, sy = du / df;
-    double fx = (sx + 1.0) * camera.width / 2.0, fy = (1.0 - sy) * camera.height / 2.0;
+    *fx = (sx + 1.0) * camera.width / 2.0, *fy = (1.0 - sy) * camera.height / 2.0;
+}
+
+/* Radiance 1 + 0.25 fx - 0.125 fy at the film position the ray came
+ * through. */
+static void ramp_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
+{
+    (void)state, (void)ctx;
+    double fx, fy;
+    film_position(ray, &fx, &fy);
     float v = (float)(1.0 + 0.25 * fx - 0.125 * fy);
     out->radiance = rtk_rgb_make(v, v, v);
+}
+
+/* Three values from the sample stream, so that every sample differs;
+ * slow in the first row of tiles from the fourth tile on, so that tiles
+ * of the next row that share pixels with them finish first. */
+static void noisy_li(const void *state, rtk_ctx *ctx, const rtk_ray *ray, rtk_li_result *out)
+{
+    (void)state;
+    double fx, fy;
+    film_position(ray, &fx, &fy);
+    if (fy < 16.0 && fx >= 48.0)
+        for (volatile int i = 0; i < 400; i++)
+            ;
+    float a = rtk_sample_1d(ctx), b = rtk_sample_1d(ctx);
+    out->radiance = rtk_rgb_make(a, 3.0f * b, a * b + 0.1f);
 }
 
 static const rtk_integrator_fns constant = {.size = sizeof(rtk_integrator_fns), .li = constant_li};
 static const rtk_integrator_fns poisoned_fns = {.size = sizeof(rtk_integrator_fns), .li = poisoned_li};
 static const rtk_integrator_fns ramp = {.size = sizeof(rtk_integrator_fns), .li = ramp_li};
+static const rtk_integrator_fns noisy = {.size = sizeof(rtk_integrator_fns), .li = noisy_li};
+
+/* A tent filter of the radius its state points to. */
+static float tent_radius(const void *state)
+{
+    return *(const float *)state;
+}
+static float tent_eval(const void *state, float dx, float dy)
+{
+    const float r = *(const float *)state;
+    return fmaxf(r - fabsf(dx), 0.0f) * fmaxf(r - fabsf(dy), 0.0f);
+}
+static double tent_integral(const void *state)
+{
+    const double r = *(const float *)state;
+    return r * r * r * r;
+}
+static const rtk_filter_fns tent = {
+    .size = sizeof(rtk_filter_fns), .radius = tent_radius, .eval = tent_eval, .integral = tent_integral};
+
+static uint32_t render_threads = 2;
 
 typedef struct filter {
     const char *name;
@@ -88,7 +133,7 @@ static rtk_status render(const rtk_integrator_fns *ifn, const filter *fl, uint32
     job.spp = spp;
     job.reconstruction = recon;
     job.seed = seed;
-    job.threads = 2;
+    job.threads = render_threads;
     if (st == RTK_OK)
         st = rtk_render_film(&job, px, stats);
     rtk_scene_free(scene);
@@ -224,6 +269,44 @@ static void test_cancel(void)
     rtk_film_free(&film);
 }
 
+/* Tiles merge into the film on several threads at once, but every pixel
+ * must sum the tiles that reach it in tile order (kernel/render/render.c):
+ * with noisy samples any other order or a race changes some pixel's
+ * bits. Radius 1.5: buffers 2 pixels past 16-pixel tiles, neighbours
+ * share pixels; radius 8.5: tiles two apart do. */
+static void test_threads(void)
+{
+    enum { W = 83, H = 61 };
+    static float px[2][W * H * RTK_FILM_CHANNELS];
+    const float radii[] = {1.5f, 8.5f};
+    for (size_t i = 0; i < RTK_COUNTOF(radii); i++) {
+        filter fl = {"tent", &tent, (void *)&radii[i]};
+        for (int recon = RTK_RECON_SPLAT; recon <= RTK_RECON_IMPORTANCE; recon++) {
+            render_threads = 1;
+            rtk_status st = render(&noisy, &fl, W, H, 4, (rtk_reconstruction)recon, 9, px[0], NULL);
+            uint32_t t = 2;
+            for (; st == RTK_OK && t <= 8; t++) {
+                render_threads = t;
+                int round = 0;
+                for (; round < 4; round++)
+                    if ((st = render(&noisy, &fl, W, H, 4, (rtk_reconstruction)recon, 9, px[1], NULL)) != RTK_OK ||
+                        memcmp(px[0], px[1], sizeof px[0]) != 0)
+                        break;
+                if (round < 4)
+                    break;
+            }
+            char why[512] = "";
+            if (st != RTK_OK)
+                snprintf(why, sizeof why, ": a render failed: %s", rtk_error_message());
+            else if (t <= 8)
+                snprintf(why, sizeof why, ": differs on %u threads", t);
+            check(t > 8, "tent radius %g, %s: %dx%d, 4 spp on 2 to 8 threads (4 renders each) equal the 1-thread image bit for bit%s",
+                  (double)radii[i], recon_name[recon], W, H, why);
+        }
+    }
+    render_threads = 2;
+}
+
 int main(void)
 {
     setvbuf(stdout, NULL, _IOLBF, 0);
@@ -256,6 +339,7 @@ int main(void)
         rtk_params_destroy(params);
     }
     test_cancel();
+    test_threads();
     rtk_registry_destroy(reg);
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
