@@ -66,12 +66,21 @@ static void release(render_job *job, uint32_t u)
     }
 }
 
+/* The columns [x0, x1] of tiles within job->reach of column tx. */
+static void reach_columns(const render_job *job, uint32_t tx, uint32_t *x0, uint32_t *x1)
+{
+    const uint32_t r = job->reach;
+    *x0 = tx > r ? tx - r : 0;
+    *x1 = tx + r < job->tiles_x - 1 ? tx + r : job->tiles_x - 1;
+}
+
 /* release() for every tile after tile t within job->reach of it. */
 static void release_later(render_job *job, uint32_t t)
 {
     const uint32_t tx = t % job->tiles_x, ty = t / job->tiles_x, r = job->reach;
-    const uint32_t x0 = tx > r ? tx - r : 0, x1 = tx + r < job->tiles_x - 1 ? tx + r : job->tiles_x - 1;
     const uint32_t y1 = ty + r < job->tiles_y - 1 ? ty + r : job->tiles_y - 1;
+    uint32_t x0, x1;
+    reach_columns(job, tx, &x0, &x1);
     for (uint32_t x = tx + 1; x <= x1; x++)
         release(job, ty * job->tiles_x + x);
     for (uint32_t y = ty + 1; y <= y1; y++)
@@ -87,9 +96,9 @@ static void init_merge(render_job *job)
     const uint32_t pad = (uint32_t)rtk_film_tile_pad(job->radius);
     const uint32_t r = job->reach = (TILE_SIZE + 2 * pad - 1) / TILE_SIZE;
     for (uint32_t t = 0; t < job->tile_count; t++) {
-        const uint32_t tx = t % job->tiles_x, ty = t / job->tiles_x;
-        const uint32_t x0 = tx > r ? tx - r : 0, x1 = tx + r < job->tiles_x - 1 ? tx + r : job->tiles_x - 1;
-        const uint32_t y0 = ty > r ? ty - r : 0;
+        const uint32_t tx = t % job->tiles_x, ty = t / job->tiles_x, y0 = ty > r ? ty - r : 0;
+        uint32_t x0, x1;
+        reach_columns(job, tx, &x0, &x1);
         job->waits_on[t] = (ty - y0) * (x1 - x0 + 1) + (tx - x0); /* rows above, then the left of its own */
     }
     job->queue_head = job->queue_tail = 0;
