@@ -737,10 +737,9 @@ typedef struct wide_group {
     float org[3];
 } wide_group;
 
-/* The constants wide_prepare and tri_prepare make for ray, lane l of
- * origin group g, from the group's own (the same divisions, lane by
- * lane). */
-RTK_INLINE void group_lane(const wide_group *g, const rtk_ray *ray, int l, wide_ray *p, tri_ray *t)
+/* The box constants wide_prepare makes for ray, lane l of origin group
+ * g, from the group's own (the same divisions, lane by lane). */
+RTK_INLINE void group_lane_box(const wide_group *g, const rtk_ray *ray, int l, wide_ray *p)
 {
     const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
     for (int k = 0; k < 3; k++) {
@@ -751,6 +750,12 @@ RTK_INLINE void group_lane(const wide_group *g, const rtk_ray *ray, int l, wide_
         p->far[k] = p->near[k] ^ 1;
     }
     p->ninv[3] = p->ninv_far[3] = 0.0f; /* unused */
+}
+
+/* The triangle constants tri_prepare makes for lane l of origin group g,
+ * from the group's own. */
+RTK_INLINE void group_lane_tri(const wide_group *g, int l, tri_ray *t)
+{
     const int kx = g->kx[l], ky = g->ky[l], kz = g->kz[l];
     t->rx = (size_t)kx * sizeof(float[RTK_WIDE_TRIS]), t->ry = (size_t)ky * sizeof(float[RTK_WIDE_TRIS]),
     t->rz = (size_t)kz * sizeof(float[RTK_WIDE_TRIS]);
