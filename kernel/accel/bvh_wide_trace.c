@@ -691,6 +691,13 @@ static const uint32_t pack_lanes[256] = {PACK_32(0u), PACK_32(32u), PACK_32(64u)
 
 #define RTK_ALIGN32 __attribute__((aligned(32)))
 
+/* Lane l's bit in every lane: origin groups on AVX2 gather a lane's
+ * entered children into per-child lane masks with it. */
+static const RTK_ALIGN32 uint32_t lane_bits[RTK_WIDE][RTK_WIDE] = {
+    {1, 1, 1, 1, 1, 1, 1, 1},         {2, 2, 2, 2, 2, 2, 2, 2},         {4, 4, 4, 4, 4, 4, 4, 4},
+    {8, 8, 8, 8, 8, 8, 8, 8},         {16, 16, 16, 16, 16, 16, 16, 16}, {32, 32, 32, 32, 32, 32, 32, 32},
+    {64, 64, 64, 64, 64, 64, 64, 64}, {128, 128, 128, 128, 128, 128, 128, 128}};
+
 /* A frustum packet's constants (packet_setup): each lane's single-ray box
  * constants, and per axis the intervals of origins, reciprocals and
  * widened reciprocals over the lanes, with the rows of the shared
