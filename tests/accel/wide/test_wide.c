@@ -402,7 +402,8 @@ static void compare_paths(rtk_scene *s, const char *mesh, const char *builder, i
  * rays on every path, bit for bit: a pinhole camera's rays from outside
  * the mesh (coherent: the AVX paths trace most of them as frustum
  * packets), the same cut short (finite tmax), eight rays from each of
- * some hits in random directions, short and long (origin groups), shadow
+ * some hits in random directions, short and long, each with its own
+ * interval (origin groups), shadow
  * rays from the hits towards one point, and eight rays from each of those
  * points aimed at a triangle's corners, edge midpoints and centroid
  * (origin groups whose lanes reach the triangle test's edge cases), each
@@ -457,8 +458,10 @@ static void compare_batches(rtk_scene *s, const char *mesh, const char *builder)
             rtk_ray *q = &rays[n + i];
             q->org = at;
             q->dir = rtk_vec3_make(frand(&rng, -1, 1), frand(&rng, -1, 1), frand(&rng, -1, 1));
-            q->tmin = 1e-4f * r;
-            q->tmax = i % 16 < 8 ? 0.2f * r : INFINITY;
+            /* Each lane of a group with its own interval: the first
+             * starts far out, the short ones end at different distances. */
+            q->tmin = i % 8 == 0 ? 0.1f * r : 1e-4f * r;
+            q->tmax = i % 16 < 8 ? (0.12f + 0.02f * (float)(i % 8)) * r : INFINITY;
             rtk_ray *sh = &rays[n + W * H + i];
             sh->org = at;
             sh->dir = rtk_vec3_sub(light, at);
