@@ -739,7 +739,7 @@ typedef struct wide_group {
     RTK_ALIGN32 float sx[RTK_WIDE]; /* d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz] */
     RTK_ALIGN32 float sy[RTK_WIDE];
     RTK_ALIGN32 float sz[RTK_WIDE];
-    RTK_ALIGN32 float tmin[RTK_WIDE];
+    RTK_ALIGN32 float tmin[RTK_WIDE]; /* + 0 (box_int_note) */
     RTK_ALIGN32 float tmax[RTK_WIDE];
     float org[3];
 } wide_group;
