@@ -97,7 +97,7 @@ static rtk_scene *make_mesh(int which, const char **name)
 
 static int brute_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
 {
-    hit->prim = RTK_INVALID_ID;
+    hit->prim = hit->inst = RTK_INVALID_ID;
     hit->t = ray->tmax;
     hit->u = hit->v = 0.0f;
     float best = ray->tmax;
@@ -111,6 +111,106 @@ static int brute_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
         }
     }
     return hit->prim != RTK_INVALID_ID;
+}
+
+/* Brute force's answers are the same for every parameter set and plugin
+ * (the scenes and rays of the basic, degenerate, repeat and instance
+ * checks depend on neither) and took most of each set's time: the runner
+ * keeps them for the process, each under the fingerprint of its scene and
+ * its ray's own bits. */
+typedef int (*brute_fn)(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit);
+
+typedef struct brute_memo {
+    uint64_t scene; /* scene_fingerprint of the scene the answers are of */
+    uint32_t count, cap;
+    rtk_ray *rays;
+    rtk_hit *hits;
+    int *found;
+} brute_memo;
+
+/* One memo per scene of a check: basic's 6 meshes, degenerate's 4, repeat, instances. */
+enum { MEMO_BASIC = 0, MEMO_DEGENERATE = 6, MEMO_REPEAT = 10, MEMO_INSTANCES = 11, MEMO_COUNT = 12 };
+static brute_memo brute_memos[MEMO_COUNT];
+
+static void brute_memos_free(void)
+{
+    for (int k = 0; k < MEMO_COUNT; k++) {
+        free(brute_memos[k].rays), free(brute_memos[k].hits), free(brute_memos[k].found);
+        memset(&brute_memos[k], 0, sizeof brute_memos[k]);
+    }
+}
+
+static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *b = data;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ b[i]) * 0x100000001b3ull;
+    return h;
+}
+
+/* A hash of what brute force reads: every triangle's corners in id order,
+ * each placement's mesh and world-to-object transform, each mesh's own. */
+static uint64_t scene_fingerprint(const rtk_scene *s)
+{
+    uint64_t h = fnv1a(0xcbf29ce484222325ull, &s->triangle_count, sizeof s->triangle_count);
+    for (uint32_t i = 0; i < s->triangle_count; i++) {
+        rtk_vec3 v[3];
+        rtk_scene_triangle(s, i, &v[0], &v[1], &v[2]);
+        h = fnv1a(h, v, sizeof v);
+    }
+    h = fnv1a(h, &s->instance_count, sizeof s->instance_count);
+    for (uint32_t i = 0; i < s->instance_count; i++) {
+        h = fnv1a(h, &s->instances[i].mesh, sizeof s->instances[i].mesh);
+        h = fnv1a(h, s->instances[i].to_object, sizeof s->instances[i].to_object);
+    }
+    for (uint32_t m = 0; m < s->mesh_count; m++) {
+        uint64_t mh = scene_fingerprint(s->meshes[m]);
+        h = fnv1a(h, &mh, sizeof mh);
+    }
+    return h;
+}
+
+/* Opens memo slot for scene s: its answers are kept if they are s's. */
+static brute_memo *brute_memo_for(int slot, const rtk_scene *s)
+{
+    static int registered;
+    if (!registered)
+        registered = atexit(brute_memos_free) == 0;
+    brute_memo *m = &brute_memos[slot];
+    uint64_t key = scene_fingerprint(s);
+    if (m->scene != key || m->count == 0)
+        m->scene = key, m->count = 0;
+    return m;
+}
+
+/* fn's answer for the i-th ray of memo m's scene: the kept one when the
+ * same ray was asked before, else computed and kept (rays come in order). */
+static int brute_kept(brute_memo *m, uint32_t i, const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, brute_fn fn)
+{
+    if (i < m->count && memcmp(&m->rays[i], ray, sizeof *ray) == 0) {
+        *hit = m->hits[i];
+        return m->found[i];
+    }
+    int found = fn(s, ray, hit);
+    if (i == m->count && i == m->cap) {
+        uint32_t cap = m->cap ? 2 * m->cap : 1024;
+        rtk_ray *rays = realloc(m->rays, sizeof *rays * cap);
+        if (rays)
+            m->rays = rays;
+        rtk_hit *hits = realloc(m->hits, sizeof *hits * cap);
+        if (hits)
+            m->hits = hits;
+        int *f = realloc(m->found, sizeof *f * cap);
+        if (f)
+            m->found = f;
+        if (rays && hits && f)
+            m->cap = cap;
+    }
+    if (i == m->count && i < m->cap) {
+        m->rays[i] = *ray, m->hits[i] = *hit, m->found[i] = found;
+        m->count++;
+    }
+    return found;
 }
 
 /* Two different triangles hit at almost the same distance (coplanar
@@ -608,10 +708,11 @@ static int oracle_check(const rtk_scene *s, const rtk_ray *ray, const traced *tr
 /* Closest hit on the tree against brute force for one ray: equal, or a
  * coplanar neighbour within rounding. Sets *brute_hit; writes a difference
  * to detail. */
-static int tree_matches_brute(const rtk_scene *s, const rtk_ray *ray, int i, int *brute_hit, char *detail, size_t cap)
+static int tree_matches_brute(const rtk_scene *s, brute_memo *memo, const rtk_ray *ray, int i, int *brute_hit,
+                              char *detail, size_t cap)
 {
     rtk_hit h1, h2;
-    int a = closest_of(s, ray, &h1), b = brute_closest(s, ray, &h2);
+    int a = closest_of(s, ray, &h1), b = brute_kept(memo, (uint32_t)i, s, ray, &h2, brute_closest);
     *brute_hit = b;
     if (a == b && (!a || (h1.prim == h2.prim && h1.t == h2.t) || same_surface(s, ray, &h1, &h2)))
         return 1;
@@ -652,10 +753,11 @@ static void conform_basic(rtk_conform_runner *r, const rtk_plugin *p, const rtk_
             rtk_pcg32_seed(&rng, 99u, (uint64_t)m);
             int closest_bad = 0, any_bad = 0;
             char detail[256] = "", d[256];
+            brute_memo *memo = brute_memo_for(MEMO_BASIC + m, s);
             for (int i = 0; i < 3000; i++) {
                 rtk_ray ray = random_ray(s, &rng, i);
                 int b = 0;
-                if (!tree_matches_brute(s, &ray, i, &b, d, sizeof d) && !closest_bad++)
+                if (!tree_matches_brute(s, memo, &ray, i, &b, d, sizeof d) && !closest_bad++)
                     snprintf(detail, sizeof detail, "%s", d);
                 if (any_of(s, &ray) != b)
                     any_bad++;
@@ -800,6 +902,7 @@ static void conform_degenerate(rtk_conform_runner *r, const rtk_plugin *p, const
         rtk_pcg32_seed(&rng, 777u, (uint64_t)which);
         tally tl = {0, 0, ""};
         int rays = degenerate_rays[full][which];
+        brute_memo *memo = brute_memo_for(MEMO_DEGENERATE + which, s);
         for (int i = 0; i < rays; i++) {
             rtk_ray ray;
             if (which == 3 && i % 8 == 7)
@@ -830,7 +933,7 @@ static void conform_degenerate(rtk_conform_runner *r, const rtk_plugin *p, const
                     tally_bad(&tl, &ray, "hit prim %u of a point (any %d)", tr.h.prim, tr.any);
             } else {
                 char d[256];
-                if (!tree_matches_brute(s, &ray, i, &expect, d, sizeof d))
+                if (!tree_matches_brute(s, memo, &ray, i, &expect, d, sizeof d))
                     tally_bad(&tl, &ray, "%s", d);
                 else if (tr.any != expect)
                     tally_bad(&tl, &ray, "any hit %d, brute force %d", tr.any, expect);
@@ -1035,6 +1138,7 @@ static void conform_repeat(rtk_conform_runner *r, const rtk_plugin *p, const rtk
         int own = m.s->own_traversal != NULL;
         tally same = {0, 0, ""}, ref = {0, 0, ""};
         uint64_t near_ties = 0;
+        brute_memo *memo = brute_memo_for(MEMO_REPEAT, m.s);
         for (int i = 0; i < rays; i++) {
             const traced *t1 = &res[i], *t2 = &res[rays + i], *t3 = &res[2 * rays + i];
             same.rays++;
@@ -1047,7 +1151,7 @@ static void conform_repeat(rtk_conform_runner *r, const rtk_plugin *p, const rtk
                 continue;
             }
             traced want;
-            want.hit = want.any = brute_closest(m.s, &ray[i], &want.h);
+            want.hit = want.any = brute_kept(memo, (uint32_t)i, m.s, &ray[i], &want.h, brute_closest);
             if (same_answer(t1, &want))
                 continue;
             if (t1->hit && want.hit && t1->any && same_surface(m.s, &ray[i], &t1->h, &want.h))
@@ -1982,13 +2086,14 @@ static void conform_instances(rtk_conform_runner *r, const rtk_plugin *p, const 
     }
     tally tl;
     memset(&tl, 0, sizeof tl);
+    brute_memo *memo = brute_memo_for(MEMO_INSTANCES, s);
     for (int i = 0; i < 4000; i++) {
         dvec o = i == 3999 ? dv(1e3 + 20, -1e3, 5e2) : dv(drange(&rng, -9, 9), drange(&rng, -9, 9), drange(&rng, -9, 9));
         dvec d = i == 3999 ? dv(-1, 0, 0) : drand_unit(&rng);
         rtk_ray ray = make_ray(fdv(o), fdv(d), i % 3 == 0 ? (float)drange(&rng, 0.5, 8) : INFINITY);
         traced tr = trace(s, &ray);
         rtk_hit b;
-        int bh = brute_instances(s, &ray, &b);
+        int bh = brute_kept(memo, (uint32_t)i, s, &ray, &b, brute_instances);
         tl.rays++;
         double slack = 8.0 * FLT_EPSILON * (dlen(o) + fabs((double)b.t));
         if (tr.hit != tr.any || tr.hit != bh)
