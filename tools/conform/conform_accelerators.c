@@ -178,7 +178,7 @@ static brute_memo *brute_memo_for(int slot, const rtk_scene *s)
         registered = atexit(brute_memos_free) == 0;
     brute_memo *m = &brute_memos[slot];
     uint64_t key = scene_fingerprint(s);
-    if (m->scene != key || m->count == 0)
+    if (m->scene != key)
         m->scene = key, m->count = 0;
     return m;
 }
