@@ -24,6 +24,13 @@ typedef struct range {
     uint32_t node, begin, end;
 } range;
 
+/* A primitive as the build moves it: its centroid and id side by side, so
+ * that each pass streams through memory instead of chasing ids. */
+typedef struct item {
+    float c[3];
+    uint32_t id;
+} item;
+
 static rtk_status median_create(const rtk_params *params, void **state)
 {
     median *m = malloc(sizeof *m);
@@ -35,34 +42,32 @@ static rtk_status median_create(const rtk_params *params, void **state)
     return RTK_OK;
 }
 
-static float coord(const rtk_vec3 *v, int axis)
+static void swap_items(item *a, item *b)
 {
-    return axis == 0 ? v->x : axis == 1 ? v->y : v->z;
+    item t = *a;
+    *a = *b;
+    *b = t;
 }
 
-/* Reorders ids[begin, end) so that the k-th smallest centroid along axis
+/* Reorders it[begin, end) so that the k-th smallest centroid along axis
  * sits at k, smaller ones before it (quickselect; ties by id keep the
  * result deterministic). */
-static void select_kth(uint32_t *ids, uint32_t begin, uint32_t end, uint32_t k, const rtk_vec3 *c, int axis)
+static void select_kth(item *it, uint32_t begin, uint32_t end, uint32_t k, int axis)
 {
     while (end - begin > 1) {
         uint32_t mid = begin + (end - begin) / 2;
-        uint32_t pivot = ids[mid];
-        float pv = coord(&c[pivot], axis);
-        ids[mid] = ids[end - 1];
-        ids[end - 1] = pivot;
+        item pivot = it[mid];
+        float pv = pivot.c[axis];
+        it[mid] = it[end - 1];
+        it[end - 1] = pivot;
         uint32_t store = begin;
         for (uint32_t i = begin; i < end - 1; i++) {
-            float v = coord(&c[ids[i]], axis);
-            if (v < pv || (v == pv && ids[i] < pivot)) {
-                uint32_t t = ids[i];
-                ids[i] = ids[store];
-                ids[store] = t;
-                store++;
-            }
+            float v = it[i].c[axis];
+            if (v < pv || (v == pv && it[i].id < pivot.id))
+                swap_items(&it[i], &it[store++]);
         }
-        ids[end - 1] = ids[store];
-        ids[store] = pivot;
+        it[end - 1] = it[store];
+        it[store] = pivot;
         if (store == k)
             return;
         if (k < store)
@@ -72,72 +77,86 @@ static void select_kth(uint32_t *ids, uint32_t begin, uint32_t end, uint32_t k, 
     }
 }
 
-static void set_bounds(rtk_bvh_node *n, const rtk_build_args *a, uint32_t begin, uint32_t end)
+/* Every node's box, children before parents (they come after them in
+ * nodes): a leaf's from its primitives, an inner node's the union of its
+ * two children's, which is the same box. */
+static void set_bounds(const rtk_build_args *a, uint32_t used)
 {
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (uint32_t i = begin; i < end; i++) {
-        const rtk_bounds *b = &a->prim_bounds[a->prim_order[i]];
-        lo[0] = fminf(lo[0], b->lower.x), lo[1] = fminf(lo[1], b->lower.y), lo[2] = fminf(lo[2], b->lower.z);
-        hi[0] = fmaxf(hi[0], b->upper.x), hi[1] = fmaxf(hi[1], b->upper.y), hi[2] = fmaxf(hi[2], b->upper.z);
+    for (uint32_t k = used; k-- > 0;) {
+        rtk_bvh_node *n = &a->nodes[k];
+        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        if (n->count > 0) {
+            for (uint32_t i = n->offset; i < n->offset + n->count; i++) {
+                const rtk_bounds *b = &a->prim_bounds[a->prim_order[i]];
+                lo[0] = fminf(lo[0], b->lower.x), lo[1] = fminf(lo[1], b->lower.y), lo[2] = fminf(lo[2], b->lower.z);
+                hi[0] = fmaxf(hi[0], b->upper.x), hi[1] = fmaxf(hi[1], b->upper.y), hi[2] = fmaxf(hi[2], b->upper.z);
+            }
+        } else {
+            const rtk_bvh_node *l = &a->nodes[n->offset], *r = &a->nodes[n->offset + 1];
+            for (int j = 0; j < 3; j++) {
+                lo[j] = fminf(l->lower[j], r->lower[j]);
+                hi[j] = fmaxf(l->upper[j], r->upper[j]);
+            }
+        }
+        memcpy(n->lower, lo, sizeof lo);
+        memcpy(n->upper, hi, sizeof hi);
     }
-    memcpy(n->lower, lo, sizeof lo);
-    memcpy(n->upper, hi, sizeof hi);
 }
 
 static rtk_status median_build(void *state, rtk_build_args *a)
 {
     const median *m = state;
     rtk_build_phase(a, "median: tree", 0);
-    for (uint32_t i = 0; i < a->prim_count; i++)
-        a->prim_order[i] = i;
+    size_t bytes = sizeof(item) * (size_t)a->prim_count;
+    item *it = rtk_build_scratch(a, bytes), *own = NULL;
+    if (!it)
+        it = own = malloc(bytes);
     /* Depth-first with an explicit stack; it never exceeds the tree depth,
      * which object-median splits keep at log2(n) + 1. */
     range *stack = malloc(sizeof *stack * 128);
-    if (!stack)
+    if (!it || !stack) {
+        free(own), free(stack);
         return rtk_error(RTK_ERR_NOMEM, "median: out of memory");
+    }
+    for (uint32_t i = 0; i < a->prim_count; i++)
+        it[i] = (item){{a->centroids[i].x, a->centroids[i].y, a->centroids[i].z}, i};
     uint32_t top = 0, used = 1;
     stack[top++] = (range){0, 0, a->prim_count};
     while (top > 0) {
         range r = stack[--top];
         rtk_bvh_node *n = &a->nodes[r.node];
-        set_bounds(n, a, r.begin, r.end);
         uint32_t count = r.end - r.begin;
-        float clo[3] = {INFINITY, INFINITY, INFINITY}, chi[3] = {-INFINITY, -INFINITY, -INFINITY};
-        for (uint32_t i = r.begin; i < r.end; i++) {
-            const rtk_vec3 *c = &a->centroids[a->prim_order[i]];
-            for (int k = 0; k < 3; k++) {
-                clo[k] = fminf(clo[k], coord(c, k));
-                chi[k] = fmaxf(chi[k], coord(c, k));
-            }
-        }
-        int axis = 0;
-        for (int k = 1; k < 3; k++)
-            if (chi[k] - clo[k] > chi[axis] - clo[axis])
-                axis = k;
         if (count <= m->max_leaf || top + 2 > 128) {
             n->offset = r.begin;
             n->count = count;
             continue;
         }
+        float clo[3] = {INFINITY, INFINITY, INFINITY}, chi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (uint32_t i = r.begin; i < r.end; i++)
+            for (int k = 0; k < 3; k++) {
+                clo[k] = fminf(clo[k], it[i].c[k]);
+                chi[k] = fmaxf(chi[k], it[i].c[k]);
+            }
+        int axis = 0;
+        for (int k = 1; k < 3; k++)
+            if (chi[k] - clo[k] > chi[axis] - clo[axis])
+                axis = k;
         uint32_t split = r.begin + count / 2;
         if (m->spatial && chi[axis] > clo[axis]) {
             float mid = 0.5f * (clo[axis] + chi[axis]);
             uint32_t i = r.begin, j = r.end;
             while (i < j) {
-                if (coord(&a->centroids[a->prim_order[i]], axis) < mid) {
+                if (it[i].c[axis] < mid)
                     i++;
-                } else {
-                    uint32_t t = a->prim_order[i];
-                    a->prim_order[i] = a->prim_order[--j];
-                    a->prim_order[j] = t;
-                }
+                else
+                    swap_items(&it[i], &it[--j]);
             }
             if (i > r.begin && i < r.end)
                 split = i;
             else /* all centroids on one side of the middle: object median */
-                select_kth(a->prim_order, r.begin, r.end, split, a->centroids, axis);
+                select_kth(it, r.begin, r.end, split, axis);
         } else {
-            select_kth(a->prim_order, r.begin, r.end, split, a->centroids, axis);
+            select_kth(it, r.begin, r.end, split, axis);
         }
         uint32_t left = used;
         used += 2;
@@ -147,6 +166,10 @@ static rtk_status median_build(void *state, rtk_build_args *a)
         stack[top++] = (range){left, r.begin, split};
     }
     free(stack);
+    for (uint32_t i = 0; i < a->prim_count; i++)
+        a->prim_order[i] = it[i].id;
+    free(own);
+    set_bounds(a, used);
     a->node_count = used;
     return RTK_OK;
 }
