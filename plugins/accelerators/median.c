@@ -7,12 +7,23 @@
  *   max_leaf  int [1, 64]            4       primitives per leaf at most
  *
  * Example: accelerator = { plugin = "median"; mode = "spatial"; max_leaf = 2; };
+ *
+ * The top levels are split on one thread down to subtrees of at most
+ * TASK_PRIMS primitives, which the build's threads then take in turn, each
+ * into the worst-case span of nodes it may need; the spans are then closed
+ * up in order. The cut does not depend on the thread count, so neither does
+ * the tree.
  */
 #include <rtk/rtk.h>
 
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* Subtrees of at most this many primitives are built as tasks. */
+#define TASK_PRIMS 8192u
 
 typedef struct median {
     int spatial;
@@ -77,12 +88,13 @@ static void select_kth(item *it, uint32_t begin, uint32_t end, uint32_t k, int a
     }
 }
 
-/* Every node's box, children before parents (they come after them in
- * nodes): a leaf's from its primitives, an inner node's the union of its
- * two children's, which is the same box. */
-static void set_bounds(const rtk_build_args *a, uint32_t used)
+/* The boxes of nodes [from, to), children before parents (they come
+ * after them in nodes, or were set already): a leaf's from its
+ * primitives, an inner node's the union of its two children's, which is
+ * the same box. */
+static void set_bounds(const rtk_build_args *a, uint32_t from, uint32_t to)
 {
-    for (uint32_t k = used; k-- > 0;) {
+    for (uint32_t k = to; k-- > from;) {
         rtk_bvh_node *n = &a->nodes[k];
         float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
         if (n->count > 0) {
@@ -103,32 +115,45 @@ static void set_bounds(const rtk_build_args *a, uint32_t used)
     }
 }
 
-static rtk_status median_build(void *state, rtk_build_args *a)
+/* One depth-first build: from root, children pairs taken from used on. */
+typedef struct grower {
+    const median *m;
+    item *it;
+    rtk_bvh_node *nodes;
+    uint32_t used;
+    int cut;        /* ranges of at most TASK_PRIMS (more than a leaf) become tasks */
+    range *tasks;   /* with cut: the tasks, in depth-first order */
+    uint32_t task_count, task_cap;
+} grower;
+
+/* Splits root's range down to leaves (or tasks); 0 when out of memory. */
+static int grow(grower *g, range root)
 {
-    const median *m = state;
-    rtk_build_phase(a, "median: tree", 0);
-    size_t bytes = sizeof(item) * (size_t)a->prim_count;
-    item *it = rtk_build_scratch(a, bytes), *own = NULL;
-    if (!it)
-        it = own = malloc(bytes);
-    /* Depth-first with an explicit stack; it never exceeds the tree depth,
-     * which object-median splits keep at log2(n) + 1. */
-    range *stack = malloc(sizeof *stack * 128);
-    if (!it || !stack) {
-        free(own), free(stack);
-        return rtk_error(RTK_ERR_NOMEM, "median: out of memory");
-    }
-    for (uint32_t i = 0; i < a->prim_count; i++)
-        it[i] = (item){{a->centroids[i].x, a->centroids[i].y, a->centroids[i].z}, i};
-    uint32_t top = 0, used = 1;
-    stack[top++] = (range){0, 0, a->prim_count};
+    const median *m = g->m;
+    item *it = g->it;
+    /* The stack never exceeds the tree depth, which object-median splits
+     * keep at log2(n) + 1; a deeper spatial split ends in a leaf. */
+    range stack[128];
+    uint32_t top = 0;
+    stack[top++] = root;
     while (top > 0) {
         range r = stack[--top];
-        rtk_bvh_node *n = &a->nodes[r.node];
+        rtk_bvh_node *n = &g->nodes[r.node];
         uint32_t count = r.end - r.begin;
         if (count <= m->max_leaf || top + 2 > 128) {
             n->offset = r.begin;
             n->count = count;
+            continue;
+        }
+        if (g->cut && count <= TASK_PRIMS) {
+            if (g->task_count == g->task_cap) {
+                uint32_t cap = g->task_cap ? 2 * g->task_cap : 64;
+                range *t = realloc(g->tasks, sizeof *t * cap);
+                if (!t)
+                    return 0;
+                g->tasks = t, g->task_cap = cap;
+            }
+            g->tasks[g->task_count++] = r;
             continue;
         }
         float clo[3] = {INFINITY, INFINITY, INFINITY}, chi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -158,18 +183,119 @@ static rtk_status median_build(void *state, rtk_build_args *a)
         } else {
             select_kth(it, r.begin, r.end, split, axis);
         }
-        uint32_t left = used;
-        used += 2;
+        uint32_t left = g->used;
+        g->used += 2;
         n->offset = left;
         n->count = 0;
         stack[top++] = (range){left + 1, split, r.end};
         stack[top++] = (range){left, r.begin, split};
     }
-    free(stack);
+    return 1;
+}
+
+/* The tasks, shared by the build's threads. */
+typedef struct crew {
+    const median *m;
+    rtk_build_args *a;
+    item *it;
+    const range *tasks;
+    uint32_t *span;  /* task i's nodes start at span[i], at most 2 x its primitives - 2 */
+    uint32_t *built; /* nodes task i used */
+    atomic_uint next;
+    uint32_t count;
+} crew;
+
+/* Builds tasks until none is left: the subtree, its slots of prim_order
+ * and the boxes of the nodes below its root. */
+static void *work(void *arg)
+{
+    crew *c = arg;
+    for (uint32_t i; (i = atomic_fetch_add(&c->next, 1)) < c->count;) {
+        range r = c->tasks[i];
+        grower g = {.m = c->m, .it = c->it, .nodes = c->a->nodes, .used = c->span[i]};
+        grow(&g, r); /* without cut it allocates nothing */
+        c->built[i] = g.used - c->span[i];
+        for (uint32_t k = r.begin; k < r.end; k++)
+            c->a->prim_order[k] = c->it[k].id;
+        set_bounds(c->a, c->span[i], g.used);
+    }
+    return NULL;
+}
+
+/* Moves task i's nodes down from its span to base, its inner nodes' (and
+ * its root's) child offsets with them. */
+static void close_up(rtk_build_args *a, const range *task, uint32_t span, uint32_t built, uint32_t base)
+{
+    uint32_t shift = span - base;
+    if (shift == 0)
+        return;
+    memmove(&a->nodes[base], &a->nodes[span], sizeof *a->nodes * built);
+    for (uint32_t k = base; k < base + built; k++)
+        if (a->nodes[k].count == 0)
+            a->nodes[k].offset -= shift;
+    if (a->nodes[task->node].count == 0)
+        a->nodes[task->node].offset -= shift;
+}
+
+static rtk_status median_build(void *state, rtk_build_args *a)
+{
+    const median *m = state;
+    rtk_build_phase(a, "median: top levels", 0);
+    size_t bytes = sizeof(item) * (size_t)a->prim_count;
+    item *it = rtk_build_scratch(a, bytes), *own = NULL;
+    if (!it)
+        it = own = malloc(bytes);
+    if (!it)
+        return rtk_error(RTK_ERR_NOMEM, "median: out of memory");
     for (uint32_t i = 0; i < a->prim_count; i++)
-        a->prim_order[i] = it[i].id;
-    free(own);
-    set_bounds(a, used);
+        it[i] = (item){{a->centroids[i].x, a->centroids[i].y, a->centroids[i].z}, i};
+    grower top = {.m = m, .it = it, .nodes = a->nodes, .used = 1, .cut = 1};
+    uint32_t *span = NULL, *built = NULL;
+    int ok = grow(&top, (range){0, 0, a->prim_count});
+    uint32_t tasks = top.task_count;
+    if (ok && tasks) {
+        span = malloc(sizeof *span * tasks);
+        built = malloc(sizeof *built * tasks);
+        ok = span && built;
+    }
+    if (!ok) {
+        free(own), free(top.tasks), free(span), free(built);
+        return rtk_error(RTK_ERR_NOMEM, "median: out of memory");
+    }
+    uint32_t next = top.used;
+    for (uint32_t i = 0; i < tasks; i++) {
+        span[i] = next;
+        next += 2 * (top.tasks[i].end - top.tasks[i].begin) - 2;
+    }
+
+    uint32_t threads = a->thread_count < 1 ? 1 : a->thread_count > 64 ? 64 : a->thread_count;
+    if (threads > tasks)
+        threads = tasks ? tasks : 1;
+    rtk_build_phase(a, "median: subtrees", threads > 1);
+    crew c = {.m = m, .a = a, .it = it, .tasks = top.tasks, .span = span, .built = built, .count = tasks};
+    atomic_init(&c.next, 0);
+    pthread_t helper[63];
+    uint32_t started = 0;
+    while (started + 1 < threads && pthread_create(&helper[started], NULL, work, &c) == 0)
+        started++;
+    work(&c);
+    for (uint32_t t = 0; t < started; t++)
+        pthread_join(helper[t], NULL);
+
+    rtk_build_phase(a, "median: close gaps", 0);
+    uint32_t used = top.used;
+    for (uint32_t i = 0; i < tasks; i++) {
+        close_up(a, &top.tasks[i], span[i], built[i], used);
+        used += built[i];
+    }
+    /* The top levels' own leaves, then their boxes over the tasks' roots. */
+    for (uint32_t k = 0; k < top.used; k++) {
+        const rtk_bvh_node *n = &a->nodes[k];
+        for (uint32_t i = n->offset; n->count > 0 && i < n->offset + n->count; i++)
+            a->prim_order[i] = it[i].id;
+    }
+    set_bounds(a, 0, top.used);
+    free(own), free(top.tasks), free(span), free(built);
     a->node_count = used;
     return RTK_OK;
 }
