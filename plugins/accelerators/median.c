@@ -8,11 +8,11 @@
  *
  * Example: accelerator = { plugin = "median"; mode = "spatial"; max_leaf = 2; };
  *
- * The top levels are split on one thread down to subtrees of at most
- * TASK_PRIMS primitives, which the build's threads then take in turn, each
- * into the worst-case span of nodes it may need; the spans are then closed
- * up in order. The cut does not depend on the thread count, so neither does
- * the tree.
+ * The top levels are split level by level, each level's ranges on the
+ * build's threads, down to subtrees of at most TASK_PRIMS primitives,
+ * which the threads then take in turn, each into the worst-case span of
+ * nodes it may need; the spans are then closed up in order. The cut does
+ * not depend on the thread count, so neither does the tree.
  */
 #include <rtk/rtk.h>
 
@@ -115,22 +115,42 @@ static void set_bounds(const rtk_build_args *a, uint32_t from, uint32_t to)
     }
 }
 
-/* One depth-first build: from root, children pairs taken from used on. */
-typedef struct grower {
-    const median *m;
-    item *it;
-    rtk_bvh_node *nodes;
-    uint32_t used;
-    int cut;        /* ranges of at most TASK_PRIMS (more than a leaf) become tasks */
-    range *tasks;   /* with cut: the tasks, in depth-first order */
-    uint32_t task_count, task_cap;
-} grower;
-
-/* Splits root's range down to leaves (or tasks); 0 when out of memory. */
-static int grow(grower *g, range root)
+/* Where r splits: at the median slot along the widest centroid axis
+ * (object), or at the middle of the centroid bounds (spatial, unless every
+ * centroid is on one side of it); reorders it[r.begin, r.end) to match. */
+static uint32_t split_at(const median *m, item *it, range r)
 {
-    const median *m = g->m;
-    item *it = g->it;
+    float clo[3] = {INFINITY, INFINITY, INFINITY}, chi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t i = r.begin; i < r.end; i++)
+        for (int k = 0; k < 3; k++) {
+            clo[k] = fminf(clo[k], it[i].c[k]);
+            chi[k] = fmaxf(chi[k], it[i].c[k]);
+        }
+    int axis = 0;
+    for (int k = 1; k < 3; k++)
+        if (chi[k] - clo[k] > chi[axis] - clo[axis])
+            axis = k;
+    uint32_t split = r.begin + (r.end - r.begin) / 2;
+    if (m->spatial && chi[axis] > clo[axis]) {
+        float mid = 0.5f * (clo[axis] + chi[axis]);
+        uint32_t i = r.begin, j = r.end;
+        while (i < j) {
+            if (it[i].c[axis] < mid)
+                i++;
+            else
+                swap_items(&it[i], &it[--j]);
+        }
+        if (i > r.begin && i < r.end)
+            return i;
+    }
+    select_kth(it, r.begin, r.end, split, axis);
+    return split;
+}
+
+/* Splits root's range depth-first down to leaves, children pairs taken
+ * from *used on. */
+static void grow(const median *m, item *it, rtk_bvh_node *nodes, uint32_t *used, range root)
+{
     /* The stack never exceeds the tree depth, which object-median splits
      * keep at log2(n) + 1; a deeper spatial split ends in a leaf. */
     range stack[128];
@@ -138,59 +158,50 @@ static int grow(grower *g, range root)
     stack[top++] = root;
     while (top > 0) {
         range r = stack[--top];
-        rtk_bvh_node *n = &g->nodes[r.node];
+        rtk_bvh_node *n = &nodes[r.node];
         uint32_t count = r.end - r.begin;
         if (count <= m->max_leaf || top + 2 > 128) {
             n->offset = r.begin;
             n->count = count;
             continue;
         }
-        if (g->cut && count <= TASK_PRIMS) {
-            if (g->task_count == g->task_cap) {
-                uint32_t cap = g->task_cap ? 2 * g->task_cap : 64;
-                range *t = realloc(g->tasks, sizeof *t * cap);
-                if (!t)
-                    return 0;
-                g->tasks = t, g->task_cap = cap;
-            }
-            g->tasks[g->task_count++] = r;
-            continue;
-        }
-        float clo[3] = {INFINITY, INFINITY, INFINITY}, chi[3] = {-INFINITY, -INFINITY, -INFINITY};
-        for (uint32_t i = r.begin; i < r.end; i++)
-            for (int k = 0; k < 3; k++) {
-                clo[k] = fminf(clo[k], it[i].c[k]);
-                chi[k] = fmaxf(chi[k], it[i].c[k]);
-            }
-        int axis = 0;
-        for (int k = 1; k < 3; k++)
-            if (chi[k] - clo[k] > chi[axis] - clo[axis])
-                axis = k;
-        uint32_t split = r.begin + count / 2;
-        if (m->spatial && chi[axis] > clo[axis]) {
-            float mid = 0.5f * (clo[axis] + chi[axis]);
-            uint32_t i = r.begin, j = r.end;
-            while (i < j) {
-                if (it[i].c[axis] < mid)
-                    i++;
-                else
-                    swap_items(&it[i], &it[--j]);
-            }
-            if (i > r.begin && i < r.end)
-                split = i;
-            else /* all centroids on one side of the middle: object median */
-                select_kth(it, r.begin, r.end, split, axis);
-        } else {
-            select_kth(it, r.begin, r.end, split, axis);
-        }
-        uint32_t left = g->used;
-        g->used += 2;
+        uint32_t split = split_at(m, it, r), left = *used;
+        *used += 2;
         n->offset = left;
         n->count = 0;
         stack[top++] = (range){left + 1, split, r.end};
         stack[top++] = (range){left, r.begin, split};
     }
-    return 1;
+}
+
+/* Runs fn(arg) on threads threads, this one included. */
+static void run_threads(void *(*fn)(void *), void *arg, uint32_t threads)
+{
+    pthread_t helper[63];
+    uint32_t started = 0;
+    while (started + 1 < threads && started < 63 && pthread_create(&helper[started], NULL, fn, arg) == 0)
+        started++;
+    fn(arg);
+    for (uint32_t t = 0; t < started; t++)
+        pthread_join(helper[t], NULL);
+}
+
+/* One level of the top: ranges that split, shared by the threads. */
+typedef struct level {
+    const median *m;
+    item *it;
+    const range *ranges;
+    uint32_t *splits;
+    uint32_t count;
+    atomic_uint next;
+} level;
+
+static void *split_level(void *arg)
+{
+    level *l = arg;
+    for (uint32_t i; (i = atomic_fetch_add(&l->next, 1)) < l->count;)
+        l->splits[i] = split_at(l->m, l->it, l->ranges[i]);
+    return NULL;
 }
 
 /* The tasks, shared by the build's threads. */
@@ -212,12 +223,12 @@ static void *work(void *arg)
     crew *c = arg;
     for (uint32_t i; (i = atomic_fetch_add(&c->next, 1)) < c->count;) {
         range r = c->tasks[i];
-        grower g = {.m = c->m, .it = c->it, .nodes = c->a->nodes, .used = c->span[i]};
-        grow(&g, r); /* without cut it allocates nothing */
-        c->built[i] = g.used - c->span[i];
+        uint32_t used = c->span[i];
+        grow(c->m, c->it, c->a->nodes, &used, r);
+        c->built[i] = used - c->span[i];
         for (uint32_t k = r.begin; k < r.end; k++)
             c->a->prim_order[k] = c->it[k].id;
-        set_bounds(c->a, c->span[i], g.used);
+        set_bounds(c->a, c->span[i], used);
     }
     return NULL;
 }
@@ -237,65 +248,104 @@ static void close_up(rtk_build_args *a, const range *task, uint32_t span, uint32
         a->nodes[task->node].offset -= shift;
 }
 
+/* The top levels end at depth TOP_DEPTH, where a range becomes a leaf;
+ * a task's own depth-first build adds at most 128 more. */
+#define TOP_DEPTH 120u
+
 static rtk_status median_build(void *state, rtk_build_args *a)
 {
     const median *m = state;
-    rtk_build_phase(a, "median: top levels", 0);
-    size_t bytes = sizeof(item) * (size_t)a->prim_count;
+    rtk_build_phase(a, "median: root split", 0);
+    uint32_t n = a->prim_count, threads = a->thread_count < 1 ? 1 : a->thread_count > 64 ? 64 : a->thread_count;
+    size_t bytes = sizeof(item) * (size_t)n, wide = 2 * (size_t)(n / TASK_PRIMS) + 2;
     item *it = rtk_build_scratch(a, bytes), *own = NULL;
     if (!it)
         it = own = malloc(bytes);
-    if (!it)
-        return rtk_error(RTK_ERR_NOMEM, "median: out of memory");
-    for (uint32_t i = 0; i < a->prim_count; i++)
-        it[i] = (item){{a->centroids[i].x, a->centroids[i].y, a->centroids[i].z}, i};
-    grower top = {.m = m, .it = it, .nodes = a->nodes, .used = 1, .cut = 1};
-    uint32_t *span = NULL, *built = NULL;
-    int ok = grow(&top, (range){0, 0, a->prim_count});
-    uint32_t tasks = top.task_count;
-    if (ok && tasks) {
-        span = malloc(sizeof *span * tasks);
-        built = malloc(sizeof *built * tasks);
+    /* Ranges of more than TASK_PRIMS at one level: fewer than n / TASK_PRIMS. */
+    range *cur = malloc(sizeof *cur * wide), *nxt = malloc(sizeof *nxt * wide), *tasks = NULL;
+    uint32_t *splits = malloc(sizeof *splits * wide), *span = NULL, *built = NULL, task_count = 0, task_cap = 0;
+    int ok = it && cur && nxt && splits;
+    if (ok)
+        for (uint32_t i = 0; i < n; i++)
+            it[i] = (item){{a->centroids[i].x, a->centroids[i].y, a->centroids[i].z}, i};
+
+    /* The top, level by level: each level's ranges split on the threads,
+     * their children numbered in order after. */
+    uint32_t ncur = 1, used = 1;
+    if (ok)
+        cur[0] = (range){0, 0, n};
+    for (uint32_t depth = 0; ok && ncur > 0; depth++) {
+        uint32_t nsplit = 0;
+        for (uint32_t i = 0; i < ncur && ok; i++) {
+            range r = cur[i];
+            uint32_t count = r.end - r.begin;
+            if (count <= m->max_leaf || depth >= TOP_DEPTH) {
+                a->nodes[r.node].offset = r.begin;
+                a->nodes[r.node].count = count;
+            } else if (count <= TASK_PRIMS) {
+                if (task_count == task_cap) {
+                    uint32_t cap = task_cap ? 2 * task_cap : 64;
+                    range *t = realloc(tasks, sizeof *t * cap);
+                    ok = t != NULL;
+                    if (t)
+                        tasks = t, task_cap = cap;
+                }
+                if (ok)
+                    tasks[task_count++] = r;
+            } else {
+                cur[nsplit++] = r;
+            }
+        }
+        level l = {.m = m, .it = it, .ranges = cur, .splits = splits, .count = nsplit};
+        atomic_init(&l.next, 0);
+        run_threads(split_level, &l, threads < nsplit ? threads : nsplit ? nsplit : 1);
+        if (depth == 0)
+            rtk_build_phase(a, "median: top levels", threads > 1);
+        uint32_t nnext = 0;
+        for (uint32_t i = 0; i < nsplit; i++) {
+            range r = cur[i];
+            a->nodes[r.node].offset = used;
+            a->nodes[r.node].count = 0;
+            nxt[nnext++] = (range){used, r.begin, splits[i]};
+            nxt[nnext++] = (range){used + 1, splits[i], r.end};
+            used += 2;
+        }
+        range *t = cur;
+        cur = nxt, nxt = t, ncur = nnext;
+    }
+    if (ok && task_count) {
+        span = malloc(sizeof *span * task_count);
+        built = malloc(sizeof *built * task_count);
         ok = span && built;
     }
     if (!ok) {
-        free(own), free(top.tasks), free(span), free(built);
+        free(own), free(cur), free(nxt), free(splits), free(tasks), free(span), free(built);
         return rtk_error(RTK_ERR_NOMEM, "median: out of memory");
     }
-    uint32_t next = top.used;
-    for (uint32_t i = 0; i < tasks; i++) {
+    uint32_t top_used = used, next = used;
+    for (uint32_t i = 0; i < task_count; i++) {
         span[i] = next;
-        next += 2 * (top.tasks[i].end - top.tasks[i].begin) - 2;
+        next += 2 * (tasks[i].end - tasks[i].begin) - 2;
     }
 
-    uint32_t threads = a->thread_count < 1 ? 1 : a->thread_count > 64 ? 64 : a->thread_count;
-    if (threads > tasks)
-        threads = tasks ? tasks : 1;
-    rtk_build_phase(a, "median: subtrees", threads > 1);
-    crew c = {.m = m, .a = a, .it = it, .tasks = top.tasks, .span = span, .built = built, .count = tasks};
+    rtk_build_phase(a, "median: subtrees", threads > 1 && task_count > 1);
+    crew c = {.m = m, .a = a, .it = it, .tasks = tasks, .span = span, .built = built, .count = task_count};
     atomic_init(&c.next, 0);
-    pthread_t helper[63];
-    uint32_t started = 0;
-    while (started + 1 < threads && pthread_create(&helper[started], NULL, work, &c) == 0)
-        started++;
-    work(&c);
-    for (uint32_t t = 0; t < started; t++)
-        pthread_join(helper[t], NULL);
+    run_threads(work, &c, threads < task_count ? threads : task_count ? task_count : 1);
 
     rtk_build_phase(a, "median: close gaps", 0);
-    uint32_t used = top.used;
-    for (uint32_t i = 0; i < tasks; i++) {
-        close_up(a, &top.tasks[i], span[i], built[i], used);
+    for (uint32_t i = 0; i < task_count; i++) {
+        close_up(a, &tasks[i], span[i], built[i], used);
         used += built[i];
     }
     /* The top levels' own leaves, then their boxes over the tasks' roots. */
-    for (uint32_t k = 0; k < top.used; k++) {
-        const rtk_bvh_node *n = &a->nodes[k];
-        for (uint32_t i = n->offset; n->count > 0 && i < n->offset + n->count; i++)
+    for (uint32_t k = 0; k < top_used; k++) {
+        const rtk_bvh_node *node = &a->nodes[k];
+        for (uint32_t i = node->offset; node->count > 0 && i < node->offset + node->count; i++)
             a->prim_order[i] = it[i].id;
     }
-    set_bounds(a, 0, top.used);
-    free(own), free(top.tasks), free(span), free(built);
+    set_bounds(a, 0, top_used);
+    free(own), free(cur), free(nxt), free(splits), free(tasks), free(span), free(built);
     a->node_count = used;
     return RTK_OK;
 }

@@ -208,7 +208,7 @@ int main(void)
         {"sah", NULL, NULL, "sah: refs"},
         {"sah", "mode", "sweep", "sah: sort centroids"},
         {"lbvh", NULL, NULL, "lbvh: sort"},
-        {"median", NULL, NULL, "median: tree"},
+        {"median", NULL, NULL, "median: subtrees"},
     };
     for (size_t i = 0; i < sizeof builders / sizeof *builders; i++) {
         const rtk_plugin *p = NULL;
