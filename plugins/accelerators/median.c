@@ -17,7 +17,6 @@
 #include <rtk/rtk.h>
 
 #include <math.h>
-#include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -174,18 +173,6 @@ static void grow(const median *m, item *it, rtk_bvh_node *nodes, uint32_t *used,
     }
 }
 
-/* Runs fn(arg) on threads threads, this one included. */
-static void run_threads(void *(*fn)(void *), void *arg, uint32_t threads)
-{
-    pthread_t helper[63];
-    uint32_t started = 0;
-    while (started + 1 < threads && started < 63 && pthread_create(&helper[started], NULL, fn, arg) == 0)
-        started++;
-    fn(arg);
-    for (uint32_t t = 0; t < started; t++)
-        pthread_join(helper[t], NULL);
-}
-
 /* One level of the top: ranges that split, shared by the threads. */
 typedef struct level {
     const median *m;
@@ -196,12 +183,12 @@ typedef struct level {
     atomic_uint next;
 } level;
 
-static void *split_level(void *arg)
+static void split_level(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
 {
-    level *l = arg;
+    (void)team, (void)index, (void)size;
+    level *l = ctx;
     for (uint32_t i; (i = atomic_fetch_add(&l->next, 1)) < l->count;)
         l->splits[i] = split_at(l->m, l->it, l->ranges[i]);
-    return NULL;
 }
 
 /* The tasks, shared by the build's threads. */
@@ -218,9 +205,10 @@ typedef struct crew {
 
 /* Builds tasks until none is left: the subtree, its slots of prim_order
  * and the boxes of the nodes below its root. */
-static void *work(void *arg)
+static void work(void *ctx, rtk_team *team, uint32_t index, uint32_t size)
 {
-    crew *c = arg;
+    (void)team, (void)index, (void)size;
+    crew *c = ctx;
     for (uint32_t i; (i = atomic_fetch_add(&c->next, 1)) < c->count;) {
         range r = c->tasks[i];
         uint32_t used = c->span[i];
@@ -230,7 +218,6 @@ static void *work(void *arg)
             c->a->prim_order[k] = c->it[k].id;
         set_bounds(c->a, c->span[i], used);
     }
-    return NULL;
 }
 
 /* Moves task i's nodes down from its span to base, its inner nodes' (and
@@ -256,7 +243,7 @@ static rtk_status median_build(void *state, rtk_build_args *a)
 {
     const median *m = state;
     rtk_build_phase(a, "median: root split", 0);
-    uint32_t n = a->prim_count, threads = a->thread_count < 1 ? 1 : a->thread_count > 64 ? 64 : a->thread_count;
+    uint32_t n = a->prim_count, threads = a->thread_count < 1 ? 1 : a->thread_count;
     size_t bytes = sizeof(item) * (size_t)n, wide = 2 * (size_t)(n / TASK_PRIMS) + 2;
     item *it = rtk_build_scratch(a, bytes), *own = NULL;
     if (!it)
@@ -298,7 +285,7 @@ static rtk_status median_build(void *state, rtk_build_args *a)
         }
         level l = {.m = m, .it = it, .ranges = cur, .splits = splits, .count = nsplit};
         atomic_init(&l.next, 0);
-        run_threads(split_level, &l, threads < nsplit ? threads : nsplit ? nsplit : 1);
+        rtk_team_run(threads < nsplit ? threads : nsplit, split_level, &l);
         if (depth == 0)
             rtk_build_phase(a, "median: top levels", threads > 1);
         uint32_t nnext = 0;
@@ -331,7 +318,7 @@ static rtk_status median_build(void *state, rtk_build_args *a)
     rtk_build_phase(a, "median: subtrees", threads > 1 && task_count > 1);
     crew c = {.m = m, .a = a, .it = it, .tasks = tasks, .span = span, .built = built, .count = task_count};
     atomic_init(&c.next, 0);
-    run_threads(work, &c, threads < task_count ? threads : task_count ? task_count : 1);
+    rtk_team_run(threads < task_count ? threads : task_count, work, &c);
 
     rtk_build_phase(a, "median: close gaps", 0);
     for (uint32_t i = 0; i < task_count; i++) {
