@@ -120,12 +120,16 @@ static int brute_closest(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit)
  * its ray's own bits. */
 typedef int (*brute_fn)(const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit);
 
+typedef struct brute_answer {
+    rtk_ray ray;
+    rtk_hit hit;
+    int found;
+} brute_answer;
+
 typedef struct brute_memo {
     uint64_t scene; /* scene_fingerprint of the scene the answers are of */
     uint32_t count, cap;
-    rtk_ray *rays;
-    rtk_hit *hits;
-    int *found;
+    brute_answer *answers;
 } brute_memo;
 
 /* One memo per scene of a check: basic's 6 meshes, degenerate's 4, repeat, instances. */
@@ -135,7 +139,7 @@ static brute_memo brute_memos[MEMO_COUNT];
 static void brute_memos_free(void)
 {
     for (int k = 0; k < MEMO_COUNT; k++) {
-        free(brute_memos[k].rays), free(brute_memos[k].hits), free(brute_memos[k].found);
+        free(brute_memos[k].answers);
         memset(&brute_memos[k], 0, sizeof brute_memos[k]);
     }
 }
@@ -187,29 +191,19 @@ static brute_memo *brute_memo_for(int slot, const rtk_scene *s)
  * same ray was asked before, else computed and kept (rays come in order). */
 static int brute_kept(brute_memo *m, uint32_t i, const rtk_scene *s, const rtk_ray *ray, rtk_hit *hit, brute_fn fn)
 {
-    if (i < m->count && memcmp(&m->rays[i], ray, sizeof *ray) == 0) {
-        *hit = m->hits[i];
-        return m->found[i];
+    if (i < m->count && memcmp(&m->answers[i].ray, ray, sizeof *ray) == 0) {
+        *hit = m->answers[i].hit;
+        return m->answers[i].found;
     }
     int found = fn(s, ray, hit);
     if (i == m->count && i == m->cap) {
         uint32_t cap = m->cap ? 2 * m->cap : 1024;
-        rtk_ray *rays = realloc(m->rays, sizeof *rays * cap);
-        if (rays)
-            m->rays = rays;
-        rtk_hit *hits = realloc(m->hits, sizeof *hits * cap);
-        if (hits)
-            m->hits = hits;
-        int *f = realloc(m->found, sizeof *f * cap);
-        if (f)
-            m->found = f;
-        if (rays && hits && f)
-            m->cap = cap;
+        brute_answer *answers = realloc(m->answers, sizeof *answers * cap);
+        if (answers)
+            m->answers = answers, m->cap = cap;
     }
-    if (i == m->count && i < m->cap) {
-        m->rays[i] = *ray, m->hits[i] = *hit, m->found[i] = found;
-        m->count++;
-    }
+    if (i == m->count && i < m->cap)
+        m->answers[m->count++] = (brute_answer){*ray, *hit, found};
     return found;
 }
 
