@@ -49,7 +49,7 @@ static const rtk_param_desc top_params[] = {
      .doc = "list of models placed beside the scene, each loaded once: ( { file = \"bunny.obj\"; "
             "translate = [x, y, z]; rotate = [ax, ay, az, degrees]; scale = s; grid = [nx, ny, nz]; "
             "spacing = [dx, dy, dz]; }, ... )"},
-    {.name = "accelerator", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"median\"; and its parameters"},
+    {.name = "accelerator", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"sah\"; and its parameters"},
     {.name = "integrator", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"headlight\"; and its parameters"},
     {.name = "filter", .type = RTK_PARAM_STRING, .doc = "group: plugin = \"box\"; and its parameters"},
 };
@@ -1793,7 +1793,7 @@ static rtk_status parse_file(loader *ld)
 
 static rtk_status read_accelerator(const loader *ld, const config_setting_t *root, rtk_config *cfg)
 {
-    rtk_status st = load_slot(ld, root, "accelerator", RTK_KIND_ACCELERATOR, "median", &cfg->accelerator);
+    rtk_status st = load_slot(ld, root, "accelerator", RTK_KIND_ACCELERATOR, "sah", &cfg->accelerator);
     if (st != RTK_OK || !rtk_accelerator_is_device(cfg->accelerator.plugin))
         return st;
     /* A device accelerator's builder, checked here so that a wrong one is

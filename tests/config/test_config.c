@@ -115,7 +115,7 @@ static void test_minimal(void)
     CHECK(strcmp(cfg->sampler_type, "independent") == 0);
     CHECK(cfg->has_camera == 0);
     CHECK(strcmp(cfg->integrator.plugin->name, "headlight") == 0);
-    CHECK(strcmp(cfg->accelerator.plugin->name, "median") == 0);
+    CHECK(strcmp(cfg->accelerator.plugin->name, "sah") == 0);
     CHECK(strcmp(cfg->filter.plugin->name, "box") == 0);
     CHECK(cfg->integrator.params && cfg->accelerator.params && cfg->filter.params);
     CHECK(rtk_params_float(cfg->filter.params, "radius") == 0.5);
