@@ -1,9 +1,10 @@
-/* rtk_image_read / rtk_image_write: the image adapter (io/image.cpp, built
- * as the module rtk_image.so with OpenImageIO) is loaded on first use.
- * Linking OpenImageIO into librtk put some 250 libraries into every rtk
- * process, and binding their symbols took 0.4 s of each start, also for
- * commands that never touch an image (`rtk plugins`, `rtk bench`, most of
- * the test suite). */
+/* rtk_image_read / rtk_image_write: the image adapter (image_module.cpp,
+ * built as the module rtk_image.so with OpenImageIO) is loaded on first
+ * use, and PFM, OpenEXR and PNG outputs are written without it. Linking
+ * OpenImageIO into librtk put some 250 libraries into every rtk process,
+ * and binding their symbols took 0.4 s of each start, also for commands
+ * that never touch an image (`rtk plugins`, `rtk bench`, most of the test
+ * suite). */
 #include "image.h"
 
 #include <dlfcn.h>
@@ -12,6 +13,7 @@
 #include <stdlib.h>
 #include <unistd.h>
 #include <string.h>
+#include <strings.h>
 
 typedef rtk_status (*image_read_fn)(const char *name, const void *bytes, size_t byte_count, const char *format,
                                     int srgb, rtk_image *out);
@@ -109,12 +111,48 @@ rtk_status rtk_image_read(const char *path, const void *bytes, size_t byte_count
     return st;
 }
 
+/* 16k x 16k, as the image module's limit: a bigger output is a mistake. */
+#define MAX_OUTPUT_PIXELS ((uint64_t)1 << 28)
+
+typedef rtk_status (*own_encoder)(const rtk_image_write_job *job);
+
+/* The encoder of a format librtk writes itself (PFM, OpenEXR, PNG: by
+ * extension, any case), or NULL for the image module's formats. */
+static own_encoder own_writer(const char *path)
+{
+    static const struct {
+        const char *ext;
+        own_encoder encode;
+    } own[] = {{".pfm", rtk_pfm_encode}, {".exr", rtk_exr_encode}, {".png", rtk_png_encode}};
+    const char *slash = strrchr(path, '/');
+    const char *dot = strrchr(slash ? slash + 1 : path, '.');
+    for (size_t i = 0; dot && i < sizeof own / sizeof own[0]; i++)
+        if (strcasecmp(dot, own[i].ext) == 0)
+            return own[i].encode;
+    return NULL;
+}
+
+/* The image module's size checks, for the formats librtk writes. */
+static rtk_status check_size(const char *path, int width, int height, int nchannels)
+{
+    if (width < 0 || height < 0 || nchannels < 0)
+        return rtk_error(RTK_ERR_INVALID, "cannot write image '%s': bad size %dx%d with %d channels", path, width,
+                         height, nchannels);
+    if ((uint64_t)width * (uint64_t)height > MAX_OUTPUT_PIXELS || nchannels > 1024)
+        return rtk_error(RTK_ERR_NOMEM, "cannot write image '%s': %dx%d with %d channels is too large", path, width,
+                         height, nchannels);
+    return RTK_OK;
+}
+
 rtk_status rtk_image_check_output(const char *path, int width, int height, int nchannels)
 {
     if (!path || !path[0])
         return rtk_error(RTK_ERR_INVALID, "no output file name given");
-    if (rtk_pfm_path(path)) {
-        rtk_status st = rtk_pfm_check(path, nchannels);
+    own_encoder own = own_writer(path);
+    if (own) {
+        rtk_status st = check_size(path, width, height, nchannels);
+        if (st == RTK_OK && own == rtk_pfm_encode)
+            st = rtk_pfm_check(path, nchannels);
         return st == RTK_OK ? rtk_output_check(path) : st;
     }
     pthread_once(&module_once, load_module);
@@ -141,13 +179,17 @@ rtk_status rtk_image_write(const char *path, int width, int height, int nchannel
         return st;
     if (!pixels)
         return rtk_error(RTK_ERR_INVALID, "cannot write image '%s': no pixels given", path);
+    own_encoder own = own_writer(path);
+    if (own && (width == 0 || height == 0 || nchannels == 0))
+        return rtk_error(RTK_ERR_INVALID, "cannot write image '%s': %dx%d with %d channels has no pixels", path,
+                         width, height, nchannels);
     rtk_temp_file file;
     if ((st = rtk_temp_open(&file, path, image_stem(path))) != RTK_OK)
         return st;
     rtk_image_write_job job = {.path = path, .width = width, .height = height, .nchannels = nchannels,
                                .channel_names = channel_names, .pixels = pixels, .half = half,
                                .file = &file, .write_at = rtk_temp_write_at};
-    st = rtk_pfm_path(path) ? rtk_pfm_encode(&job) : module_write(&job);
+    st = own ? own(&job) : module_write(&job);
     if (st != RTK_OK && file.err)
         return rtk_temp_commit(&file, 1); /* a failed write is the cause: say which and why */
     if (st != RTK_OK) {

@@ -1,6 +1,8 @@
-/* Images in and out: the magic-byte format check (image_format.c), and
+/* Images in and out: the magic-byte format check (image_format.c),
  * decoding and encoding through OpenImageIO in the image module
- * (image_module.cpp, rtk_image.so), loaded on first use (image.c). */
+ * (image_module.cpp, rtk_image.so), loaded on first use (image.c), and
+ * the formats renders write most, written by the kernel itself (PFM,
+ * OpenEXR, PNG: image_pfm.c, image_exr.cpp, image_png.c). */
 #ifndef RTK_KERNEL_IMAGE_H
 #define RTK_KERNEL_IMAGE_H
 
@@ -47,10 +49,10 @@ void rtk_image_source_close(rtk_image_source *src);
 RTK_KERNEL_API rtk_status rtk_image_read(const char *path, const void *bytes, size_t byte_count, int srgb,
                                          rtk_image *out);
 
-/* Writes pixels (nchannels floats per pixel, linear) to path through
- * OpenImageIO, format from the extension. EXR keeps linear floats (half
- * when half != 0) with the given channel names; PNG/JPEG get the first 3
- * channels sRGB-encoded to 8 bits. Writes path's ".tmp" sibling with the
+/* Writes pixels (nchannels floats per pixel, linear) to path, format from
+ * the extension (through OpenImageIO for all but PFM, OpenEXR and PNG).
+ * EXR keeps linear floats (half when half != 0) with the given channel
+ * names; PNG/JPEG get the first 3 channels sRGB-encoded to 8 bits. Writes path's ".tmp" sibling with the
  * same extension and renames it, so a failure never leaves a partial file. */
 RTK_KERNEL_API rtk_status rtk_image_write(const char *path, int width, int height, int nchannels,
                                           const char *const *channel_names, const float *pixels, int half);
@@ -76,12 +78,15 @@ typedef struct rtk_image_write_job {
  * writes, and the format's size limits. */
 rtk_status rtk_image_check_output(const char *path, int width, int height, int nchannels);
 
-/* PFM, which the kernel writes itself (image_pfm.c): whether path names
- * one (.pfm); whether an image of nchannels (0: unknown) fits one; and
- * the encoder, called as the module's is. */
-int rtk_pfm_path(const char *path);
+/* The formats the kernel writes itself, chosen by image.c from the
+ * extension (.pfm, .exr, .png, any case): PFM (image_pfm.c, with whether
+ * an image of nchannels, 0: unknown, fits one), OpenEXR (image_exr.cpp,
+ * OpenEXR's library) and PNG (image_png.c, libpng). The encoders are
+ * called as the module's is, with a size already checked. */
 rtk_status rtk_pfm_check(const char *path, int nchannels);
 rtk_status rtk_pfm_encode(const rtk_image_write_job *job);
+rtk_status rtk_exr_encode(const rtk_image_write_job *job);
+rtk_status rtk_png_encode(const rtk_image_write_job *job);
 
 RTK_EXTERN_C_END
 

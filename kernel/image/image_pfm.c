@@ -8,14 +8,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
-
-int rtk_pfm_path(const char *path)
-{
-    const char *slash = strrchr(path, '/');
-    const char *dot = strrchr(slash ? slash + 1 : path, '.');
-    return dot && strcasecmp(dot, ".pfm") == 0;
-}
 
 rtk_status rtk_pfm_check(const char *path, int nchannels)
 {

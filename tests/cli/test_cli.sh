@@ -185,7 +185,7 @@ if command -v meson >/dev/null && command -v cc >/dev/null &&
     # The image module is installed, and an rtk that cannot load it says
     # which file is missing and writes nothing. A copy of the command and
     # librtk outside the build tree looks for the module beside that
-    # librtk, in rtk/, where there is none.
+    # librtk, in rtk/, where there is none. PNG and EXR need no module.
     staged=$(find "$tmp/stage" -name rtk_image.so | head -n 1)
     [ -n "$staged" ] && ok "meson install ships the image module" || bad "meson install ships the image module"
     installed=$tmp/moved/rtk/rtk_image.so
@@ -194,11 +194,15 @@ if command -v meson >/dev/null && command -v cc >/dev/null &&
         cp "$rtk" "$tmp/moved/rtk"
         cp -L "$build/kernel/librtk.so.0" "$tmp/moved/librtk.so.0"
         plugin_dirs="$build/plugins/integrators:$build/plugins/accelerators:$build/plugins/filters"
-        printf 'scene = "quad.obj";\nfilm = { output = "moved.png"; width = 8; height = 8; };\n' >"$tmp/moved.cfg"
+        printf 'scene = "quad.obj";\nfilm = { output = "moved.jpg"; width = 8; height = 8; };\n' >"$tmp/moved.cfg"
+        moved=(env LD_LIBRARY_PATH="$tmp/moved" RTK_PLUGIN_PATH="$plugin_dirs" "$tmp/moved/rtk" render "$tmp/moved.cfg")
         expect "a missing image module is an error naming it" fail "image adapter $installed cannot be loaded" \
-            "moved.png" -- env LD_LIBRARY_PATH="$tmp/moved" RTK_PLUGIN_PATH="$plugin_dirs" "$tmp/moved/rtk" render \
-            "$tmp/moved.cfg"
-        [ ! -e "$tmp/moved.png" ] && ok "no image written without the module" || bad "no image written without the module"
+            "moved.jpg" -- "${moved[@]}"
+        [ ! -e "$tmp/moved.jpg" ] && ok "no image written without the module" || bad "no image written without the module"
+        for ext in png exr; do
+            expect "a .$ext is written without the module" 0 "moved.$ext" -- "${moved[@]}" --set film.output=\"moved.$ext\"
+            [ -s "$tmp/moved.$ext" ] && ok "moved.$ext written" || bad "moved.$ext written"
+        done
     fi
 else
     bad "meson install of the SDK"; cat "$tmp/install.log"

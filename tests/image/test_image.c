@@ -97,6 +97,54 @@ static float *make_pixels(int w, int h, int n)
     return p;
 }
 
+/* Whether the image module (OpenImageIO) is mapped into this process. */
+static int module_loaded(void)
+{
+    FILE *f = fopen("/proc/self/maps", "r");
+    char line[4096];
+    int loaded = 0;
+    while (f && !loaded && fgets(line, sizeof line, f))
+        loaded = strstr(line, "rtk_image.so") != NULL;
+    if (f)
+        fclose(f);
+    return loaded;
+}
+
+/* PNG and EXR are written by the kernel itself: without loading the image
+ * module, the same image twice to the same bytes, with OpenImageIO's
+ * default channel names. Runs before anything reads an image. */
+static void test_builtin_writers(void)
+{
+    const int w = 5, h = 4;
+    float *px = make_pixels(w, h, 5);
+    const char *names[2][2] = {{"a.exr", "b.EXR"}, {"a.png", "b.PNG"}};
+    for (int f = 0; f < 2; f++) {
+        for (int k = 0; k < 2; k++)
+            CHECK(rtk_image_write(file_in(k, names[f][k]), w, h, 3, NULL, px, f == 0) == RTK_OK, "%s: %s",
+                  names[f][k], rtk_error_message());
+        size_t size_a = 0, size_b = 0;
+        char *a = read_whole(file_in(0, names[f][0]), &size_a);
+        char *b = read_whole(file_in(1, names[f][1]), &size_b);
+        CHECK(a && b && size_a > 0 && size_a == size_b && memcmp(a, b, size_a) == 0,
+              "%s and %s: the same image written twice differs (%zu and %zu bytes)", names[f][0], names[f][1],
+              size_a, size_b);
+        free(a);
+        free(b);
+    }
+    CHECK(rtk_image_write(file_in(0, "grey.exr"), w, h, 1, NULL, px, 0) == RTK_OK, "%s", rtk_error_message());
+    CHECK(rtk_image_write(file_in(1, "five.exr"), w, h, 5, NULL, px, 0) == RTK_OK, "%s", rtk_error_message());
+    CHECK(!module_loaded(), "writing PNG and EXR loaded the image module");
+    char got[256], format[32];
+    float value = -1.0f;
+    int n = check_exr_channels(file_in(0, "grey.exr"), got, sizeof got, "Y", 3, 2, &value, format, sizeof format);
+    CHECK(n == 1 && strcmp(got, "Y") == 0 && value == px[2 * w + 3], "one channel: %d named %s, Y %g", n, got,
+          value);
+    n = check_exr_channels(file_in(1, "five.exr"), got, sizeof got, "channel4", 1, 3, &value, format, sizeof format);
+    CHECK(n == 5 && strcmp(got, "R,G,B,A,channel4") == 0 && value == px[(3 * w + 1) * 5 + 4],
+          "five channels: %d named %s, channel4 %g", n, got, value);
+    free(px);
+}
+
 static void test_exr_float_roundtrip(void)
 {
     const int w = 7, h = 5;
@@ -748,6 +796,7 @@ int main(void)
         fprintf(stderr, "cannot create a scratch directory under %s\n", tmp ? tmp : "/tmp");
         return 1;
     }
+    test_builtin_writers();
     test_exr_float_roundtrip();
     test_exr_half_roundtrip();
     test_png_roundtrip();
@@ -761,6 +810,8 @@ int main(void)
     test_hostile_size();
     test_texture_lookup();
     test_texture_decode();
+    CHECK(module_loaded(), "the image module is not seen in /proc/self/maps after reading images, so the "
+          "check that PNG and EXR writes do without it proves nothing");
     CHECK(count_temp_files() == 0, "a temporary file was left behind");
     remove_scratch();
     if (failures) {
