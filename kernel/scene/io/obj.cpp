@@ -333,6 +333,13 @@ struct Reader {
     size_t face = 0, short_faces = 0;
     std::vector<Corner> corners;
     std::vector<uint32_t> triangles, remaining;
+    /* Ear clipping's memory per corner: its turn and whether it is an ear
+     * (known while its neighbours stay), or the corner that blocks it
+     * (known while that corner remains). */
+    enum EarState : uint8_t { unknown, ear, blocked };
+    std::vector<double> corner_turn;
+    std::vector<EarState> ear_state;
+    std::vector<uint32_t> blocker;
 
     /* Stops the parse with an error naming the file. */
     [[noreturn]] void fail(rtk_status code, const char *fmt, ...) RTK_PRINTF(3, 4);
@@ -620,18 +627,30 @@ void Reader::triangulate()
              "in the modelling tool",
              face, object.empty() ? "(unnamed)" : object.c_str(), n, max_concave_corners);
     }
+    /* A corner's turn and ear test depend only on its neighbours and on
+     * which corners remain; clipping a corner changes the neighbours of two
+     * and can unblock only the corners it blocked. So each is computed
+     * once and again only then: the same ears as testing every corner
+     * anew, without the cube of the count on faces with no proper ear. */
+    ear_state.assign(n, unknown);
+    corner_turn.resize(n);
+    blocker.resize(n);
     size_t start = 0;
     while (remaining.size() > 3) {
         const size_t m = remaining.size();
-        size_t ear = m, flat = m, convex = m;
-        for (size_t k = 0; k < m && ear == m; k++) {
+        size_t ear_at = m, flat = m, convex = m;
+        for (size_t k = 0; k < m && ear_at == m; k++) {
             size_t i = (start + k) % m;
             uint32_t a = remaining[(i + m - 1) % m], b = remaining[i], c = remaining[(i + 1) % m];
             const float *pa = position(a), *pb = position(b), *pc = position(c);
-            double t = turn(pl, pa, pb, pc);
+            if (ear_state[b] == unknown)
+                corner_turn[b] = turn(pl, pa, pb, pc);
+            double t = corner_turn[b];
             if (t <= 0) {
                 if (t == 0 && flat == m)
                     flat = i;
+                ear_state[b] = blocked;
+                blocker[b] = b; /* not an ear until a neighbour changes */
                 continue;
             }
             if (convex == m)
@@ -639,23 +658,34 @@ void Reader::triangulate()
             /* A corner inside the ear or on its border (the new diagonal
              * included) blocks it; one sitting on the ear's own corners
              * (a repeated position) does not. */
-            bool empty = true;
-            for (size_t j = 0; j < m && empty; j++) {
-                const float *po = position(remaining[j]);
-                if (same(po, pa) || same(po, pb) || same(po, pc))
-                    continue;
-                empty = !(turn(pl, pa, pb, po) >= 0 && turn(pl, pb, pc, po) >= 0 && turn(pl, pc, pa, po) >= 0);
+            if (ear_state[b] == unknown) {
+                ear_state[b] = ear;
+                for (size_t j = 0; j < m; j++) {
+                    const float *po = position(remaining[j]);
+                    if (same(po, pa) || same(po, pb) || same(po, pc))
+                        continue;
+                    if (turn(pl, pa, pb, po) >= 0 && turn(pl, pb, pc, po) >= 0 && turn(pl, pc, pa, po) >= 0) {
+                        ear_state[b] = blocked;
+                        blocker[b] = remaining[j];
+                        break;
+                    }
+                }
             }
-            if (empty)
-                ear = i;
+            if (ear_state[b] == ear)
+                ear_at = i;
         }
         /* No proper ear: the projected polygon is not simple. Clipping a
          * collinear corner adds nothing; a convex one adds the least overlap. */
-        if (ear == m)
-            ear = flat != m ? flat : convex != m ? convex : start % m;
-        triangles.insert(triangles.end(), {remaining[(ear + m - 1) % m], remaining[ear], remaining[(ear + 1) % m]});
-        remaining.erase(remaining.begin() + std::ptrdiff_t(ear));
-        start = ear;
+        if (ear_at == m)
+            ear_at = flat != m ? flat : convex != m ? convex : start % m;
+        const uint32_t a = remaining[(ear_at + m - 1) % m], b = remaining[ear_at], c = remaining[(ear_at + 1) % m];
+        triangles.insert(triangles.end(), {a, b, c});
+        remaining.erase(remaining.begin() + std::ptrdiff_t(ear_at));
+        ear_state[a] = ear_state[c] = unknown;
+        for (uint32_t r : remaining)
+            if (ear_state[r] == blocked && blocker[r] == b)
+                ear_state[r] = unknown;
+        start = ear_at;
     }
     triangles.insert(triangles.end(), {remaining[0], remaining[1], remaining[2]});
 }
