@@ -32,9 +32,14 @@ namespace {
 /* At most this many distinct parser messages are printed per file. */
 const size_t max_messages = 20;
 /* Most corners of a face ear clipping takes (its time grows with the
- * cube of the count at worst); a larger face must be convex, or seen
- * whole from its last corner, to be triangulated as a fan. */
+ * square of the count); a larger face must be convex, or seen whole from
+ * its last corner, to be triangulated as a fan. */
 const size_t max_concave_corners = 1024;
+/* Corner tests ear clipping may spend on a face of n corners, per n^2.
+ * Faces with a proper ear at most clips need about 3; a face going round
+ * a few points again and again can need n^3 / 18. Past the limit the
+ * face's other corners are clipped without the test, with a warning. */
+const uint64_t ear_tests_per_square = 16;
 
 std::string trimmed(const std::string &s)
 {
@@ -330,7 +335,7 @@ struct Reader {
     std::map<std::string, size_t> unknown_materials;
     uint32_t material = RTK_INVALID_ID;
     std::string object;
-    size_t face = 0, short_faces = 0;
+    size_t face = 0, short_faces = 0, capped_faces = 0;
     std::vector<Corner> corners;
     std::vector<uint32_t> triangles, remaining;
     /* Ear clipping's memory per corner: its turn and whether it is an ear
@@ -623,7 +628,7 @@ void Reader::triangulate()
             return;
         fail(RTK_ERR_UNSUPPORTED,
              "face %zu (object '%s') has %zu corners and is neither convex nor seen whole from its last corner; "
-             "rtk ear-clips such faces up to %zu corners (its time grows with the cube of the count): split it "
+             "rtk ear-clips such faces up to %zu corners (its time grows with the square of the count): split it "
              "in the modelling tool",
              face, object.empty() ? "(unnamed)" : object.c_str(), n, max_concave_corners);
     }
@@ -631,10 +636,12 @@ void Reader::triangulate()
      * which corners remain; clipping a corner changes the neighbours of two
      * and can unblock only the corners it blocked. So each is computed
      * once and again only then: the same ears as testing every corner
-     * anew, without the cube of the count on faces with no proper ear. */
+     * anew, in far fewer tests on faces with no proper ear. */
     ear_state.assign(n, unknown);
     corner_turn.resize(n);
     blocker.resize(n);
+    uint64_t tests_left = ear_tests_per_square * uint64_t(n) * uint64_t(n);
+    bool capped = false;
     size_t start = 0;
     while (remaining.size() > 3) {
         const size_t m = remaining.size();
@@ -655,10 +662,18 @@ void Reader::triangulate()
             }
             if (convex == m)
                 convex = i;
+            if (capped)
+                break; /* past the limit: the first convex corner */
             /* A corner inside the ear or on its border (the new diagonal
              * included) blocks it; one sitting on the ear's own corners
              * (a repeated position) does not. */
             if (ear_state[b] == unknown) {
+                if (tests_left < m) {
+                    capped = true;
+                    capped_faces++;
+                    break;
+                }
+                tests_left -= m;
                 ear_state[b] = ear;
                 for (size_t j = 0; j < m; j++) {
                     const float *po = position(remaining[j]);
@@ -833,6 +848,12 @@ rtk_status load(const char *path, rtk_scene *scene)
     }
     if (shown > max_messages)
         rtk_log(RTK_LOG_WARN, "%s: %zu more undefined materials", path, shown - max_messages);
+    if (r.capped_faces)
+        rtk_log(RTK_LOG_WARN,
+                "%s: ear clipping reached its limit of %llu corner tests per squared corner count on %zu face%s "
+                "(corners going round the same points again and again?), whose other corners were clipped "
+                "without the test, so their triangles may overlap: split such faces in the modelling tool",
+                path, (unsigned long long)ear_tests_per_square, r.capped_faces, r.capped_faces == 1 ? "" : "s");
     if (r.short_faces)
         rtk_log(RTK_LOG_WARN, "%s: ignored %zu face%s with fewer than 3 corners", path, r.short_faces,
                 r.short_faces == 1 ? "" : "s");

@@ -77,6 +77,23 @@ static const char *polygon_obj(const char *name, size_t n, int star)
     return path;
 }
 
+/* One face of n corners going round the unit cube's corners cycle[0..k)
+ * again and again, with corner at (if below n) moved off their plane to
+ * cube corner 2 (OBJ numbering). */
+static const char *cycle_obj(const char *name, const int *cycle, size_t k, size_t n, size_t at)
+{
+    const char *path = in_tmp(name);
+    FILE *f = fopen(path, "w");
+    for (int v = 0; v < 8; v++)
+        fprintf(f, "v %d %d %d\n", v & 1, (v >> 1) & 1, (v >> 2) & 1);
+    fputs("f", f);
+    for (size_t i = 0; i < n; i++)
+        fprintf(f, " %d", i == at ? 2 : cycle[i % k]);
+    fputs("\n", f);
+    fclose(f);
+    return path;
+}
+
 static void test_polygons(void)
 {
     /* A convex hexagon: ear clipping's fan around the last corner. */
@@ -107,6 +124,32 @@ static void test_polygons(void)
     check(st == RTK_OK && s->triangle_count == 998, "a star of 1000 corners is ear-clipped (%s)",
           st == RTK_OK ? "ok" : rtk_error_message());
     rtk_scene_free(s);
+    /* Faces that go round a few points again and again have no proper
+     * ear at most clips; one such face needs ear tests in the cube of its
+     * corner count, and past the loader's limit (16 per squared count) its
+     * other corners are clipped without them, with a warning. */
+    static const int square[4] = {1, 3, 7, 5}, skew[4] = {4, 8, 2, 1};
+    int saved;
+    watchdog(120);
+    capture_begin(&saved);
+    st = rtk_scene_load(cycle_obj("square.obj", square, 4, 1024, 500), 0, &s);
+    capture_end(saved);
+    watchdog(0);
+    check(st == RTK_OK && s->triangle_count > 0 && s->triangle_count <= 1022 && !has(captured, "ear clipping"),
+          "a face going 256 times round a square is ear-clipped whole (%s; %s)",
+          st == RTK_OK ? "ok" : rtk_error_message(), captured);
+    rtk_scene_free(s);
+    watchdog(120);
+    capture_begin(&saved);
+    st = rtk_scene_load(cycle_obj("skew.obj", skew, 4, 1024, 1024), 0, &s);
+    capture_end(saved);
+    watchdog(0);
+    check(st == RTK_OK && s->triangle_count > 0 && s->triangle_count <= 1022 &&
+              has(captured, "skew.obj: ear clipping reached its limit") && has(captured, "on 1 face"),
+          "a face going 256 times round four corners of a cube is clipped past the limit, with a warning "
+          "(%s; %s)", st == RTK_OK ? "ok" : rtk_error_message(), captured);
+    rtk_scene_free(s);
+
     st = rtk_scene_load(polygon_obj("bigstar.obj", 1026, 1), 0, &s);
     check(st == RTK_ERR_UNSUPPORTED && has(rtk_error_message(), "1026 corners") &&
               has(rtk_error_message(), "neither convex") && has(rtk_error_message(), "1024"),
