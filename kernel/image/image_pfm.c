@@ -19,9 +19,6 @@ rtk_status rtk_pfm_check(const char *path, int nchannels)
 
 rtk_status rtk_pfm_encode(const rtk_image_write_job *job)
 {
-    if (job->width <= 0 || job->height <= 0)
-        return rtk_error(RTK_ERR_INVALID, "cannot write image '%s': %dx%d has no pixels", job->path, job->width,
-                         job->height);
     char header[64];
     int len = snprintf(header, sizeof header, "P%c\n%d %d\n-1.0\n", job->nchannels == 3 ? 'F' : 'f', job->width,
                        job->height);
