@@ -8,9 +8,8 @@
  * the same camera rays and sample streams, under each sampler and two
  * settings (the defaults; max_depth 4, rr_depth 1, clamp 2), the host
  * code gives li's results bit for bit (radiance, AOVs, rays counted).
- * The device code is compiled (for sm_90) but not run: on a GPU it would
- * need the materials and lights uploaded as the cuda plugin uploads them,
- * and tools/gpu-check judges the cuda plugin's path images instead.
+ * Only the host side is compiled here: the cuda plugin's gpu.cu compiles
+ * the device side, and tools/gpu-check judges its path images on a GPU.
  *
  *   test_path_program_cuda SOURCE_ROOT */
 #include "../../plugins/integrators/device_programs.h"
@@ -30,17 +29,6 @@
 #include <string>
 #include <utility>
 #include <vector>
-
-/* The program's device code, compiled for sm_90 and never launched (outside
- * the unnamed namespace: nvcc warns of an unused kernel there). */
-__global__ void program_kernel(rtk_program p, rtk_program_scene s, rtk_sample_gen g, const rtk_ray *rays,
-                               const rtk_sample_pos *pos, int n, rtk_li_result *out)
-{
-    const int i = blockIdx.x * blockDim.x + threadIdx.x;
-    rtk_program_count c;
-    if (i < n)
-        rtk_program_run(&p, &s, &g, &pos[i], &rays[i], nullptr, &out[i], &c);
-}
 
 namespace {
 

@@ -1,16 +1,18 @@
 /* plugins/integrators/device_programs.h's "ao" program compiled by nvcc as the
  * cuda plugin compiles it, against the ao plugin's own li (built by the C
- * compiler, through the kernel's rtk_trace and rtk_surface_at): for the
+ * compiler, through the kernel's rtk_trace and rtk_surface_at): over the
+ * scene as the kernel hands it to a device (rtk_device_tree_view), for the
  * same camera rays and sample streams, under each sampler, the host code
  * gives li's results bit for bit (radiance, AOVs, rays counted). On a GPU,
- * when one is present, the device code's hits, normals and depths are the
- * host's bit for bit; its occlusion rays go where cosf and sinf send them
- * on the GPU, so radiance may differ by a ray now and then: at most 1 % of
- * samples differ, by one ray each. Without a GPU the device code is
- * compiled (for sm_90) but not run, and the test says so.
+ * when one is present, the program run by the cuda plugin's own upload and
+ * launch (plugins/accelerators/cuda/gpu.cu, linked in) gives the host's
+ * hits, normals and depths bit for bit; its occlusion rays go where cosf
+ * and sinf send them on the GPU, so radiance may differ by a ray now and
+ * then: at most 1 % of samples differ, by one ray each. Without a GPU the
+ * device code is compiled (for sm_90) but not run, and the test says so.
  *
  *   test_program_cuda */
-#include "../../plugins/integrators/device_programs.h"
+#include "../../plugins/accelerators/cuda/gpu.h"
 #include "render/render.h"
 #include "scene/scene.h"
 
@@ -23,6 +25,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <vector>
 
@@ -89,68 +92,39 @@ bool same_bits(const rtk_li_result &a, const rtk_li_result &b)
     return std::memcmp(&a, &b, sizeof a) == 0;
 }
 
-__global__ void program_kernel(rtk_program p, rtk_program_scene s, rtk_sample_gen g, const rtk_ray *rays,
-                               const rtk_sample_pos *pos, int n, rtk_li_result *out)
-{
-    const int i = blockIdx.x * blockDim.x + threadIdx.x;
-    rtk_program_count c;
-    if (i < n)
-        rtk_program_run(&p, &s, &g, &pos[i], &rays[i], nullptr, &out[i], &c);
-}
-
-/* The program on the GPU over the same tree; false when CUDA failed. */
-bool run_on_gpu(const rtk_program &p, const rtk_program_scene &host, uint32_t slots, uint32_t nodes,
-                const rtk_sample_gen &gen, const std::vector<rtk_ray> &rays, const std::vector<rtk_sample_pos> &pos,
+/* The program on the GPU through the cuda plugin's upload and launch
+ * (gpu.cu) of tree; false (saying why) when CUDA failed. */
+bool run_on_gpu(const rtk_device_tree &tree, const rtk_program &p, rtk_rgb albedo, const rtk_sample_gen &gen,
+                const std::vector<rtk_ray> &rays, const std::vector<rtk_sample_pos> &pos,
                 std::vector<rtk_li_result> &out)
 {
-    rtk_program_scene d = host;
-    d.flat.own.nodes = upload(host.flat.own.nodes, nodes);
-    d.flat.own.prim_ids = upload(host.flat.own.prim_ids, slots);
-    d.flat.own.corners = upload(host.flat.own.corners, 9 * (size_t)slots);
-    d.own.corners = d.flat.own.corners;
-    d.own.slot_of = upload(host.own.slot_of, slots);
-    d.own.normals = upload(host.own.normals, 9 * (size_t)slots);
-    rtk_ray *dr = upload(rays.data(), rays.size());
-    rtk_sample_pos *dp = upload(pos.data(), pos.size());
-    rtk_li_result *dout = nullptr;
-    bool ok = d.flat.own.nodes && d.flat.own.prim_ids && d.flat.own.corners && d.own.slot_of && d.own.normals && dr && dp &&
-              cudaMalloc(&dout, rays.size() * sizeof *dout) == cudaSuccess;
-    if (ok) {
-        const int n = (int)rays.size();
-        program_kernel<<<(n + 127) / 128, 128>>>(p, d, gen, dr, dp, n, dout);
-        out.resize(rays.size());
-        ok = cudaGetLastError() == cudaSuccess &&
-             cudaMemcpy(out.data(), dout, rays.size() * sizeof *dout, cudaMemcpyDeviceToHost) == cudaSuccess;
-    }
-    cudaFree(const_cast<rtk_bvh_node *>(d.flat.own.nodes));
-    cudaFree(const_cast<uint32_t *>(d.flat.own.prim_ids));
-    cudaFree(const_cast<float *>(d.flat.own.corners));
-    cudaFree(const_cast<uint32_t *>(d.own.slot_of));
-    cudaFree(const_cast<float *>(d.own.normals));
-    cudaFree(dr), cudaFree(dp), cudaFree(dout);
+    char name[128], why[512] = "";
+    rtk_gpu *gpu = nullptr;
+    rtk_gpu_lane *lane = nullptr;
+    double seconds = 0.0, steps[3];
+    uint64_t counts[2] = {0, 0};
+    out.resize(rays.size());
+    const uint32_t n = (uint32_t)rays.size();
+    const bool ok = rtk_gpu_open(0, name, sizeof name, &gpu, why, sizeof why) == 0 &&
+                    rtk_gpu_upload(gpu, &tree, &seconds, why, sizeof why) == 0 &&
+                    rtk_gpu_lane_open(gpu, n, &lane, why, sizeof why) == 0 &&
+                    rtk_gpu_shade(gpu, lane, &p, 0, albedo, &gen, rays.data(), nullptr, pos.data(), n, out.data(),
+                                  counts, steps, why, sizeof why) == 0;
+    if (!ok)
+        std::printf("      CUDA: %s\n", why);
+    if (lane)
+        rtk_gpu_lane_close(gpu, lane);
+    if (gpu)
+        rtk_gpu_close(gpu);
     return ok;
 }
 
-void compare(rtk_scene *s, const rtk_integrator_fns *ao, const void *state, rtk_sampler_type type, const char *name,
-             bool gpu, rng *g)
+/* ao's device program over s as the kernel hands it to a device (tree,
+ * ps) against ao's li, under sampler type; on the GPU too when gpu. */
+void compare_on(const rtk_device_tree &tree, const rtk_program_scene &ps, rtk_scene *s, const rtk_integrator_fns *ao,
+                const void *state, rtk_sampler_type type, const char *name, bool gpu, rng *g)
 {
     const int n = 4000;
-    const uint32_t slots = s->triangle_count;
-    std::vector<float> corners(9 * (size_t)slots);
-    for (uint32_t k = 0; k < slots; k++)
-        rtk_slot_corners(s, k, &corners[9 * (size_t)k]);
-    std::vector<uint32_t> slot_of(slots);
-    rtk_device_tree tree = rtk_device_tree();
-    tree.size = sizeof tree;
-    tree.prim_ids = s->prim_ids, tree.slot_count = slots;
-    rtk_program_slots(&tree, slot_of.data());
-    rtk_program_scene ps = rtk_program_scene();
-    ps.flat.own = {s->nodes, s->prim_ids, corners.data()};
-    ps.flat.top.own = 1;
-    ps.own.corners = corners.data();
-    ps.own.slot_of = slot_of.data();
-    ps.own.normals = s->normals;
-    ps.albedo = rtk_material_default().base_color;
     rtk_device_program desc = rtk_device_program();
     check(ao->device_program(state, &desc) == 1, "ao (rays 6, distance 0.5) describes its device program");
     const rtk_program p = rtk_program_of(&desc);
@@ -185,7 +159,7 @@ void compare(rtk_scene *s, const rtk_integrator_fns *ao, const void *state, rtk_
     if (!gpu)
         return;
     std::vector<rtk_li_result> dev;
-    if (!run_on_gpu(p, ps, slots, s->node_count, ctx.gen, rays, pos, dev)) {
+    if (!run_on_gpu(tree, p, ps.albedo, ctx.gen, rays, pos, dev)) {
         check(false, "the program ran on the GPU");
         return;
     }
@@ -202,6 +176,26 @@ void compare(rtk_scene *s, const rtk_integrator_fns *ao, const void *state, rtk_
                   "%d radiances differ (want <= 1 %%), %d by more than one ray (want 0)", name, geometry, n, radiance,
                   far);
     check(geometry == 0 && radiance * 100 <= n && far == 0, what);
+}
+
+void compare(rtk_scene *s, const rtk_integrator_fns *ao, const void *state, rtk_sampler_type type, const char *name,
+             bool gpu, rng *g)
+{
+    rtk_device_tree tree = rtk_device_tree();
+    void *block = nullptr, *program_block = nullptr;
+    rtk_program_scene ps = rtk_program_scene();
+    bool ready = rtk_device_tree_view(s, 1, &tree, &block) == RTK_OK;
+    if (ready) {
+        rtk_flat_scene flat;
+        rtk_flat_scene_of(&tree, nullptr, &flat);
+        ready = rtk_program_scene_of(&tree, &flat, &program_block, &ps) == 0;
+        ps.albedo = rtk_material_default().base_color;
+    }
+    check(ready, "the scene as the kernel hands it to a device");
+    if (ready)
+        compare_on(tree, ps, s, ao, state, type, name, gpu, g);
+    free(block);
+    free(program_block);
 }
 
 } // namespace

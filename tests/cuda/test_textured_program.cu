@@ -1,5 +1,5 @@
 /* The "headlight" device program over textures, through the cuda plugin's
- * own upload and launch (plugins/accelerators/cuda/gpu.cu, compiled in):
+ * own upload and launch (plugins/accelerators/cuda/gpu.cu, linked in):
  * tests/scenes/textured (a repeating colour map and a normal map on the
  * floor, a clamped colour map and a normal map over corner normals on the
  * ball) with its textures' texels made here, so that no image decoder is
@@ -17,7 +17,7 @@
  * says so.
  *
  *   test_textured_program_cuda SOURCE_ROOT */
-#include "../../plugins/accelerators/cuda/gpu.cu"
+#include "../../plugins/accelerators/cuda/gpu.h"
 #include "render/render.h"
 #include "scene/scene.h"
 #include "scene/texture.h"
