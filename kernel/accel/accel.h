@@ -147,7 +147,7 @@ RTK_KERNEL_API rtk_status rtk_bvh_build(rtk_scene *scene, const rtk_plugin *acce
 RTK_KERNEL_API void rtk_bvh_release(rtk_scene *scene);
 
 /* One scene's tree, moved out of it: the binary nodes and leaf order, the
- * wide tree, an own-traversal accelerator's state. */
+ * wide tree, an own-traversal accelerator's state, a device's. */
 typedef struct rtk_tree_slot {
     rtk_bvh_node *nodes;
     uint32_t node_count, bvh_depth;
@@ -158,6 +158,8 @@ typedef struct rtk_tree_slot {
     const rtk_accelerator_fns *device;
     void *device_state;
     void *device_data;
+    uint64_t device_lights;
+    uint32_t device_minor;
 } rtk_tree_slot;
 
 /* Everything an accelerator built for a scene (its tree, its instanced

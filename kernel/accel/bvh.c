@@ -647,14 +647,15 @@ void rtk_bvh_release(rtk_scene *s)
 /* Exchanges scene s's tree with slot's. */
 static void swap_tree(rtk_scene *s, rtk_tree_slot *slot)
 {
-    const rtk_tree_slot mine = {s->nodes,         s->node_count, s->bvh_depth,    s->prim_ids,
+    const rtk_tree_slot mine = {s->nodes,        s->node_count,  s->bvh_depth,    s->prim_ids,
                                 s->own_traversal, s->own_state,  s->wide,         s->device,
-                                s->device_state,  s->device_data};
+                                s->device_state,  s->device_data, s->device_lights, s->device_minor};
     s->nodes = slot->nodes, s->node_count = slot->node_count, s->bvh_depth = slot->bvh_depth;
     s->prim_ids = slot->prim_ids;
     s->own_traversal = slot->own_traversal, s->own_state = slot->own_state;
     s->wide = slot->wide;
     s->device = slot->device, s->device_state = slot->device_state, s->device_data = slot->device_data;
+    s->device_lights = slot->device_lights, s->device_minor = slot->device_minor;
     *slot = mine;
 }
 

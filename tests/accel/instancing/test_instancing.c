@@ -680,6 +680,54 @@ static void test_accel_sets(rtk_registry *reg)
     free(pr.from);
 }
 
+/* Two device accelerators' trees (testdevice, ABI 3.9, and testdevice38,
+ * 3.8) swapped in and out of a scene: what the kernel remembers of the
+ * device holding the scene's tree (its ABI minor, the lights it was given)
+ * moves with that tree. */
+static void test_device_sets(rtk_registry *reg)
+{
+    const rtk_plugin *d9 = NULL, *d8 = NULL;
+    if (rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "testdevice", &d9) != RTK_OK ||
+        rtk_registry_find(reg, RTK_KIND_ACCELERATOR, "testdevice38", &d8) != RTK_OK) {
+        check(0, "device sets: testdevice and testdevice38 found: %s", rtk_error_message());
+        return;
+    }
+    pair pr;
+    make_pair(&pr, RTK_NEED_NORMALS | RTK_NEED_UVS);
+    rtk_params *p9 = rtk_params_defaults(d9), *p8 = rtk_params_defaults(d8);
+    rtk_bvh_cache_use use;
+    rtk_accel_set set;
+    rtk_status st = rtk_accel_set_init(&set, pr.flat);
+    if (st == RTK_OK)
+        st = rtk_bvh_build_cached(pr.flat, d9, p9, 1, NULL, &use);
+    if (st == RTK_OK) {
+        check(pr.flat->device_minor == 9, "device sets: testdevice holds the tree, ABI minor %u (want 9)",
+              pr.flat->device_minor);
+        rtk_accel_swap(pr.flat, &set);
+        check(!pr.flat->device && pr.flat->device_minor == 0,
+              "device sets: its tree moved aside leaves no device (ABI minor %u, want 0)", pr.flat->device_minor);
+        st = rtk_bvh_build_cached(pr.flat, d8, p8, 1, NULL, &use);
+    }
+    if (st == RTK_OK) {
+        check(pr.flat->device_minor == 8, "device sets: testdevice38 holds the tree, ABI minor %u (want 8)",
+              pr.flat->device_minor);
+        rtk_accel_swap(pr.flat, &set);
+        check(pr.flat->device_minor == 9, "device sets: testdevice swapped back in, ABI minor %u (want 9)",
+              pr.flat->device_minor);
+        rtk_accel_swap(pr.flat, &set);
+        check(pr.flat->device_minor == 8, "device sets: testdevice38 swapped back in, ABI minor %u (want 8)",
+              pr.flat->device_minor);
+    }
+    check(st == RTK_OK, "device sets: testdevice and testdevice38 built: %s",
+          st == RTK_OK ? "yes" : rtk_error_message());
+    rtk_accel_set_free(&set);
+    rtk_params_destroy(p9);
+    rtk_params_destroy(p8);
+    rtk_scene_free(pr.inst);
+    rtk_scene_free(pr.flat);
+    free(pr.from);
+}
+
 static char tmpdir[256];
 
 /* A glTF with a box mesh (12 triangles) on three nodes, one mirrored;
@@ -839,7 +887,9 @@ static void test_config(rtk_registry *reg)
     check(access(path, F_OK) != 0, "config: no image is written when an instance fails");
 }
 
-int main(void)
+/*   test_instancing [TESTDEVICE_DIR]: with the folder of the test device
+ *   accelerators, their trees are swapped too. */
+int main(int argc, char **argv)
 {
     setvbuf(stdout, NULL, _IOLBF, 0);
     snprintf(tmpdir, sizeof tmpdir, "/tmp/rtk-instancing-XXXXXX");
@@ -883,6 +933,10 @@ int main(void)
     }
     test_config(reg);
     test_accel_sets(reg);
+    if (argc > 1) {
+        rtk_registry_add_dir(reg, argv[1], "the test's argument");
+        test_device_sets(reg);
+    }
     rtk_registry_destroy(reg);
     char cmd[600];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", tmpdir);
