@@ -12,7 +12,7 @@
  * device code is compiled (for sm_90) but not run, and the test says so.
  *
  *   test_program_cuda */
-#include "../../plugins/accelerators/cuda/gpu.h"
+#include "gpu_run.h"
 #include "render/render.h"
 #include "scene/scene.h"
 
@@ -92,33 +92,6 @@ bool same_bits(const rtk_li_result &a, const rtk_li_result &b)
     return std::memcmp(&a, &b, sizeof a) == 0;
 }
 
-/* The program on the GPU through the cuda plugin's upload and launch
- * (gpu.cu) of tree; false (saying why) when CUDA failed. */
-bool run_on_gpu(const rtk_device_tree &tree, const rtk_program &p, rtk_rgb albedo, const rtk_sample_gen &gen,
-                const std::vector<rtk_ray> &rays, const std::vector<rtk_sample_pos> &pos,
-                std::vector<rtk_li_result> &out)
-{
-    char name[128], why[512] = "";
-    rtk_gpu *gpu = nullptr;
-    rtk_gpu_lane *lane = nullptr;
-    double seconds = 0.0, steps[3];
-    uint64_t counts[2] = {0, 0};
-    out.resize(rays.size());
-    const uint32_t n = (uint32_t)rays.size();
-    const bool ok = rtk_gpu_open(0, name, sizeof name, &gpu, why, sizeof why) == 0 &&
-                    rtk_gpu_upload(gpu, &tree, &seconds, why, sizeof why) == 0 &&
-                    rtk_gpu_lane_open(gpu, n, &lane, why, sizeof why) == 0 &&
-                    rtk_gpu_shade(gpu, lane, &p, 0, albedo, &gen, rays.data(), nullptr, pos.data(), n, out.data(),
-                                  counts, steps, why, sizeof why) == 0;
-    if (!ok)
-        std::printf("      CUDA: %s\n", why);
-    if (lane)
-        rtk_gpu_lane_close(gpu, lane);
-    if (gpu)
-        rtk_gpu_close(gpu);
-    return ok;
-}
-
 /* ao's device program over s as the kernel hands it to a device (tree,
  * ps) against ao's li, under sampler type; on the GPU too when gpu. */
 void compare_on(const rtk_device_tree &tree, const rtk_program_scene &ps, rtk_scene *s, const rtk_integrator_fns *ao,
@@ -159,7 +132,8 @@ void compare_on(const rtk_device_tree &tree, const rtk_program_scene &ps, rtk_sc
     if (!gpu)
         return;
     std::vector<rtk_li_result> dev;
-    if (!run_on_gpu(tree, p, ps.albedo, ctx.gen, rays, pos, dev)) {
+    uint64_t counts[2];
+    if (!run_on_gpu(tree, p, 0, ps.albedo, ctx.gen, rays, pos, dev, counts)) {
         check(false, "the program ran on the GPU");
         return;
     }

@@ -17,7 +17,7 @@
  * says so.
  *
  *   test_textured_program_cuda SOURCE_ROOT */
-#include "../../plugins/accelerators/cuda/gpu.h"
+#include "gpu_run.h"
 #include "render/render.h"
 #include "scene/scene.h"
 #include "scene/texture.h"
@@ -74,34 +74,6 @@ bool fill_texture(rtk_texture *t, int seed)
 bool same_bits(const rtk_li_result &a, const rtk_li_result &b)
 {
     return std::memcmp(&a, &b, sizeof a) == 0;
-}
-
-/* The program on the GPU through gpu.cu (path as a wavefront when
- * wavefront is set), its rays counted in counts; false (saying why) when
- * CUDA failed. */
-bool run_on_gpu(const rtk_device_tree &tree, const rtk_program &p, int wavefront, rtk_rgb albedo,
-                const rtk_sample_gen &gen, const std::vector<rtk_ray> &rays, const std::vector<rtk_sample_pos> &pos,
-                std::vector<rtk_li_result> &out, uint64_t counts[2], const rtk_ray_differential *diffs = nullptr)
-{
-    char name[128], why[512] = "";
-    rtk_gpu *gpu = nullptr;
-    rtk_gpu_lane *lane = nullptr;
-    double seconds = 0.0, steps[3];
-    counts[0] = counts[1] = 0;
-    out.resize(rays.size());
-    const uint32_t n = (uint32_t)rays.size();
-    const bool ok = rtk_gpu_open(0, name, sizeof name, &gpu, why, sizeof why) == 0 &&
-                    rtk_gpu_upload(gpu, &tree, &seconds, why, sizeof why) == 0 &&
-                    rtk_gpu_lane_open(gpu, n, &lane, why, sizeof why) == 0 &&
-                    rtk_gpu_shade(gpu, lane, &p, wavefront, albedo, &gen, rays.data(), diffs, pos.data(), n, out.data(),
-                                  counts, steps, why, sizeof why) == 0;
-    if (!ok)
-        std::printf("      CUDA: %s\n", why);
-    if (lane)
-        rtk_gpu_lane_close(gpu, lane);
-    if (gpu)
-        rtk_gpu_close(gpu);
-    return ok;
 }
 
 /* Program p (megakernel) on the GPU through gpu.cu gives host's results
