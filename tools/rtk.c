@@ -156,8 +156,9 @@ static const cli_command commands[] = {
      run_bench},
     {"diff", "A B [options]", "compare an image with a reference: RMSE, relMSE, PSNR and more per channel",
      diff_options,
-     "Compares image A with the reference B (any format OpenImageIO reads): RMSE, MSE,\n"
-     "relMSE, MAPE, SMAPE, PSNR and mean error A - B per channel and overall.\n"
+     "Compares image A with the reference B (PNG, JPEG, OpenEXR, Radiance HDR, TIFF, BMP,\n"
+     "TGA, PNM or PFM): RMSE, MSE, relMSE, MAPE, SMAPE, PSNR and mean error A - B per\n"
+     "channel and overall.\n"
      "PSNR takes 1.0 as the peak. NaN/Inf samples are counted and left out. Exit status:\n"
      "0 compared, 1 the error image could not be written, 2 usage or input error\n"
      "(a file missing or unreadable, the sizes differ)",

@@ -96,7 +96,7 @@ rtk_status rtk_diff_buffers(const float *a, const float *b, uint32_t width, uint
                             uint32_t channel_count, const char *const *names,
                             const rtk_diff_options *options, rtk_diff_result *out);
 
-/* Reads two image files (any format OpenImageIO reads; 8/16-bit data
+/* Reads two image files (the formats rtk_image_read decodes; 8/16-bit data
  * decoded to linear, greyscale replicated to RGB, missing alpha = 1) and
  * compares R, G, B, A with overall over R, G, B. Errors name the file and
  * the reason, or both files and both sizes when the sizes differ. */

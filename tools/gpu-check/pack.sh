@@ -18,7 +18,8 @@ data=$root/../shared/data
 [ -f "$root/meson.build" ] && [ -d "$build" ] || { echo "pack.sh: run from the checkout's root, with $build built" >&2; exit 2; }
 [ -f "$build/plugins/accelerators/cuda.so" ] || { echo "pack.sh: $build has no cuda plugin (nvcc not found when it was set up)" >&2; exit 2; }
 [ -d "$data/meshes" ] || { echo "pack.sh: $data/meshes is not there" >&2; exit 2; }
-grep -qx '/.gpu/' .git/info/exclude 2>/dev/null || { mkdir -p .git/info; echo '/.gpu/' >>.git/info/exclude; }
+exclude=$(git rev-parse --git-path info/exclude) # a worktree's .git is a file
+grep -qx '/.gpu/' "$exclude" 2>/dev/null || { mkdir -p "$(dirname "$exclude")"; echo '/.gpu/' >>"$exclude"; }
 ninja -C "$build" >/dev/null
 stage=$(mktemp -d)
 trap 'rm -rf "$stage"' EXIT
