@@ -80,12 +80,20 @@ RTK_HD static inline float rtk_slab_entry(const rtk_bvh_node *n, const rtk_slab_
     return t0 <= t1 ? t0 : INFINITY;
 }
 
+/* A node the ordered descent put aside, with the distance at which the
+ * ray enters its box. */
+typedef struct rtk_slab_later {
+    uint32_t node;
+    float t;
+} rtk_slab_later;
+
 /* One step of the ordered descent at inner node n of the tree nodes: the
  * children whose boxes the ray enters within [tmin, tmax], the nearer
- * into *next (which may be n) and the farther's index pushed on stack
- * when both; 0 when it enters neither (the caller pops next). */
+ * into *next (which may be n) and the farther pushed on stack with its
+ * entry distance when both; 0 when it enters neither (the caller pops
+ * next). */
 static RTK_HD_INLINE int rtk_slab_descend(const rtk_bvh_node *nodes, const rtk_bvh_node *n,
-                                          const rtk_slab_ray *p, float tmin, float tmax, uint32_t *stack,
+                                          const rtk_slab_ray *p, float tmin, float tmax, rtk_slab_later *stack,
                                           int *top, rtk_bvh_node *next)
 {
     uint32_t i0 = n->offset, i1 = n->offset + 1;
@@ -94,12 +102,13 @@ static RTK_HD_INLINE int rtk_slab_descend(const rtk_bvh_node *nodes, const rtk_b
     float t1 = rtk_slab_entry(&c1, p, tmin, tmax);
     if (t0 != INFINITY && t1 != INFINITY) {
         if (t1 < t0) {
-            stack[(*top)++] = i0;
+            stack[*top].node = i0, stack[*top].t = t0;
             *next = c1;
         } else {
-            stack[(*top)++] = i1;
+            stack[*top].node = i1, stack[*top].t = t1;
             *next = c0;
         }
+        ++*top;
         return 1;
     }
     if (t0 != INFINITY) {
@@ -109,6 +118,25 @@ static RTK_HD_INLINE int rtk_slab_descend(const rtk_bvh_node *nodes, const rtk_b
     if (t1 != INFINITY) {
         *next = c1;
         return 1;
+    }
+    return 0;
+}
+
+/* The closest hit's next node: pops stack past the nodes whose box the
+ * ray enters beyond rtk_cull_distance(tmax), a hit found since they were
+ * pushed (the descent's test would cull their children, which lie inside
+ * them, as it culls a leaf entered there), into *out; 0 when the stack
+ * runs empty. */
+static RTK_HD_INLINE int rtk_slab_next(const rtk_bvh_node *nodes, float tmax, const rtk_slab_later *stack, int *top,
+                                       rtk_bvh_node *out)
+{
+    const float cull = rtk_cull_distance(tmax);
+    while (*top > 0) {
+        const rtk_slab_later e = stack[--*top];
+        if (e.t <= cull) {
+            *out = rtk_slab_node(nodes, e.node);
+            return 1;
+        }
     }
     return 0;
 }
@@ -146,7 +174,7 @@ static RTK_HD_INLINE int rtk_slab_closest(const rtk_bvh_node *nodes, const uint3
     rtk_ray ray = *ray_in;
     rtk_slab_ray p;
     rtk_slab_prepare(&ray, &p);
-    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
+    rtk_slab_later stack[RTK_BVH_MAX_DEPTH + 2];
     int top = 0;
     rtk_bvh_node n = rtk_slab_node(nodes, 0);
     if (rtk_slab_entry(&n, &p, ray.tmin, ray.tmax) == INFINITY)
@@ -172,9 +200,8 @@ static RTK_HD_INLINE int rtk_slab_closest(const rtk_bvh_node *nodes, const uint3
             if (rtk_slab_descend(nodes, &n, &p, ray.tmin, ray.tmax, stack, &top, &n))
                 continue;
         }
-        if (top == 0)
+        if (!rtk_slab_next(nodes, ray.tmax, stack, &top, &n))
             break;
-        n = rtk_slab_node(nodes, stack[--top]);
     }
     return hit->prim != RTK_INVALID_ID;
 }
@@ -189,7 +216,7 @@ static RTK_HD_INLINE int rtk_slab_any(const rtk_bvh_node *nodes, rtk_slab_leaf_f
 {
     rtk_slab_ray p;
     rtk_slab_prepare(ray, &p);
-    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
+    rtk_slab_later stack[RTK_BVH_MAX_DEPTH + 2];
     int top = 0;
     rtk_bvh_node n = rtk_slab_node(nodes, 0);
     if (rtk_slab_entry(&n, &p, ray->tmin, ray->tmax) == INFINITY)
@@ -211,7 +238,7 @@ static RTK_HD_INLINE int rtk_slab_any(const rtk_bvh_node *nodes, rtk_slab_leaf_f
         }
         if (top == 0)
             return 0;
-        n = rtk_slab_node(nodes, stack[--top]);
+        n = rtk_slab_node(nodes, stack[--top].node);
     }
 }
 

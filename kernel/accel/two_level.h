@@ -110,7 +110,7 @@ static RTK_HD_INLINE int rtk_two_level_closest(const rtk_two_level *tl, rtk_mesh
         return hit->prim != RTK_INVALID_ID;
     rtk_slab_ray p;
     rtk_slab_prepare(&r, &p);
-    uint32_t stack[RTK_BVH_MAX_DEPTH + 2];
+    rtk_slab_later stack[RTK_BVH_MAX_DEPTH + 2];
     int top = 0;
     rtk_bvh_node n = rtk_slab_node(tl->tlas, 0);
     if (rtk_slab_entry(&n, &p, r.tmin, r.tmax) == INFINITY)
@@ -140,9 +140,8 @@ static RTK_HD_INLINE int rtk_two_level_closest(const rtk_two_level *tl, rtk_mesh
         } else if (rtk_slab_descend(tl->tlas, &n, &p, r.tmin, r.tmax, stack, &top, &n)) {
             continue;
         }
-        if (top == 0)
+        if (!rtk_slab_next(tl->tlas, r.tmax, stack, &top, &n))
             break;
-        n = rtk_slab_node(tl->tlas, stack[--top]);
     }
     return hit->prim != RTK_INVALID_ID;
 }
