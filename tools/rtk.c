@@ -60,10 +60,11 @@ static const cli_option render_options[] = {
      "--set 'film.aovs=[\"albedo\",\"normal\"]'. Lists of groups (lights,\n"
      "instances) are written in the config file only"},
     {"--output", "-o", "FILE", "shorthand for --set film.output=FILE, FILE relative to the current directory"},
-    {"--threads", NULL, "N", "shorthand for --set threads=N; above the online cores, capped to them\n"
-                             "with a warning unless --oversubscribe"},
-    {"--oversubscribe", NULL, NULL, "run as many threads as asked for even beyond the online cores\n"
-                                    "(they then take turns); the config's oversubscribe = true; does the same"},
+    {"--threads", NULL, "N", "shorthand for --set threads=N; above the cores this process may use\n"
+                             "(online, in its CPU affinity and cgroup quota), capped to them with a\n"
+                             "warning unless --oversubscribe"},
+    {"--oversubscribe", NULL, NULL, "run as many threads as asked for even beyond the cores\n"
+                                    "this process may use (they then take turns); the config's oversubscribe = true; does the same"},
     {"--no-cache", NULL, NULL, "neither load nor save a cached BVH (--set cache=off)"},
     {"--allow-config-plugins", NULL, NULL, "trust the config's plugin_path and plugins given as paths"},
     {"--allow-outside-files", NULL, NULL, "let the scene read files outside its own and the config's folders"},
@@ -76,9 +77,10 @@ static const cli_option no_options[] = {{NULL, NULL, NULL, NULL}};
 static const cli_option bench_options[] = {
     {"--accel", NULL, "A,B,...", "accelerators to compare, NAME or NAME:KEY=VALUE:...\n"
                                  "(default: the config's, or every accelerator found)"},
-    {"--threads", NULL, "N,M,...", "thread counts (default: 1 and every core); counts above the online\n"
-                                   "cores are capped to them with a warning unless --oversubscribe"},
-    {"--oversubscribe", NULL, NULL, "run thread counts beyond the online cores as given"},
+    {"--threads", NULL, "N,M,...", "thread counts (default: 1 and every core this process may use);\n"
+                                   "counts above those cores are capped to them with a warning unless\n"
+                                   "--oversubscribe"},
+    {"--oversubscribe", NULL, NULL, "run thread counts beyond the cores this process may use as given"},
     {"--width", NULL, "W", "image width (default: the config's, or 1024); give --height too"},
     {"--height", NULL, "H", "image height (default: the config's, or 768)"},
     {"--camera", NULL, "EX,EY,EZ,LX,LY,LZ,FOV", "eye, look-at, vertical fov (default: the recipe's)"},
@@ -108,9 +110,9 @@ static const cli_option sweep_options[] = {
                                   "combinations: every tuple, in the order the axes are given"},
     {"--spp", NULL, "LIST", "increasing samples per pixel (default 1,2,4,8,16,32,64)"},
     {"--seeds", NULL, "K", "runs per combination and spp, seeds 1..K (default 4)"},
-    {"--threads", NULL, "N", "render threads (default: the config's); above the online cores,\n"
-                             "capped to them with a warning unless --oversubscribe"},
-    {"--oversubscribe", NULL, NULL, "run as many threads as asked for even beyond the online cores"},
+    {"--threads", NULL, "N", "render threads (default: the config's); above the cores this\n"
+                             "process may use, capped to them with a warning unless --oversubscribe"},
+    {"--oversubscribe", NULL, NULL, "run as many threads as asked for even beyond the cores this process may use"},
     {"--target-relmse", NULL, "E", "error target of the time-to-error column (default 1e-3)"},
     {"--out", NULL, "DIR", "sweep.csv, sweep.txt, sweep.dat, sweep.gp, sweep.png and the\n"
                            "cached reference go here (default ./sweep)"},

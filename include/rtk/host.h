@@ -62,7 +62,7 @@ typedef struct rtk_config_options {
     const char *const *overrides; /* "integrator.rays=64" ... */
     size_t override_count;
     int allow_outside_files;      /* let the scene read files outside its and the config's folders */
-    int oversubscribe;            /* let threads exceed the online cores (see rtk_threads_limit) */
+    int oversubscribe;            /* let threads exceed the cores this process may use (see rtk_threads_limit) */
 } rtk_config_options;
 
 /* Parses path, applies overrides, resolves the plugins through registry
@@ -73,7 +73,8 @@ RTK_API rtk_status rtk_config_load(const char *path, rtk_registry *registry,
 RTK_API void rtk_config_destroy(rtk_config *config);
 
 /* The number of threads to run when wanted are asked for (0: one per
- * core): wanted itself up to the number of online cores; above it, the
+ * core): wanted itself up to the number of cores this process may use (online,
+ * in its CPU affinity and its cgroup's CPU quota); above it, the
  * core count, with a warning (once per process) that names origin
  * ("--threads 999", "scene.cfg:3") and how to keep wanted, unless
  * oversubscribe. */

@@ -30,9 +30,9 @@ static const rtk_param_desc top_params[] = {
     {.name = "sampler", .type = RTK_PARAM_STRING, .doc = "group: type, seed"},
     {.name = "textures", .type = RTK_PARAM_STRING, .doc = "group: filter"},
     {.name = "threads", .type = RTK_PARAM_INT, .def = 0, .min = 0, .max = 1024,
-     .doc = "render threads, 0 = one per core; more than the online cores are capped with a warning"},
+     .doc = "render threads, 0 = one per core; more than the cores this process may use are capped with a warning"},
     {.name = "oversubscribe", .type = RTK_PARAM_BOOL, .def = 0,
-     .doc = "run threads beyond the online cores as given (they take turns), as --oversubscribe does"},
+     .doc = "run threads beyond the cores this process may use as given (they take turns), as --oversubscribe does"},
     {.name = "cache", .type = RTK_PARAM_STRING, .def_string = "",
      .doc = "BVH cache directory, relative to the config file; \"off\" disables; "
             "default $XDG_CACHE_HOME/rtk or ~/.cache/rtk"},
@@ -1920,9 +1920,9 @@ RTK_API uint32_t rtk_threads_limit(uint32_t wanted, int oversubscribe, const cha
     char key[1200];
     snprintf(key, sizeof key, "threads:%s:%u", origin ? origin : "", wanted);
     rtk_warn_once(key,
-                  "%s: %u threads on %u online cores would only take turns; using %u (--oversubscribe, or "
-                  "oversubscribe = true; in the config, runs all %u)",
-                  origin ? origin : "threads", wanted, cores, cores, wanted);
+                  "%s: %u threads on the %u core%s this process may use would only take turns; using %u "
+                  "(--oversubscribe, or oversubscribe = true; in the config, runs all %u)",
+                  origin ? origin : "threads", wanted, cores, cores == 1 ? "" : "s", cores, wanted);
     return cores;
 }
 

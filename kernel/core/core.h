@@ -86,8 +86,14 @@ char *rtk_path_dirname(const char *path);
 RTK_KERNEL_API double rtk_now(void);
 /* Peak resident set size of this process in bytes (0 if unknown). */
 size_t rtk_peak_rss(void);
-/* Number of online cores (>= 1). */
+/* Cores this process may use (>= 1): the online ones, within its CPU
+ * affinity and its cgroup's CPU quota rounded up (kernel/core/cpus.c). */
 RTK_KERNEL_API uint32_t rtk_core_count(void);
+/* The CPU quota of this process's cgroup (v2 cpu.max, v1
+ * cpu.cfs_quota_us, the least along its cgroup's ancestors) in whole
+ * CPUs rounded up, 0 when none is set; root prefixes every path read
+ * ("" on a live system). */
+RTK_KERNEL_API uint32_t rtk_cgroup_cpu_limit(const char *root);
 /* Edit distance between a and b, for "did you mean" suggestions. */
 int rtk_edit_distance(const char *a, const char *b);
 

@@ -196,12 +196,6 @@ size_t rtk_peak_rss(void)
     return (size_t)ru.ru_maxrss * 1024u; /* Linux reports kilobytes */
 }
 
-uint32_t rtk_core_count(void)
-{
-    long n = sysconf(_SC_NPROCESSORS_ONLN);
-    return n > 0 ? (uint32_t)n : 1u;
-}
-
 int rtk_edit_distance(const char *a, const char *b)
 {
     size_t la = strlen(a), lb = strlen(b);

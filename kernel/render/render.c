@@ -941,8 +941,8 @@ RTK_API void rtk_render_report_print(const rtk_render_report *r, FILE *f)
     if (cache[0])
         fprintf(f, " (%s%.1023s)", cache, r->bvh_cache_file);
     fputc('\n', f);
-    fprintf(f, "render  %8.3f s   %ux%u, %u spp, %u threads\n", r->render_seconds, r->width, r->height, r->spp,
-            r->threads);
+    fprintf(f, "render  %8.3f s   %ux%u, %u spp, %u thread%s\n", r->render_seconds, r->width, r->height, r->spp,
+            r->threads, r->threads == 1 ? "" : "s");
     fprintf(f, "write   %8.3f s   %s\n", r->write_seconds, r->output);
     fprintf(f, "rays    %llu (%.2f Mrays/s), %llu invalid, %llu NaN/Inf samples dropped\n",
             (unsigned long long)r->rays, (double)r->rays / total * 1e-6, (unsigned long long)r->invalid_rays,

@@ -130,26 +130,44 @@ expect "rtk version gives the same" 0 "rtk $version (plugin ABI " -- "$rtk" vers
 expect "--allow-outside-files is an option of render" 0 "8x8" -- "$rtk" render "$tmp/min.cfg" --allow-outside-files \
     --set film.width=8 --set film.height=8
 
-# Threads above the online cores are capped, with a warning, unless --oversubscribe.
-cores=$(nproc)
-many=$((cores + 3))
-if [ "$many" -le 1024 ]; then
-    expect "--threads above the cores is capped" 0 "--threads $many: $many threads on $cores online cores" \
-        "using $cores" "$cores threads" -- "$rtk" render "$tmp/min.cfg" --threads "$many"
+# Threads above the cores this process may use (online, in its affinity
+# and its cgroup's CPU quota) are capped, with a warning, unless
+# --oversubscribe. The count is rtk's own, read from its warning for 1024.
+plural() { [ "$1" = 1 ] && echo "$1 core" || echo "$1 cores"; }
+cores=$("$rtk" render "$tmp/min.cfg" --threads 1024 --set film.width=8 --set film.height=8 -o "$tmp/cores.png" 2>&1 |
+    sed -n 's/.*1024 threads on the \([0-9]*\) cores\{0,1\} this process may use.*/\1/p')
+if [ -z "$cores" ]; then
+    bad "1024 threads are capped to the cores this process may use (no warning)"
+elif [ "$cores" -gt "$(nproc --all)" ]; then
+    bad "rtk counts $cores cores, more than the $(nproc --all) installed"
+elif [ "$cores" -lt 1024 ]; then
+    many=$((cores + 3))
+    on="$many threads on the $(plural "$cores") this process may use"
+    expect "--threads above the cores is capped" 0 "--threads $many: $on" \
+        "using $cores" "spp, $cores thread" -- "$rtk" render "$tmp/min.cfg" --threads "$many"
     expect "--oversubscribe keeps them" 0 "$many threads" -- "$rtk" render "$tmp/min.cfg" --threads "$many" --oversubscribe
-    if "$rtk" render "$tmp/min.cfg" --threads "$many" --oversubscribe 2>&1 | grep -q "online cores"; then
+    if "$rtk" render "$tmp/min.cfg" --threads "$many" --oversubscribe 2>&1 | grep -q "this process may use"; then
         bad "--oversubscribe gives no warning"; else ok "--oversubscribe gives no warning"; fi
     printf 'scene = "quad.obj";\nfilm = { width = 8; height = 8; spp = 1; };\nthreads = %d;\n' "$many" >"$tmp/threads.cfg"
-    expect "the config's threads are capped" 0 "threads.cfg:3: $many threads on $cores online cores" \
-        "$cores threads" -- "$rtk" render "$tmp/threads.cfg"
+    expect "the config's threads are capped" 0 "threads.cfg:3: $on" \
+        "spp, $cores thread" -- "$rtk" render "$tmp/threads.cfg"
     printf 'oversubscribe = true;\n' >>"$tmp/threads.cfg"
     expect "oversubscribe = true keeps them" 0 "$many threads" -- "$rtk" render "$tmp/threads.cfg"
-    expect "bench caps its thread counts" 0 "--threads $many: $many threads on $cores online cores" -- \
+    expect "bench caps its thread counts" 0 "--threads $many: $on" -- \
         "$rtk" bench "$tmp/quad.obj" --accel median --threads "1,$many" --runs 1 --width 8 --height 8 -q
-    expect "sweep caps its threads" 0 "--threads $many: $many threads on $cores online cores" -- \
+    expect "sweep caps its threads" 0 "--threads $many: $on" -- \
         "$rtk" sweep "$tmp/min.cfg" --threads "$many" --spp 1 --seeds 1 --reference-spp 1 --no-plot --out "$tmp/sweep" -q
 else
     echo "skip  thread limit ($cores cores)"
+fi
+# The affinity mask counts: pinned to one CPU, 2 threads are capped to 1.
+if command -v taskset >/dev/null; then
+    cpu=$(taskset -pc $$ | sed 's/.*: *//; s/[-,].*//')
+    expect "a process pinned to one CPU runs one thread" 0 \
+        "--threads 2: 2 threads on the 1 core this process may use" "spp, 1 thread" -- \
+        taskset -c "$cpu" "$rtk" render "$tmp/min.cfg" --threads 2
+else
+    echo "skip  affinity (no taskset)"
 fi
 
 printf 'scene = "quad.obj";\nplugin_path = "plugins";\n' >"$tmp/untrusted.cfg"

@@ -380,7 +380,7 @@ static void test_all_errors(void)
     }
 }
 
-/* threads above the online cores are capped to them (999 threads on 2
+/* threads above the cores this process may use are capped to them (999 threads on 2
  * cores ran 999), unless oversubscribe says otherwise. */
 static void test_threads_limit(void)
 {
