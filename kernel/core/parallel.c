@@ -8,7 +8,9 @@
  * pool. Waiting (a worker for its next member, a member at a barrier, the
  * caller for its team) spins for a while, since during a build the next
  * phase comes within microseconds, then sleeps: an idle worker on a
- * condition variable of its own, members and callers on one they share. */
+ * condition variable of its own, members and callers on one they share.
+ * A team larger than the cores this process may use does not spin: its
+ * spinning members would hold the cores the others need to arrive. */
 #include "core.h"
 
 #include <rtk/parallel.h>
@@ -35,6 +37,7 @@ struct rtk_team {
     rtk_team_fn fn;
     void *ctx;
     uint32_t size;
+    double spin; /* seconds its waiters spin before they sleep */
     atomic_uint arrived; /* members at the barrier */
     atomic_uint phase;   /* barriers passed */
     atomic_uint running; /* members other than the caller not yet returned */
@@ -64,6 +67,7 @@ static struct {
     int stop_registered;      /* pool_stop is an atexit handler; under run_lock */
     atomic_int stopping;      /* workers return when woken */
     sleep_queue members;      /* members at a barrier, callers waiting for their team */
+    _Atomic double idle_spin; /* seconds idle workers spin: the last team's */
     worker workers[POOL_MAX];
 } pool = {.run_lock = PTHREAD_MUTEX_INITIALIZER,
           .members = {PTHREAD_MUTEX_INITIALIZER, PTHREAD_COND_INITIALIZER, 0}};
@@ -71,8 +75,21 @@ static struct {
 /* Set on threads running a member: a team started there gets one member. */
 static _Thread_local int in_team;
 
-/* Returns once *word != value, sleeping in q after a while. */
-static void wait_while(sleep_queue *q, atomic_uint *word, uint32_t value)
+/* Cores this process may use, read once (rtk_core_count reads files). */
+static uint32_t cores(void)
+{
+    static atomic_uint known;
+    uint32_t n = atomic_load_explicit(&known, memory_order_relaxed);
+    if (n == 0) {
+        n = rtk_core_count();
+        atomic_store_explicit(&known, n, memory_order_relaxed);
+    }
+    return n;
+}
+
+/* Returns once *word != value, sleeping in q after spinning about spin
+ * seconds (a few dozen pauses when spin is 0). */
+static void wait_while(sleep_queue *q, atomic_uint *word, uint32_t value, double spin)
 {
     double deadline = 0.0;
     for (uint32_t i = 1;; i++) {
@@ -80,9 +97,11 @@ static void wait_while(sleep_queue *q, atomic_uint *word, uint32_t value)
             return;
         RTK_CPU_RELAX();
         if ((i & 63) == 0) {
+            if (spin <= 0.0)
+                break;
             double now = rtk_now();
             if (deadline == 0.0)
-                deadline = now + SPIN_SECONDS;
+                deadline = now + spin;
             else if (now > deadline)
                 break;
         }
@@ -131,7 +150,7 @@ static void *worker_main(void *arg)
     worker *w = arg;
     uint32_t seen = 0;
     for (;;) {
-        wait_while(&w->idle, &w->ticket, seen);
+        wait_while(&w->idle, &w->ticket, seen, atomic_load_explicit(&pool.idle_spin, memory_order_relaxed));
         seen = atomic_load_explicit(&w->ticket, memory_order_acquire);
         if (atomic_load(&pool.stopping))
             return NULL;
@@ -168,12 +187,13 @@ static void lead(rtk_team *t)
 {
     call_member(t, 0);
     for (uint32_t left; (left = atomic_load(&t->running)) != 0;)
-        wait_while(&pool.members, &t->running, left);
+        wait_while(&pool.members, &t->running, left, t->spin);
 }
 
 /* The team on the pool's workers; run_lock is held. */
 static uint32_t run_on_pool(rtk_team *t, uint32_t helpers)
 {
+    atomic_store_explicit(&pool.idle_spin, t->spin, memory_order_relaxed);
     while (pool.started < helpers) {
         worker *w = &pool.workers[pool.started];
         atomic_store(&w->ticket, 0); /* a slot may be reused after pool_stop */
@@ -217,7 +237,7 @@ typedef struct own_member {
 static void *own_main(void *arg)
 {
     const own_member *m = arg;
-    wait_while(&pool.members, m->gate, 0);
+    wait_while(&pool.members, m->gate, 0, m->team->spin);
     run_member(m->team, m->index);
     return NULL;
 }
@@ -254,6 +274,7 @@ uint32_t rtk_team_run(uint32_t wanted, rtk_team_fn fn, void *ctx)
     uint32_t helpers = wanted > 1 ? wanted - 1 : 0;
     if (helpers > POOL_MAX)
         helpers = POOL_MAX;
+    t.spin = helpers < cores() ? SPIN_SECONDS : 0.0;
     if (helpers > 0 && !in_team) {
         if (pthread_mutex_trylock(&pool.run_lock) == 0) {
             uint32_t size = run_on_pool(&t, helpers);
@@ -277,7 +298,7 @@ void rtk_team_sync(rtk_team *t)
         atomic_fetch_add(&t->phase, 1);
         wake_sleepers(&pool.members);
     } else {
-        wait_while(&pool.members, &t->phase, phase);
+        wait_while(&pool.members, &t->phase, phase, t->spin);
     }
 }
 
