@@ -40,8 +40,8 @@ static void put(const char *root, const char *rel, const char *text)
     *slash = '/';
     FILE *f = fopen(path, "w");
     if (!f) {
-        fprintf(stderr, "cannot write %s: %s\n", path, strerror(errno));
-        exit(2);
+        check(0, "write %s: %s", path, strerror(errno));
+        return;
     }
     fputs(text, f);
     fclose(f);
