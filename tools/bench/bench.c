@@ -24,6 +24,7 @@
 #include <string.h>
 #include <strings.h>
 #include <time.h>
+#include <unistd.h>
 
 #define BENCH_AO_RAYS 8u
 #define BENCH_SEED 1u
@@ -1279,12 +1280,36 @@ static const bench_row *embree_row(const bench *b, const bench_row *r)
     return NULL;
 }
 
+/* The CPU's model name from /proc/cpuinfo, or "unknown". */
+static void cpu_model(char *name, size_t cap)
+{
+    snprintf(name, cap, "unknown");
+    FILE *f = fopen("/proc/cpuinfo", "r");
+    if (!f)
+        return;
+    char line[512];
+    while (fgets(line, sizeof line, f)) {
+        const char *colon = strchr(line, ':');
+        if (strncmp(line, "model name", 10) != 0 || !colon)
+            continue;
+        colon += 1 + (colon[1] == ' ');
+        snprintf(name, cap, "%.*s", (int)strcspn(colon, "\n"), colon);
+        break;
+    }
+    fclose(f);
+}
+
 static void print_report(const bench *b, const char *path, FILE *out)
 {
     const rtk_scene *s = b->scene;
     const rtk_bench_camera *c = &b->cam;
     uint64_t pixels = (uint64_t)b->width * b->height;
     fprintf(out, "rtk bench: %s\n", path);
+    char cpu[256];
+    cpu_model(cpu, sizeof cpu);
+    const long online = sysconf(_SC_NPROCESSORS_ONLN);
+    const uint32_t usable = rtk_core_count();
+    fprintf(out, "cpu %s, %u core%s this process may use (%ld online)\n", cpu, usable, usable == 1 ? "" : "s", online);
     fprintf(out, "triangles %u, vertices %u, bounds diagonal %.6g\n", s->triangle_count, s->vertex_count, b->diag);
     if (s->instance_count) {
         uint64_t placed = 0;

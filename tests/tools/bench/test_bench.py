@@ -152,6 +152,11 @@ def test_recipe(rtk):
                   and "primary_hits" in proc.stdout and "mean_ao" in proc.stdout,
                   "wall: the table prints the recipe's keys")
             check("batches: each image row" in proc.stdout, "wall: the batch table is printed")
+            usable = len(os.sched_getaffinity(0))
+            cpu = re.search(r"^cpu .+, (\d+) cores? this process may use \((\d+) online\)$", proc.stdout, re.M)
+            check(cpu is not None and 1 <= int(cpu.group(1)) <= min(usable, int(cpu.group(2))),
+                  "wall: the report names the CPU and its usable cores (at most the %d of this affinity mask): %s"
+                  % (usable, cpu.group(0) if cpu else "no cpu line"))
             if "embree" in accels and len(accels) > 1:
                 check("against embree" in proc.stdout and "batches against embree" in proc.stdout,
                       "wall: ratios to embree printed, single rays and batches")
