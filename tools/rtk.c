@@ -1098,6 +1098,7 @@ int main(int argc, char **argv)
     char **rest = calloc((size_t)argc + 1, sizeof *rest);
     if (!rest || rtk_registry_create(&reg) != RTK_OK) {
         fprintf(stderr, "rtk: out of memory\n");
+        free(rest);
         return 1;
     }
     install_interrupt_handlers();

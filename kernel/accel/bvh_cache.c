@@ -623,7 +623,8 @@ uint32_t rtk_bvh_cache_prune(const char *dir, uint64_t limit, struct timespec si
     }
     /* Out of memory part way: the total is short, so remove nothing more. */
     if (complete && limit > 0 && total > limit) {
-        qsort(entries, count, sizeof *entries, entry_order);
+        if (count > 1) /* entries is NULL when every file was this render's own */
+            qsort(entries, count, sizeof *entries, entry_order);
         for (uint32_t i = 0; i < count && total > limit; i++) {
             if (remove_entry(fd, dir, entries[i].name)) {
                 total -= entries[i].bytes;

@@ -451,7 +451,8 @@ static void scan(rtk_registry *r)
             r->found[j].info.problem = r->found[j].problem;
         }
     }
-    qsort(r->found, r->found_count, sizeof *r->found, compare_found);
+    if (r->found_count > 1) /* found is NULL when the search found nothing: qsort's pointer must not be */
+        qsort(r->found, r->found_count, sizeof *r->found, compare_found);
     for (size_t i = 0; i < r->found_count; i++) {
         r->found[i].info.path = r->found[i].path;
         r->found[i].info.problem = r->found[i].problem;
