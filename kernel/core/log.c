@@ -72,7 +72,7 @@ static void log_va(rtk_log_level level, const char *fmt, va_list ap)
         else
             flush_held(); /* out of memory: written now, in order */
     }
-    if (held.depth && held.len + len <= held.cap) {
+    if (held.depth && held.text && held.len + len <= held.cap) {
         memcpy(held.text + held.len, out, len);
         held.len += len;
     } else {
