@@ -30,7 +30,7 @@ static const rtk_param_desc top_params[] = {
     {.name = "sampler", .type = RTK_PARAM_STRING, .doc = "group: type, seed"},
     {.name = "textures", .type = RTK_PARAM_STRING, .doc = "group: filter"},
     {.name = "threads", .type = RTK_PARAM_INT, .def = 0, .min = 0, .max = 1024,
-     .doc = "render threads, 0 = one per core; more than the cores this process may use are capped with a warning"},
+     .doc = "render threads, 0 = one per core this process may use; more than those are capped with a warning"},
     {.name = "oversubscribe", .type = RTK_PARAM_BOOL, .def = 0,
      .doc = "run threads beyond the cores this process may use as given (they take turns), as --oversubscribe does"},
     {.name = "cache", .type = RTK_PARAM_STRING, .def_string = "",
