@@ -19,6 +19,7 @@ ab_link() {
     c++ -o "$out/ab" "$out/ab.o" "$@" -Wl,--whole-archive "$build/kernel/librtk_static.a" \
         -Wl,--no-whole-archive "$build/tools/librtk_tools.a" -Wl,--export-dynamic -lm -pthread -ldl \
         $(pkg-config --libs tinygltf tinyobjloader libconfig 2>/dev/null || echo -ltinygltf -ltinyobjloader -lconfig) \
+        $(pkg-config --libs OpenEXR libpng) \
         $(grep -q RTK_HAVE_DRACO "$build/build.ninja" && pkg-config --libs draco) \
         $(grep -q RTK_HAVE_MESHOPT "$build/build.ninja" && echo -lmeshoptimizer)
 }
