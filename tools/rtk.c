@@ -482,17 +482,21 @@ static uint32_t limit_threads(uint32_t n, int oversubscribe)
 static int run_render(const cli_command *cmd, rtk_registry *reg, int argc, char **argv)
 {
     const char *target = NULL;
+    /* Each override, how messages name it, and the strings made here. */
     const char **overrides = calloc((size_t)argc + 2, sizeof *overrides);
-    char *output = NULL, threads_entry[32] = "";
-    size_t override_count = 0;
+    const char **labels = calloc((size_t)argc + 2, sizeof *labels);
+    char **made = calloc((size_t)argc * 2 + 2, sizeof *made);
+    char threads_entry[32] = "", threads_label[32] = "";
+    size_t override_count = 0, made_count = 0;
     uint32_t threads = 0;
     int quiet = 0, status = 0;
     rtk_config_options copts;
     memset(&copts, 0, sizeof copts);
     copts.size = sizeof copts;
-    if (!overrides) {
+    if (!overrides || !labels || !made) {
         fprintf(stderr, "rtk: out of memory\n");
-        return 1;
+        status = 1;
+        goto out;
     }
     cli_arg a;
     int i = 0, got;
@@ -514,22 +518,31 @@ static int run_render(const cli_command *cmd, rtk_registry *reg, int argc, char 
                 goto out;
             }
             size_t len = strlen(cwd) + strlen(a.value) + 32;
-            free(output);
-            if (!(output = malloc(len))) {
+            char *entry = malloc(len), *label = malloc(len);
+            if (entry)
+                made[made_count++] = entry;
+            if (label)
+                made[made_count++] = label;
+            if (!entry || !label) {
+                fprintf(stderr, "rtk: out of memory\n");
                 status = 1;
                 goto out;
             }
-            snprintf(output, len, "film.output=%s%s%s", cwd, cwd[0] ? "/" : "", a.value);
-            overrides[override_count++] = output;
+            snprintf(entry, len, "film.output=%s%s%s", cwd, cwd[0] ? "/" : "", a.value);
+            snprintf(label, len, "-o %s", a.value);
+            labels[override_count] = label;
+            overrides[override_count++] = entry;
         } else if (is(&a, "--threads")) {
             if (!parse_uint(a.value, 1, 1024, &threads)) {
                 status = usage_error(cmd, "--threads needs a thread count in [1, 1024], not '%s'", a.value);
                 goto out;
             }
+            labels[override_count] = threads_label;
             overrides[override_count++] = threads_entry;
         } else if (is(&a, "--oversubscribe")) {
             copts.oversubscribe = 1;
         } else if (is(&a, "--no-cache")) {
+            labels[override_count] = "--no-cache";
             overrides[override_count++] = "cache=off";
         } else if (is(&a, "--allow-config-plugins")) {
             copts.allow_config_plugins = 1;
@@ -547,9 +560,12 @@ static int run_render(const cli_command *cmd, rtk_registry *reg, int argc, char 
         status = usage_error(cmd, "render needs a config file");
         goto out;
     }
-    if (threads)
+    if (threads) {
         snprintf(threads_entry, sizeof threads_entry, "threads=%u", limit_threads(threads, copts.oversubscribe));
+        snprintf(threads_label, sizeof threads_label, "--threads %u", threads);
+    }
     copts.overrides = overrides;
+    copts.override_labels = labels;
     copts.override_count = override_count;
     rtk_config *cfg = NULL;
     if (rtk_config_load(target, reg, &copts, &cfg) != RTK_OK) {
@@ -573,7 +589,10 @@ static int run_render(const cli_command *cmd, rtk_registry *reg, int argc, char 
     }
     rtk_config_destroy(cfg);
 out:
-    free(output);
+    for (size_t k = 0; k < made_count; k++)
+        free(made[k]);
+    free(made);
+    free(labels);
     free(overrides);
     return status;
 }

@@ -63,6 +63,7 @@ typedef struct rtk_config_options {
     size_t override_count;
     int allow_outside_files;      /* let the scene read files outside its and the config's folders */
     int oversubscribe;            /* let threads exceed the cores this process may use (see rtk_threads_limit) */
+    const char *const *override_labels; /* NULL, or per override how messages name it ("-o out.png"; NULL entry: "--set ENTRY") */
 } rtk_config_options;
 
 /* Parses path, applies overrides, resolves the plugins through registry

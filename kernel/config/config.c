@@ -162,6 +162,13 @@ typedef struct error_list {
     rtk_status first; /* the first one's status */
 } error_list;
 
+/* One override: its "path=value" entry and how the user wrote it, for
+ * messages ("-o out.png"; NULL: "--set ENTRY"). */
+typedef struct override {
+    char *entry;
+    char *label;
+} override;
+
 /* State of one rtk_config_load call. */
 typedef struct loader {
     const char *path;      /* the config file as the caller named it */
@@ -169,7 +176,7 @@ typedef struct loader {
     config_t cfg;
     rtk_registry *registry;
     int trusted;           /* options->allow_config_plugins */
-    char **overrides;      /* copies of the --set entries; settings they made point here */
+    override *overrides;   /* the --set entries; settings they made point here */
     size_t override_count;
     int oversubscribe;     /* options->oversubscribe */
     error_list *errors;    /* every error found so far */
@@ -213,13 +220,22 @@ static char *included_file(const loader *ld, const char *file)
     return rtk_path_join(ld->dir, file);
 }
 
-/* Where s came from: "scene.cfg:7", "--set film.width=64", or the file
- * alone when s is NULL or has no line. */
+/* How an override is named in messages: its label, or "--set ENTRY". */
+static void override_name(const override *o, char *buf, size_t size)
+{
+    if (o->label)
+        snprintf(buf, size, "%s", o->label);
+    else
+        snprintf(buf, size, "--set %s", o->entry);
+}
+
+/* Where s came from: "scene.cfg:7", "--set film.width=64", "-o out.png",
+ * or the file alone when s is NULL or has no line. */
 static void where(const loader *ld, const config_setting_t *s, char *buf, size_t size)
 {
-    const char *entry = s ? config_setting_get_hook(s) : NULL;
-    if (entry) {
-        snprintf(buf, size, "--set %s", entry);
+    const override *o = s ? config_setting_get_hook(s) : NULL;
+    if (o) {
+        override_name(o, buf, size);
         return;
     }
     const char *file = s ? config_setting_source_file(s) : NULL;
@@ -249,8 +265,8 @@ static rtk_status fail(const loader *ld, const config_setting_t *s, rtk_status c
 /* The text after '=' of the --set entry that made s, or NULL. */
 static const char *override_text(const config_setting_t *s)
 {
-    const char *entry = config_setting_get_hook(s);
-    const char *eq = entry ? strchr(entry, '=') : NULL;
+    const override *o = config_setting_get_hook(s);
+    const char *eq = o ? strchr(o->entry, '=') : NULL;
     return eq ? eq + 1 : NULL;
 }
 
@@ -1330,35 +1346,38 @@ static config_setting_t *add_value(config_setting_t *parent, const char *name, c
 
 /* Applies one "path.to.key=value" entry to the parsed tree; every setting
  * it creates remembers the entry for error messages. */
-static rtk_status apply_override(loader *ld, char *entry)
+static rtk_status apply_override(loader *ld, override *o)
 {
+    const char *entry = o->entry;
+    char name[1100];
+    override_name(o, name, sizeof name);
     char *eq = strchr(entry, '=');
     if (!eq)
-        return rtk_error(RTK_ERR_INVALID, "--set %s: expected path=value, e.g. --set integrator.rays=64", entry);
+        return rtk_error(RTK_ERR_INVALID, "%s: expected path=value, e.g. --set integrator.rays=64", name);
     size_t path_len = (size_t)(eq - entry);
     if (path_len == 0)
-        return rtk_error(RTK_ERR_INVALID, "--set %s: the setting path before '=' is empty", entry);
+        return rtk_error(RTK_ERR_INVALID, "%s: the setting path before '=' is empty", name);
     char path[512];
     if (path_len >= sizeof path)
-        return rtk_error(RTK_ERR_INVALID, "--set %.64s...: setting path is too long", entry);
+        return rtk_error(RTK_ERR_INVALID, "%.64s...: setting path is too long", name);
     memcpy(path, entry, path_len);
     path[path_len] = '\0';
     char *parts[16];
     int count;
     if (!split_path(path, parts, 16, &count))
-        return rtk_error(RTK_ERR_INVALID, "--set %s: malformed setting path (empty part or too deep)", entry);
+        return rtk_error(RTK_ERR_INVALID, "%s: malformed setting path (empty part or too deep)", name);
     config_setting_t *cur = config_root_setting(&ld->cfg);
     for (int k = 0; k + 1 < count; k++) {
         config_setting_t *next = config_setting_get_member(cur, parts[k]);
         if (!next) {
             next = config_setting_add(cur, parts[k], CONFIG_TYPE_GROUP);
             if (!next)
-                return rtk_error(RTK_ERR_INVALID, "--set %s: '%s' cannot be a setting name", entry, parts[k]);
-            config_setting_set_hook(next, entry);
+                return rtk_error(RTK_ERR_INVALID, "%s: '%s' cannot be a setting name", name, parts[k]);
+            config_setting_set_hook(next, o);
         } else if (!config_setting_is_group(next)) {
             char at[1100];
             where(ld, next, at, sizeof at);
-            return rtk_error(RTK_ERR_INVALID, "--set %s: '%s' is not a group (it is set at %s)", entry, parts[k], at);
+            return rtk_error(RTK_ERR_INVALID, "%s: '%s' is not a group (it is set at %s)", name, parts[k], at);
         }
         cur = next;
     }
@@ -1368,8 +1387,8 @@ static rtk_status apply_override(loader *ld, char *entry)
     char err[256] = "";
     config_setting_t *s = add_value(cur, key, eq + 1, err, sizeof err);
     if (!s)
-        return err[0] ? rtk_error(RTK_ERR_INVALID, "--set %s: %s", entry, err) : RTK_ERR_NOMEM;
-    config_setting_set_hook(s, entry);
+        return err[0] ? rtk_error(RTK_ERR_INVALID, "%s: %s", name, err) : RTK_ERR_NOMEM;
+    config_setting_set_hook(s, o);
     return RTK_OK;
 }
 
@@ -1833,7 +1852,7 @@ static rtk_status load(loader *ld, rtk_config *cfg)
     if (status != RTK_OK)
         return status;
     for (size_t i = 0; i < ld->override_count; i++) {
-        if ((status = apply_override(ld, ld->overrides[i])) == RTK_ERR_NOMEM)
+        if ((status = apply_override(ld, &ld->overrides[i])) == RTK_ERR_NOMEM)
             return status;
         if (status != RTK_OK)
             note_error(ld, status);
@@ -1887,9 +1906,14 @@ RTK_API rtk_status rtk_config_load(const char *path, rtk_registry *registry, con
     ld.overrides = rtk_calloc(override_count, sizeof *ld.overrides);
     config_init(&ld.cfg);
     rtk_status status = cfg && ld.dir && ld.overrides ? RTK_OK : RTK_ERR_NOMEM;
+    const char *const *labels = NULL;
+    if (size >= offsetof(rtk_config_options, override_labels) + sizeof options->override_labels)
+        labels = options->override_labels;
     for (size_t i = 0; status == RTK_OK && i < override_count; i++) {
         const char *entry = options->overrides[i] ? options->overrides[i] : "";
-        if (!(ld.overrides[i] = rtk_strdup(entry)))
+        if (!(ld.overrides[i].entry = rtk_strdup(entry)))
+            status = RTK_ERR_NOMEM;
+        if (labels && labels[i] && !(ld.overrides[i].label = rtk_strdup(labels[i])))
             status = RTK_ERR_NOMEM;
         ld.override_count = i + 1;
     }
@@ -1900,8 +1924,10 @@ RTK_API rtk_status rtk_config_load(const char *path, rtk_registry *registry, con
     if (status == RTK_OK)
         status = load(&ld, cfg);
     config_destroy(&ld.cfg);
-    for (size_t i = 0; i < ld.override_count; i++)
-        free(ld.overrides[i]);
+    for (size_t i = 0; i < ld.override_count; i++) {
+        free(ld.overrides[i].entry);
+        free(ld.overrides[i].label);
+    }
     free(ld.overrides);
     free(ld.dir);
     if (status != RTK_OK) {

@@ -125,6 +125,13 @@ expect "--threads without a value names it" 2 "--threads needs a value" -- "$rtk
 expect "options before the command still apply" 0 -- "$rtk" --set film.width=8 -q render "$tmp/min.cfg" \
     --set film.height=8 -o "$tmp/before.png"
 [ -f "$tmp/before.png" ] && ok "options before the command: -q and -o" || bad "options before the command: -q and -o"
+# -o: named as typed in errors, and the last of several wins.
+expect "an error in -o names -o" fail "-o $tmp/outdir:" "no file extension" -- "$rtk" render "$tmp/min.cfg" \
+    -o "$tmp/outdir"
+expect "-o given twice renders the last" 0 -- "$rtk" -q render "$tmp/min.cfg" --set film.width=8 --set film.height=8 \
+    -o "$tmp/first.png" -o "$tmp/second.png"
+[ -f "$tmp/second.png" ] && [ ! -e "$tmp/first.png" ] && ok "-o given twice writes the last only" ||
+    bad "-o given twice writes the last only"
 expect "--version gives the release and the ABI" 0 "rtk $version (plugin ABI " -- "$rtk" --version
 expect "rtk version gives the same" 0 "rtk $version (plugin ABI " -- "$rtk" version
 expect "--allow-outside-files is an option of render" 0 "8x8" -- "$rtk" render "$tmp/min.cfg" --allow-outside-files \
