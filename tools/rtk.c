@@ -381,13 +381,27 @@ static int is(const cli_arg *arg, const char *name)
     return arg->opt && strcmp(arg->opt->name, name) == 0;
 }
 
-/* Splits a comma-separated list in place into items (at most cap). */
-static size_t split_list(char *list, char **items, size_t cap)
+/* Splits the comma-separated list of option name in place into items, at
+ * most cap of them, none empty; 0, or the status of the usage error it
+ * printed. */
+static int split_list(const cli_command *cmd, const char *name, char *list, char **items, size_t cap, size_t *count)
 {
     size_t n = 0;
-    for (char *tok = strtok(list, ","); tok && n < cap; tok = strtok(NULL, ","))
-        items[n++] = tok;
-    return n;
+    for (char *p = list;; n++) {
+        char *comma = strchr(p, ',');
+        if (comma)
+            *comma = '\0';
+        if (!*p)
+            return usage_error(cmd, "%s: item %zu of its list is empty; give A,B,... without empty items", name, n + 1);
+        if (n == cap)
+            return usage_error(cmd, "%s: more than %zu items in its list", name, cap);
+        items[n] = p;
+        if (!comma)
+            break;
+        p = comma + 1;
+    }
+    *count = n + 1;
+    return 0;
 }
 
 /* Parses an unsigned decimal in [lo, hi]; 0 on failure. */
@@ -625,12 +639,14 @@ static int run_bench(const cli_command *cmd, rtk_registry *reg, int argc, char *
         } else if (is(&a, "--oversubscribe")) {
             o.oversubscribe = 1;
         } else if (is(&a, "--accel")) {
-            o.accelerator_count = split_list(v, accel_items, 64);
+            if ((got = split_list(cmd, "--accel", v, accel_items, 64, &o.accelerator_count)) != 0)
+                return got;
             for (size_t k = 0; k < o.accelerator_count; k++)
                 accels[k] = accel_items[k];
             o.accelerators = accels;
         } else if (is(&a, "--threads")) {
-            o.threads_count = split_list(v, thread_items, 64);
+            if ((got = split_list(cmd, "--threads", v, thread_items, 64, &o.threads_count)) != 0)
+                return got;
             for (size_t k = 0; k < o.threads_count; k++)
                 if (!parse_uint(thread_items[k], 1, 1024, &threads[k]))
                     return usage_error(cmd, "--threads: '%s' is not a thread count in [1, 1024]", thread_items[k]);
@@ -904,15 +920,14 @@ static int run_sweep(const cli_command *cmd, rtk_registry *reg, int argc, char *
                 snprintf(origins[o.axis_count], sizeof origins[0], "--param %.200s", v);
                 ax->origin = origins[o.axis_count];
             }
-            ax->value_count = split_list(list, values[o.axis_count], SWEEP_MAX_VALUES);
-            if (ax->value_count == 0) {
-                status = usage_error(cmd, "%s needs at least one value", a.opt->name);
+            if ((status = split_list(cmd, a.opt->name, list, values[o.axis_count], SWEEP_MAX_VALUES,
+                                     &ax->value_count)) != 0)
                 goto out;
-            }
             ax->values = (const char *const *)values[o.axis_count];
             o.axis_count++;
         } else if (is(&a, "--spp")) {
-            o.spp_count = split_list(v, spp_items, SWEEP_MAX_VALUES);
+            if ((status = split_list(cmd, "--spp", v, spp_items, SWEEP_MAX_VALUES, &o.spp_count)) != 0)
+                goto out;
             for (size_t k = 0; k < o.spp_count; k++)
                 if (!parse_uint(spp_items[k], 1, 1u << 20, &spp[k])) {
                     status = usage_error(cmd, "--spp: '%s' is not a sample count in [1, 1048576]", spp_items[k]);

@@ -115,6 +115,11 @@ expect "rtk help of a typo'd command" 2 "did you mean 'sweep'?" -- "$rtk" help s
 expect "a typo'd render option gets a suggestion" 2 "unknown option '--thread' for render" "did you mean '--threads'?" \
     "usage: rtk render CONFIG" -- "$rtk" render "$tmp/min.cfg" --thread 4
 expect "a typo'd bench option gets a suggestion" 2 "did you mean '--runs'?" -- "$rtk" bench x.obj --runz 3
+expect "an empty item in a list is a usage error" 2 "--accel: item 2 of its list is empty" -- "$rtk" bench x.obj \
+    --accel sah,,lbvh
+expect "an empty list is a usage error" 2 "--spp: item 1 of its list is empty" -- "$rtk" sweep x.cfg --spp ""
+expect "a list longer than the cap is a usage error" 2 "--threads: more than 64 items" -- "$rtk" bench x.obj \
+    --threads "$(printf '1,%.0s' {1..64})1"
 expect "a typo'd sweep option gets a suggestion" 2 "did you mean '--samplers'?" -- "$rtk" sweep x.cfg --sampler sobol
 expect "a typo'd diff option gets a suggestion" 2 "did you mean '--epsilon'?" -- "$rtk" diff a.png b.png --epsilom 1
 expect "a typo'd option before the command" 2 "did you mean '--threads'?" -- "$rtk" --thread 4 render "$tmp/min.cfg"
