@@ -193,6 +193,8 @@ static rtk_status check_tiff(rtk_image_source *src)
     int le = b[0] == 'I';
     uint32_t (*u32)(const unsigned char *) = le ? le32 : be32;
     uint32_t (*u16)(const unsigned char *) = le ? le16 : be16;
+    if (n < 8)
+        return bad(src, "is truncated: it ends inside its header", NULL);
     uint32_t ifd = u32(b + 4);
     if (ifd < 8 || ifd > n || n - ifd < 2)
         return bad(src, "is truncated: its first directory lies past the end of the file", NULL);

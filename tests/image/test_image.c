@@ -574,6 +574,36 @@ static void test_embedded(void)
     free(px);
 }
 
+/* Every prefix of a small image of each format rtk decodes, as bytes in a
+ * buffer of exactly that size (so that the sanitizers see a read past
+ * it): none that ends inside the header decodes, and none faults. */
+static void test_prefixes(void)
+{
+    static const char *const files[] = {"cut.png", "cut.jpg", "cut.exr", "cut.hdr", "cut.tif",
+                                        "cut.bmp", "cut.tga", "cut.ppm", "cut.pfm"};
+    float *px = make_pixels(6, 4, 3);
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        const char *path = file_in(0, files[i]);
+        CHECK(rtk_image_write(path, 6, 4, 3, NULL, px, 0) == RTK_OK, "%s: %s", files[i], rtk_error_message());
+        size_t size = 0;
+        char *data = read_whole(path, &size);
+        CHECK(data && size > 18, "%s: cannot read it back", files[i]);
+        for (size_t n = 0; data && n < size; n = n < 64 ? n + 1 : n * 5 / 4) {
+            char *copy = malloc(n ? n : 1);
+            memcpy(copy, data, n);
+            rtk_image img;
+            rtk_status s = rtk_image_read(path, copy, n, 1, &img);
+            if (n <= 18)
+                CHECK(s == RTK_ERR_PARSE && strstr(rtk_error_message(), path), "%s: a %zu-byte prefix: %d %s",
+                      files[i], n, s, rtk_error_message());
+            free(img.rgba);
+            free(copy);
+        }
+        free(data);
+    }
+    free(px);
+}
+
 static uint32_t crc32_of(const unsigned char *p, size_t n)
 {
     uint32_t c = 0xffffffffu;
@@ -806,6 +836,7 @@ int main(void)
     test_colour_metadata();
     test_read_errors();
     test_embedded();
+    test_prefixes();
     test_pfm();
     test_hostile_size();
     test_texture_lookup();
