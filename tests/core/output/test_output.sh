@@ -65,7 +65,7 @@ precheck() {
 }
 precheck "nonexistent directory" "$tmp/no/such/dir/out.png" "does not exist; create it or write elsewhere"
 precheck "unknown extension" "$out/x.xyz" "OpenImageIO has no writer for '.xyz'"
-precheck "no extension" "$out/x" "has no file extension" "--set film.output"
+precheck "no extension" "$out/x" "has no file extension" "-o $out/x:"
 precheck "format rtk does not write" "$out/x.sgi" "rtk does not write sgi files"
 mkdir "$out/dir.png"
 precheck "output is a directory" "$out/dir.png" "is a directory"
