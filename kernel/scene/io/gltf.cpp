@@ -1829,11 +1829,35 @@ rtk_status prescan(const char *path, std::vector<unsigned char> &bytes, bool *bi
     if (*binary) {
         if (n >= 8 && std::memcmp(b, "glTF", 4) == 0 && read_u32le(b + 4) == 1)
             return refuse_version(path, "1.0 (binary version 1)");
-        /* A version 2 header, then the JSON chunk: length and "JSON". */
-        if (n < 20 || read_u32le(b + 16) != 0x4E4F534Au || read_u32le(b + 12) > n - 20)
-            return RTK_OK; /* tinygltf says what is wrong */
+        /* A version 2 header (magic, version, length), then the JSON chunk
+         * (length, "JSON", text), then an optional BIN chunk. */
+        if (n >= 4 && n < 20 && std::memcmp(b, "glTF", 4) == 0)
+            return rtk_error(RTK_ERR_PARSE,
+                             "%s: the file is truncated: it ends inside its 20-byte header (%zu bytes); copy or "
+                             "export it again",
+                             path, n);
+        if (n < 20 || std::memcmp(b, "glTF", 4) != 0 || read_u32le(b + 4) != 2 ||
+            read_u32le(b + 16) != 0x4E4F534Au)
+            return rtk_error(RTK_ERR_PARSE,
+                             "%s: not a binary glTF 2.0 file: it does not start with the GLB header "
+                             "(\"glTF\", version 2) and a JSON chunk; export it again as .glb, or as .gltf",
+                             path);
+        const uint64_t length = read_u32le(b + 8), bin_at = 20 + uint64_t(read_u32le(b + 12));
+        if (length > n || bin_at > length)
+            return rtk_error(RTK_ERR_PARSE,
+                             "%s: the file is truncated: its header declares %llu bytes%s, and the file has %zu; "
+                             "copy or export it again",
+                             path, (unsigned long long)(length > n ? length : bin_at),
+                             length > n ? "" : " up to the end of its JSON chunk", n);
+        /* tinygltf 2.7 lets the BIN chunk run up to 8 bytes past the file
+         * (it leaves the chunk's own header out of the sum) and reads them. */
+        if (length > bin_at && (length - bin_at < 8 || read_u32le(b + bin_at) > length - bin_at - 8))
+            return rtk_error(RTK_ERR_PARSE,
+                             "%s: the file is truncated or damaged: its BIN chunk runs past the end of the file "
+                             "(%llu bytes after the JSON chunk, 8 of them the chunk's header); export it again",
+                             path, (unsigned long long)(length - bin_at));
         json += 20;
-        json_size = read_u32le(b + 12);
+        json_size = size_t(bin_at - 20);
     }
     Prescan scan;
     rtk_status status = prescan_json(path, json, json_size, &scan);
@@ -1859,7 +1883,12 @@ rtk_status prescan(const char *path, std::vector<unsigned char> &bytes, bool *bi
             std::memcpy(edited.data(), b, 20);
             std::memcpy(edited.data() + 20, text.data(), text.size());
             std::memcpy(edited.data() + 20 + text.size(), b + rest, n - rest);
-            const uint32_t sizes[2] = {uint32_t(edited.size()), uint32_t(text.size())};
+            /* The declared length moves with the JSON, so that tinygltf
+             * judges it against the file as it would have the original. */
+            const uint64_t length = read_u32le(b + 8) + uint64_t(text.size()) - json_size;
+            if (length > UINT32_MAX)
+                return rtk_error(RTK_ERR_PARSE, "%s: the file is larger than a GLB file may be (4 GiB)", path);
+            const uint32_t sizes[2] = {uint32_t(length), uint32_t(text.size())};
             for (int k = 0; k < 2; k++)
                 for (int byte = 0; byte < 4; byte++)
                     edited[size_t(8 + 4 * k + byte)] = (unsigned char)(sizes[k] >> (8 * byte));

@@ -271,6 +271,55 @@ static void test_refusals(void)
     free(g);
 }
 
+/* Overwrites the little-endian u32 at byte at of path. */
+static void patch_u32(const char *path, long at, uint32_t v)
+{
+    unsigned char b[4];
+    put_u32(b, v);
+    FILE *f = fopen(path, "r+b");
+    check(f && fseek(f, at, SEEK_SET) == 0 && fwrite(b, 1, 4, f) == 4, "patch %s", path);
+    if (f)
+        fclose(f);
+}
+
+/* A GLB container that does not hold what its header and chunks declare
+ * is refused, naming the file, before tinygltf reads it: tinygltf 2.7
+ * lets a BIN chunk run 8 bytes past the file and copies them (a read past
+ * the end under ASan), and says "Invalid glTF binary." of the rest. */
+static void test_glb_container(void)
+{
+    printf("GLB containers\n");
+    const char *json = "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":12}]}";
+    const unsigned char bin[12] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12};
+    const size_t n = (strlen(json) + 3) & ~(size_t)3, total = 20 + n + 8 + 12;
+    rtk_scene *s = load(write_glb_bin("whole.glb", 2, json, bin, sizeof bin), ALL_NEEDS);
+    check(s != NULL, "the whole GLB loads: %s", rtk_error_message());
+    rtk_scene_free(s);
+
+    const char *past = write_glb_bin("bin_past.glb", 2,
+                                     "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":16}]}", bin,
+                                     sizeof bin);
+    patch_u32(past, (long)(20 + n), 16);
+    expect_refused("a BIN chunk 4 bytes past the end", past, RTK_ERR_PARSE, "BIN chunk runs past the end", NULL);
+
+    const char *cut = write_glb_bin("cut.glb", 2, json, bin, sizeof bin);
+    check(truncate(cut, (off_t)total - 4) == 0, "truncate %s", cut);
+    expect_refused("a GLB 4 bytes short", cut, RTK_ERR_PARSE, "truncated", "declares", NULL);
+    check(truncate(cut, 12) == 0, "truncate %s", cut);
+    expect_refused("a GLB cut inside its header", cut, RTK_ERR_PARSE, "ends inside its 20-byte header", NULL);
+
+    /* The Draco primitive's JSON is rewritten before tinygltf parses it;
+     * the check comes first, so a file longer on paper stays refused. */
+    const char *draco = "{\"asset\":{\"version\":\"2.0\"},\"meshes\":[{\"primitives\":[{\"attributes\":"
+                        "{\"POSITION\":0},\"extensions\":{\"KHR_draco_mesh_compression\":{\"bufferView\":0,"
+                        "\"attributes\":{\"POSITION\":0}}}}]}],\"buffers\":[{\"byteLength\":12}]}";
+    const char *longer = write_glb_bin("draco_longer.glb", 2, draco, bin, sizeof bin);
+    struct stat st;
+    check(stat(longer, &st) == 0, "stat %s", longer);
+    patch_u32(longer, 8, (uint32_t)st.st_size + 8);
+    expect_refused("a Draco GLB 8 bytes short", longer, RTK_ERR_PARSE, "truncated", "declares", NULL);
+}
+
 /* ---- KHR_mesh_quantization and sparse accessors ---- */
 
 static int near(double a, double b, double tol) { return fabs(a - b) <= tol; }
@@ -1037,6 +1086,7 @@ int main(void)
     builder_params = rtk_params_defaults(builder);
     rtk_log_set_level(RTK_LOG_ERROR);
     test_refusals();
+    test_glb_container();
     test_quantization();
     test_sparse();
     test_texture_transform();
