@@ -52,13 +52,19 @@ static rtk_status set_size(rtk_image_source *src, uint64_t w, uint64_t h)
     return RTK_OK;
 }
 
+/* Deflate packs at most 1032 bytes into one: a 258-byte match in two
+ * bits. Image data shorter than its pixels over this is truncated, and
+ * would only make the decoder allocate for pixels that are not there. */
+#define DEFLATE_MAX_RATIO 1032u
+
 /* PNG: IHDR first, then every chunk inside the file, up to IEND, with
  * image data in between (a truncated PNG sent OpenImageIO down a path
- * that leaks). */
+ * that leaks) enough for its pixels. */
 static rtk_status check_png(rtk_image_source *src)
 {
     const unsigned char *b = src->bytes;
     size_t n = src->count, at = 8;
+    uint64_t data = 0, pixel_bytes = 0;
     int seen_data = 0;
     for (uint32_t chunk = 0;; chunk++) {
         if (n - at < 12)
@@ -73,12 +79,27 @@ static rtk_status check_png(rtk_image_source *src)
             rtk_status st = set_size(src, be32(b + at + 8), be32(b + at + 12));
             if (st != RTK_OK)
                 return st;
+            static const unsigned channels[7] = {1, 0, 3, 1, 2, 0, 4};
+            const unsigned depth = b[at + 16], colour = b[at + 17];
+            const unsigned bits = colour < 7 ? channels[colour] * depth : 0;
+            pixel_bytes = (uint64_t)src->height * (((uint64_t)src->width * bits + 7) / 8);
         }
-        if (memcmp(type, "IDAT", 4) == 0)
+        if (memcmp(type, "IDAT", 4) == 0) {
             seen_data = 1;
+            data += len;
+        }
         at += 12 + (size_t)len;
-        if (memcmp(type, "IEND", 4) == 0)
-            return seen_data ? RTK_OK : bad(src, "holds no image data (IDAT)", NULL);
+        if (memcmp(type, "IEND", 4) == 0) {
+            if (!seen_data)
+                return bad(src, "holds no image data (IDAT)", NULL);
+            if (data < pixel_bytes / DEFLATE_MAX_RATIO) {
+                char text[96];
+                snprintf(text, sizeof text, " (%llu bytes of it for %dx%d pixels)", (unsigned long long)data,
+                         src->width, src->height);
+                return bad(src, "is truncated: its image data (IDAT) is too short for its size", text);
+            }
+            return RTK_OK;
+        }
     }
 }
 
@@ -232,7 +253,8 @@ static rtk_status check_bmp(rtk_image_source *src)
     return set_size(src, w > 0 ? (uint64_t)w : 0, h < 0 ? (uint64_t)(-(int64_t)h) : (uint64_t)h);
 }
 
-/* TGA (no signature): a plausible header and, uncompressed, all pixels. */
+/* TGA (no signature): a plausible header and, uncompressed, all pixels;
+ * run-length encoded, as many packets as its pixels need at the least. */
 static rtk_status check_tga(rtk_image_source *src)
 {
     const unsigned char *b = src->bytes;
@@ -248,8 +270,11 @@ static rtk_status check_tga(rtk_image_source *src)
         return st;
     uint64_t cmap_bytes = cmap ? (uint64_t)le16(b + 5) * ((b[7] + 7u) / 8u) : 0;
     uint64_t need = 18 + (uint64_t)b[0] + cmap_bytes;
+    const uint64_t pixels = (uint64_t)src->width * (uint64_t)src->height, bytes = (bpp + 7u) / 8u;
     if (type <= 3)
-        need += (uint64_t)src->width * (uint64_t)src->height * ((bpp + 7u) / 8u);
+        need += pixels * bytes;
+    else /* run-length packets: a count byte and a pixel, for at most 128 pixels */
+        need += (pixels + 127) / 128 * (1 + bytes);
     if (need > n)
         return bad(src, "is truncated: it ends before its last pixel", NULL);
     return RTK_OK;

@@ -654,6 +654,27 @@ static void test_hostile_size(void)
     CHECK(strstr(rtk_error_message(), "70000"), "message should give the size: %s", rtk_error_message());
     s = rtk_image_read("huge embedded", png, sizeof png, 1, &img);
     CHECK(s != RTK_OK, "huge embedded PNG decoded");
+
+    /* Sizes rtk allows, in files too short for them: refused before the
+     * decoder allocates for the pixels (16000 x 16000 RGBA floats: 4 GB). */
+    put_be32(ihdr, 16000);
+    put_be32(ihdr + 4, 16000);
+    unsigned char idat[64] = {0x78, 0x9c};
+    p = put_chunk(png + 8, "IHDR", ihdr, 13);
+    unsigned char small[8 + 25 + 12 + sizeof idat + 12];
+    memcpy(small, png, 8 + 25);
+    p = put_chunk(small + 8 + 25, "IDAT", idat, sizeof idat);
+    put_chunk(p, "IEND", NULL, 0);
+    s = rtk_image_read("short PNG", small, sizeof small, 1, &img);
+    CHECK(s == RTK_ERR_PARSE && strstr(rtk_error_message(), "too short for its size") &&
+              strstr(rtk_error_message(), "16000x16000"),
+          "a 16000x16000 PNG of 64 bytes of data: %d %s", s, rtk_error_message());
+    /* Run-length TGA: a packet holds at most 128 pixels. */
+    unsigned char tga[18 + 40] = {0, 0, 10};
+    tga[12] = 16000 & 0xff, tga[13] = 16000 >> 8, tga[14] = 16000 & 0xff, tga[15] = 16000 >> 8, tga[16] = 32;
+    s = rtk_image_read("short.tga", tga, sizeof tga, 1, &img);
+    CHECK(s == RTK_ERR_PARSE && strstr(rtk_error_message(), "truncated"),
+          "a 16000x16000 run-length TGA of 40 bytes: %d %s", s, rtk_error_message());
 }
 
 /* A 4 x 4 texture whose texel (x, y) holds (x, y, 10 x + y, 1). */
